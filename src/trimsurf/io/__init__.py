@@ -1,0 +1,82 @@
+"""Readers and writers: STEP/IGES (Open CASCADE), the VDAFS subset (by hand), meshes (trimesh).
+
+`read` picks the reader from the file suffix and returns a `Shell` for CAD
+files and a `TriMesh` for mesh files. Writers write to a temporary file and
+rename it, so a failed write never leaves a partial file.
+"""
+
+from __future__ import annotations
+
+import os
+from importlib import import_module
+from pathlib import Path
+
+from ..errors import FileFormatError
+from ..model import Shell, TriMesh
+
+__all__ = ["read", "read_shell", "read_mesh", "write_shell", "write_mesh", "CAD_SUFFIXES", "MESH_SUFFIXES"]
+
+# suffix -> private module holding read(path) and write(obj, path)
+_CAD_MODULES = {".step": "_step", ".stp": "_step", ".iges": "_iges", ".igs": "_iges",
+                ".vda": "_vdafs", ".vdafs": "_vdafs", ".vdas": "_vdafs"}
+_MESH_SUFFIXES = (".obj", ".ply", ".stl", ".off", ".gltf", ".glb")
+CAD_SUFFIXES = tuple(_CAD_MODULES)
+MESH_SUFFIXES = _MESH_SUFFIXES
+
+
+def _suffix(path: str | os.PathLike) -> str:
+    return Path(path).suffix.lower()
+
+
+def _cad_module(path):
+    suffix = _suffix(path)
+    if suffix not in _CAD_MODULES:
+        raise FileFormatError(f"{path}: unknown CAD file suffix {suffix!r}; expected one of {', '.join(CAD_SUFFIXES)}")
+    return import_module(f".{_CAD_MODULES[suffix]}", __name__)
+
+
+def _check_readable(path) -> Path:
+    p = Path(path)
+    if not p.is_file():
+        raise FileFormatError(f"{path}: no such file")
+    if p.stat().st_size == 0:
+        raise FileFormatError(f"{path}: file is empty")
+    return p
+
+
+def read_shell(path: str | os.PathLike) -> Shell:
+    """Read a STEP, IGES or VDAFS file into a `Shell`."""
+    module = _cad_module(path)
+    _check_readable(path)
+    return module.read(path)
+
+
+def read_mesh(path: str | os.PathLike) -> TriMesh:
+    """Read an OBJ, PLY, STL, OFF, glTF or GLB file into a `TriMesh`."""
+    if _suffix(path) not in _MESH_SUFFIXES:
+        raise FileFormatError(f"{path}: unknown mesh file suffix {_suffix(path)!r}; "
+                              f"expected one of {', '.join(MESH_SUFFIXES)}")
+    _check_readable(path)
+    from . import _meshfile
+    return _meshfile.read(path)
+
+
+def read(path: str | os.PathLike) -> Shell | TriMesh:
+    """Read a CAD file into a `Shell` or a mesh file into a `TriMesh`, by suffix."""
+    if _suffix(path) in _MESH_SUFFIXES:
+        return read_mesh(path)
+    return read_shell(path)
+
+
+def write_shell(shell: Shell, path: str | os.PathLike) -> None:
+    """Write a `Shell` as STEP (.step/.stp) or VDAFS (.vda)."""
+    _cad_module(path).write(shell, path)
+
+
+def write_mesh(mesh: TriMesh, path: str | os.PathLike) -> None:
+    """Write a `TriMesh` as OBJ, PLY, STL, OFF, glTF or GLB, by suffix."""
+    if _suffix(path) not in _MESH_SUFFIXES:
+        raise FileFormatError(f"{path}: unknown mesh file suffix {_suffix(path)!r}; "
+                              f"expected one of {', '.join(MESH_SUFFIXES)}")
+    from . import _meshfile
+    _meshfile.write(mesh, path)

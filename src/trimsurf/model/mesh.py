@@ -1,0 +1,222 @@
+"""Triangle meshes: `TriMesh` and its topology (edges, boundaries, manifoldness, orientation)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+from scipy import sparse
+from scipy.sparse import csgraph
+
+from ..errors import DegenerateError, MeshError
+from ._arrays import as_float_array, as_index_array
+
+__all__ = ["TriMesh"]
+
+
+@dataclass(frozen=True, eq=False)
+class TriMesh:
+    """A triangle mesh.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float64
+    triangles : (m, 3) int64
+        Counter-clockwise seen from the side the normal points to.
+    uv : (n, 2) float64 or None
+        Per-vertex surface parameters (when the mesh tessellates one surface).
+    face_id : (m,) int64 or None
+        Per-triangle index of the CAD face it came from.
+
+    Raises
+    ------
+    MeshError
+        Non-finite coordinates, indices out of range, repeated indices in a triangle.
+    """
+
+    vertices: np.ndarray
+    triangles: np.ndarray
+    uv: np.ndarray | None = None
+    face_id: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        v = as_float_array(self.vertices, "vertices", ndim=2, last=3, error=MeshError)
+        t = as_index_array(self.triangles, "triangles", ndim=2, last=3, error=MeshError)
+        if t.size:
+            lo, hi = int(t.min()), int(t.max())
+            if lo < 0 or hi >= len(v):
+                bad = int(np.argmax((t < 0).any(axis=1) | (t >= len(v)).any(axis=1)))
+                raise MeshError(f"triangle {bad} has vertex index out of range [0, {len(v)}): {t[bad].tolist()}")
+            rep = (t[:, 0] == t[:, 1]) | (t[:, 1] == t[:, 2]) | (t[:, 0] == t[:, 2])
+            if rep.any():
+                bad = int(np.argmax(rep))
+                raise DegenerateError(f"triangle {bad} repeats a vertex: {t[bad].tolist()}")
+        object.__setattr__(self, "vertices", v)
+        object.__setattr__(self, "triangles", t)
+        if self.uv is not None:
+            uv = as_float_array(self.uv, "uv", ndim=2, last=2, error=MeshError)
+            if len(uv) != len(v):
+                raise MeshError(f"uv must have shape ({len(v)}, 2); got {uv.shape}")
+            object.__setattr__(self, "uv", uv)
+        if self.face_id is not None:
+            fid = as_index_array(self.face_id, "face_id", ndim=1, error=MeshError)
+            if len(fid) != len(t):
+                raise MeshError(f"face_id must have shape ({len(t)},); got {fid.shape}")
+            object.__setattr__(self, "face_id", fid)
+
+    # -- sizes ---------------------------------------------------------------
+    @property
+    def n_vertices(self) -> int:
+        return int(self.vertices.shape[0])
+
+    @property
+    def n_triangles(self) -> int:
+        return int(self.triangles.shape[0])
+
+    # -- geometry ------------------------------------------------------------
+    def triangle_normals(self) -> np.ndarray:
+        """Unnormalised normals (twice the area vector), shape (m, 3)."""
+        p = self.vertices[self.triangles]
+        return np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+
+    def triangle_areas(self) -> np.ndarray:
+        return 0.5 * np.linalg.norm(self.triangle_normals(), axis=1)
+
+    def area(self) -> float:
+        return float(self.triangle_areas().sum())
+
+    def bounding_box(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.vertices.min(axis=0), self.vertices.max(axis=0)
+
+    def diagonal(self) -> float:
+        if not self.n_vertices:
+            return 0.0
+        lo, hi = self.bounding_box()
+        return float(np.linalg.norm(hi - lo))
+
+    def degenerate_triangles(self, rel_area: float = 1e-14) -> np.ndarray:
+        """Indices of triangles whose area is below rel_area * diagonal**2."""
+        return np.flatnonzero(self.triangle_areas() <= rel_area * self.diagonal() ** 2)
+
+    def check_degenerate(self, rel_area: float = 1e-14) -> None:
+        """Raise `DegenerateError` naming the first zero-area triangle."""
+        bad = self.degenerate_triangles(rel_area)
+        if bad.size:
+            raise DegenerateError(f"{bad.size} degenerate (zero-area) triangles, first is {int(bad[0])}: "
+                                  f"{self.triangles[bad[0]].tolist()}")
+
+    # -- topology ------------------------------------------------------------
+    @cached_property
+    def _half_edges(self) -> np.ndarray:
+        t = self.triangles
+        return np.stack([t, np.roll(t, -1, axis=1)], axis=2).reshape(-1, 2)
+
+    @cached_property
+    def _edge_index(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(unique undirected edges (k,2), half-edge -> edge index, count per edge)."""
+        he = np.sort(self._half_edges, axis=1)
+        edges, inverse, counts = np.unique(he, axis=0, return_inverse=True, return_counts=True)
+        return edges, inverse.ravel(), counts
+
+    def edges(self) -> np.ndarray:
+        """Unique undirected edges (k, 2), each sorted (i < j)."""
+        return self._edge_index[0]
+
+    def edge_triangle_counts(self) -> np.ndarray:
+        """Number of triangles on each edge of `edges()`, shape (k,)."""
+        return self._edge_index[2]
+
+    def boundary_edges(self) -> np.ndarray:
+        """Directed boundary half-edges (k, 2), oriented as in their triangle."""
+        _, inv, counts = self._edge_index
+        return self._half_edges[counts[inv] == 1]
+
+    def non_manifold_edges(self) -> np.ndarray:
+        """Undirected edges with more than two triangles, (k, 2)."""
+        edges, _, counts = self._edge_index
+        return edges[counts > 2]
+
+    def is_watertight(self) -> bool:
+        """Every edge has exactly two triangles."""
+        return bool(self.n_triangles) and bool(np.all(self.edge_triangle_counts() == 2))
+
+    def boundary_loops(self) -> list[np.ndarray]:
+        """Boundary loops as vertex index arrays, longest first.
+
+        Raises MeshError where a boundary vertex has more than one outgoing
+        boundary edge (a non-manifold vertex).
+        """
+        be = self.boundary_edges()
+        if not len(be):
+            return []
+        nxt: dict[int, int] = {}
+        for a, b in be.tolist():
+            if a in nxt:
+                raise MeshError(f"vertex {a} has two outgoing boundary edges (non-manifold vertex)")
+            nxt[a] = b
+        loops, seen = [], set()
+        for start in nxt:
+            if start in seen:
+                continue
+            loop, v = [], start
+            while v not in seen:
+                seen.add(v)
+                loop.append(v)
+                v = nxt.get(v, start)
+            loops.append(np.array(loop, dtype=np.int64))
+        return sorted(loops, key=len, reverse=True)
+
+    def connected_components(self) -> np.ndarray:
+        """Component label per triangle (triangles sharing an edge are connected), shape (m,)."""
+        _, inv, _ = self._edge_index
+        m = self.n_triangles
+        tri_of_he = np.repeat(np.arange(m), 3)
+        g = sparse.coo_matrix((np.ones(3 * m), (tri_of_he, inv)), shape=(m, inv.max() + 1 if m else 0)).tocsr()
+        adj = g @ g.T
+        _, labels = csgraph.connected_components(adj, directed=False)
+        return labels.astype(np.int64)
+
+    def n_components(self) -> int:
+        return int(self.connected_components().max() + 1) if self.n_triangles else 0
+
+    def inconsistent_edges(self) -> np.ndarray:
+        """Manifold interior edges whose two triangles run it in the same direction, (k, 2).
+
+        A consistently oriented mesh has none.
+        """
+        he = self._half_edges
+        _, inv, counts = self._edge_index
+        interior = counts[inv] == 2
+        forward = he[:, 0] < he[:, 1]
+        n_forward = np.bincount(inv[interior], weights=forward[interior], minlength=len(counts))
+        bad = (counts == 2) & (n_forward != 1)
+        return self.edges()[bad]
+
+    def is_consistently_oriented(self) -> bool:
+        return not len(self.inconsistent_edges())
+
+    def euler_characteristic(self) -> int:
+        used = np.unique(self.triangles)
+        return int(len(used) - len(self.edges()) + self.n_triangles)
+
+    def vertex_adjacency(self) -> sparse.csr_matrix:
+        """Symmetric (n, n) sparse matrix with edge lengths as entries."""
+        e = self.edges()
+        w = np.linalg.norm(self.vertices[e[:, 0]] - self.vertices[e[:, 1]], axis=1)
+        n = self.n_vertices
+        a = sparse.coo_matrix((np.r_[w, w], (np.r_[e[:, 0], e[:, 1]], np.r_[e[:, 1], e[:, 0]])), shape=(n, n))
+        return a.tocsr()
+
+    def submesh(self, triangle_mask) -> "TriMesh":
+        """The triangles selected by `triangle_mask`, with unused vertices dropped."""
+        keep = np.asarray(triangle_mask)
+        tris = self.triangles[keep]
+        used, new = np.unique(tris, return_inverse=True)
+        uv = None if self.uv is None else self.uv[used]
+        fid = None if self.face_id is None else self.face_id[keep]
+        return TriMesh(self.vertices[used], new.reshape(-1, 3), uv=uv, face_id=fid)
+
+    def flipped(self) -> "TriMesh":
+        """The same mesh with every triangle's orientation reversed."""
+        return TriMesh(self.vertices, self.triangles[:, ::-1], uv=self.uv, face_id=self.face_id)

@@ -1,0 +1,124 @@
+"""Shells: faces, the edges they share, vertices and adjacency."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import GeometryError
+from ._arrays import as_float_array
+from .nurbs import NurbsCurve
+from .trim import TrimmedFace
+
+__all__ = ["Edge", "Shell"]
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Edge:
+    """A topological edge of a shell.
+
+    Parameters
+    ----------
+    curve : NurbsCurve or None
+        3D curve b(t) of the edge on [t0, t1] (None for a degenerate edge).
+    t0, t1 : float
+    vertices : (int, int)
+        Indices into `Shell.vertices` of the start and end vertex.
+    uses : tuple of (face, loop, segment)
+        Every loop segment that runs along this edge; two for a manifold
+        interior edge, one for a free (boundary) edge.
+    tolerance : float
+        The source's stated tolerance of the edge (model units), 0 if unknown.
+    """
+
+    curve: NurbsCurve | None
+    t0: float
+    t1: float
+    vertices: tuple[int, int]
+    uses: tuple[tuple[int, int, int], ...]
+    tolerance: float = 0.0
+    is_degenerate: bool = False
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "uses", tuple(tuple(int(i) for i in u) for u in self.uses))
+        object.__setattr__(self, "vertices", (int(self.vertices[0]), int(self.vertices[1])))
+
+    @property
+    def faces(self) -> tuple[int, ...]:
+        return tuple(sorted({u[0] for u in self.uses}))
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Shell:
+    """Trimmed faces with the edges and vertices they share.
+
+    Parameters
+    ----------
+    faces : tuple of TrimmedFace
+    edges : tuple of Edge
+        Empty when the source carries no topology (VDAFS, IGES surfaces).
+    vertices : (k, 3) float64
+    name : str
+        Source of the shell (file name or sample), for messages.
+    """
+
+    faces: tuple[TrimmedFace, ...]
+    edges: tuple[Edge, ...] = ()
+    vertices: np.ndarray = None  # type: ignore[assignment]
+    name: str = ""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "faces", tuple(self.faces))
+        object.__setattr__(self, "edges", tuple(self.edges))
+        verts = np.zeros((0, 3)) if self.vertices is None else self.vertices
+        object.__setattr__(self, "vertices", as_float_array(verts, "Shell.vertices", ndim=2, last=3))
+        n_faces, n_verts = len(self.faces), len(self.vertices)
+        for i, e in enumerate(self.edges):
+            for f, _, _ in e.uses:
+                if not 0 <= f < n_faces:
+                    raise GeometryError(f"Shell edge {i} refers to face {f}; shell has {n_faces}")
+            if any(not 0 <= v < n_verts for v in e.vertices) and n_verts:
+                raise GeometryError(f"Shell edge {i} refers to vertex {e.vertices}; shell has {n_verts}")
+
+    @property
+    def has_topology(self) -> bool:
+        return bool(self.edges)
+
+    def free_edges(self) -> list[int]:
+        """Indices of edges used by exactly one face side (boundary of an open shell)."""
+        return [i for i, e in enumerate(self.edges) if len(e.uses) == 1 and not e.is_degenerate]
+
+    def non_manifold_edges(self) -> list[int]:
+        """Indices of edges used by more than two face sides."""
+        return [i for i, e in enumerate(self.edges) if len(e.uses) > 2]
+
+    def is_closed(self) -> bool:
+        return self.has_topology and not self.free_edges()
+
+    def adjacency(self) -> dict[int, set[int]]:
+        """Face index -> indices of faces sharing an edge with it."""
+        adj: dict[int, set[int]] = {i: set() for i in range(len(self.faces))}
+        for e in self.edges:
+            fs = e.faces
+            for a in fs:
+                for b in fs:
+                    if a != b:
+                        adj[a].add(b)
+        return adj
+
+    def bounding_box(self, n: int = 9) -> tuple[np.ndarray, np.ndarray]:
+        """Axis-aligned box of the faces, from an n x n sample of each surface and its control net."""
+        lo = np.full(3, np.inf)
+        hi = np.full(3, -np.inf)
+        for f in self.faces:
+            (u0, u1), (v0, v1) = f.surface.domain
+            uu, vv = np.meshgrid(np.linspace(u0, u1, n), np.linspace(v0, v1, n))
+            pts = f.surface.evaluate(np.column_stack([uu.ravel(), vv.ravel()]))
+            lo = np.minimum(lo, pts.min(axis=0))
+            hi = np.maximum(hi, pts.max(axis=0))
+        return lo, hi
+
+    def diagonal(self) -> float:
+        lo, hi = self.bounding_box()
+        return float(np.linalg.norm(hi - lo))

@@ -1,0 +1,150 @@
+"""Trimmed faces: a surface, the p-curves of its loops in (u, v), optional 3D edge curves."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import GeometryError, TrimLoopError
+from .nurbs import NurbsCurve, NurbsSurface
+
+__all__ = ["PCurve", "Loop", "TrimmedFace"]
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class PCurve:
+    """One segment of a trim loop: a 2D curve p(t) in the face's (u, v) domain.
+
+    Parameters
+    ----------
+    curve : NurbsCurve
+        The 2D curve p(t) in (u, v).
+    t0, t1 : float
+        The part of `curve` that belongs to the loop, traversed from t0 to t1
+        (t0 > t1 means the loop runs against the curve's own direction).
+    edge_curve : NurbsCurve or None
+        The 3D edge curve b(t) of this segment, sharing the parameter t with
+        p(t) ("same parameter", as in Open CASCADE): ideally b(t) = F(p(t)).
+        Real data differs by a small gap (the boundary discrepancy).
+    edge_id : int
+        Index of the shared edge in `Shell.edges`, or -1 when unknown.
+    """
+
+    curve: NurbsCurve
+    t0: float
+    t1: float
+    edge_curve: NurbsCurve | None = None
+    edge_id: int = -1
+
+    def __post_init__(self) -> None:
+        if self.curve.dim != 2:
+            raise GeometryError(f"PCurve.curve must be 2D; got dim {self.curve.dim}")
+        if self.edge_curve is not None and self.edge_curve.dim != 3:
+            raise GeometryError(f"PCurve.edge_curve must be 3D; got dim {self.edge_curve.dim}")
+        t0, t1 = float(self.t0), float(self.t1)
+        if not (np.isfinite(t0) and np.isfinite(t1)) or t0 == t1:
+            raise GeometryError(f"PCurve range must be finite and non-empty; got [{t0}, {t1}]")
+        object.__setattr__(self, "t0", t0)
+        object.__setattr__(self, "t1", t1)
+        object.__setattr__(self, "edge_id", int(self.edge_id))
+
+    def parameters(self, n: int) -> np.ndarray:
+        """n equally spaced parameters from t0 to t1 (in loop direction)."""
+        return np.linspace(self.t0, self.t1, int(n))
+
+    def evaluate(self, t) -> np.ndarray:
+        """Points p(t) in (u, v), shape (n, 2)."""
+        return self.curve.evaluate(t)
+
+    @property
+    def start(self) -> np.ndarray:
+        return self.curve.evaluate([self.t0])[0]
+
+    @property
+    def end(self) -> np.ndarray:
+        return self.curve.evaluate([self.t1])[0]
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Loop:
+    """A closed chain of p-curves; each segment's end meets the next one's start."""
+
+    segments: tuple[PCurve, ...]
+
+    def __post_init__(self) -> None:
+        segs = tuple(self.segments)
+        if not segs:
+            raise TrimLoopError("a trim loop needs at least one segment")
+        object.__setattr__(self, "segments", segs)
+
+    def __len__(self) -> int:
+        return len(self.segments)
+
+    def gaps(self) -> np.ndarray:
+        """Distance in (u, v) from each segment's end to the next segment's start, shape (k,)."""
+        ends = np.array([s.end for s in self.segments])
+        starts = np.array([s.start for s in self.segments])
+        return np.linalg.norm(np.roll(starts, -1, axis=0) - ends, axis=1)
+
+    def is_closed(self, tol: float) -> bool:
+        """Whether every gap is at most `tol` (parameter units)."""
+        return bool(np.all(self.gaps() <= tol))
+
+    def polyline(self, n_per_segment: int = 32) -> np.ndarray:
+        """Sampled loop in (u, v), shape (k * (n_per_segment - 1), 2), not repeating the first point."""
+        parts = [s.evaluate(s.parameters(n_per_segment))[:-1] for s in self.segments]
+        return np.concatenate(parts, axis=0)
+
+    def signed_area(self, n_per_segment: int = 32) -> float:
+        """Signed area of the sampled loop in (u, v): > 0 counter-clockwise."""
+        p = self.polyline(n_per_segment)
+        q = np.roll(p, -1, axis=0)
+        return 0.5 * float(np.sum(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]))
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class TrimmedFace:
+    """A surface F(u, v) restricted to the region bounded by its loops.
+
+    Parameters
+    ----------
+    surface : NurbsSurface
+    loops : tuple of Loop
+        Outer loop first (counter-clockwise in (u, v)), holes after (clockwise).
+        An empty tuple means the whole rectangular domain.
+    same_sense : bool
+        True when the face's outward normal is Su x Sv, False when it is -(Su x Sv).
+    name : str
+        Where the face came from (file entity, sample name), for messages.
+    tolerance : float
+        The source's stated tolerance for this face (model units), 0 if unknown.
+    """
+
+    surface: NurbsSurface
+    loops: tuple[Loop, ...] = ()
+    same_sense: bool = True
+    name: str = ""
+    tolerance: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "loops", tuple(self.loops))
+        object.__setattr__(self, "same_sense", bool(self.same_sense))
+        object.__setattr__(self, "tolerance", float(self.tolerance))
+
+    @property
+    def outer_loop(self) -> Loop | None:
+        return self.loops[0] if self.loops else None
+
+    @property
+    def holes(self) -> tuple[Loop, ...]:
+        return self.loops[1:]
+
+    @property
+    def has_edge_curves(self) -> bool:
+        return any(s.edge_curve is not None for loop in self.loops for s in loop.segments)
+
+    def oriented_normals(self, uv) -> np.ndarray:
+        """Unit outward normals (surface normals flipped when `same_sense` is False), (n, 3)."""
+        n = self.surface.normals(uv)
+        return n if self.same_sense else -n
