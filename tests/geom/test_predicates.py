@@ -1,0 +1,47 @@
+"""Robust planar predicates: exact signs, point in polygon, self-intersections of polylines."""
+
+import numpy as np
+from numpy.testing import assert_array_equal
+
+from trimsurf.geom.predicates import (orient2d, points_in_polygons, polygon_signed_area,
+                                      polyline_self_intersections, segment_intersections)
+
+
+def test_orient2d_is_exact_on_nearly_collinear_points():
+    # points on the line y = x perturbed by one ulp: naive evaluation gets some signs wrong
+    rng = np.random.default_rng(0)
+    base = rng.uniform(0.5, 1.0, 200)
+    a = np.column_stack([np.full(200, 0.5), np.full(200, 0.5)])
+    b = np.column_stack([np.full(200, 12.0), np.full(200, 12.0)])
+    c = np.column_stack([base, np.nextafter(base, 2.0)])  # just above the line: counter-clockwise
+    assert_array_equal(orient2d(a, b, c), 1)
+    c_on = np.column_stack([base, base])
+    assert_array_equal(orient2d(a, b, c_on), 0)
+
+
+def test_points_in_polygon_with_hole():
+    outer = np.array([[0, 0], [4, 0], [4, 4], [0, 4]], dtype=float)
+    hole = np.array([[1, 1], [1, 3], [3, 3], [3, 1]], dtype=float)
+    pts = np.array([[0.5, 0.5], [2, 2], [3.5, 2], [5, 5], [-1, 2]])
+    assert_array_equal(points_in_polygons(pts, [outer, hole]), [True, False, True, False, False])
+    assert polygon_signed_area(outer) == 16.0 and polygon_signed_area(hole) == -4.0
+
+
+def test_segment_intersections_touching_and_crossing():
+    p0 = np.array([[0, 0], [0, 0], [0, 0], [0, 0]], dtype=float)
+    p1 = np.array([[2, 2], [1, 0], [1, 0], [1, 1]], dtype=float)
+    q0 = np.array([[0, 2], [1, 0], [2, 0], [2, 2]], dtype=float)
+    q1 = np.array([[2, 0], [1, 1], [3, 0], [3, 3]], dtype=float)
+    assert_array_equal(segment_intersections(p0, p1, q0, q1), [True, True, False, False])
+
+
+def test_self_intersections_of_a_figure_eight_and_a_circle():
+    t = np.linspace(0, 2 * np.pi, 400, endpoint=False)
+    circle = np.column_stack([np.cos(t), np.sin(t)])
+    assert len(polyline_self_intersections(circle)) == 0
+    eight = np.column_stack([np.sin(t), np.sin(2 * t)])
+    hits = polyline_self_intersections(eight)
+    # it crosses itself once, at the origin, where segments 399, 0 (around vertex 0) meet 199, 200
+    assert 1 <= len(hits) <= 4
+    assert set(hits.ravel()) <= {399, 0, 199, 200}
+    assert {int(hits[0, 0]), int(hits[0, 1])} & {0, 399} and {int(hits[0, 0]), int(hits[0, 1])} & {199, 200}
