@@ -1,0 +1,694 @@
+"""Closest-point projection (point inversion) onto NURBS surfaces and curves, batched.
+
+Seeding: the surface (curve) is sampled on a grid adapted to its knot spans and
+degree, and each point starts from its nearest sample (``scipy.spatial.cKDTree``).
+Then a batched, box-constrained Newton iteration minimises the squared distance
+``D(u, v) = |S(u, v) - P|^2 / 2`` (The NURBS Book, Sec. 6.1, point inversion,
+with the full Hessian including the ``(S - P).S_uu`` terms):
+
+* the Hessian ``H = [[Su.Su + r.Suu, Su.Sv + r.Suv], [., Sv.Sv + r.Svv]]``
+  (``r = S - P``), scaled by the speeds |Su|, |Sv| so nothing depends on how
+  the parameters are scaled, is used when it is positive definite, else
+  ``H - 2 lam_min I`` (its negative eigenvalue flipped, so the step follows the
+  negative curvature downhill), and the Gauss-Newton matrix (first fundamental
+  form) after a failed line search, so every step is a descent direction;
+* the trial point is clamped to the parameter domain; if D increases the step
+  is halved (backtracking);
+* a parameter sitting on a domain edge with the gradient pointing outwards is
+  fixed (active set) and the iteration continues along the edge;
+* creases (interior knots of multiplicity >= degree, e.g. every knot of a
+  degree-1 polyline) are treated like internal edges: a step stops at one, the
+  point then crosses it with fresh one-sided derivatives, and a point that wants
+  straight back is at a crease minimum;
+* a point has converged when the tangential part of the residual is below
+  ``tol_rel`` times the bounding-box diagonal of the control net in every
+  free parameter direction: ``|r.Su| / |Su| <= tol`` and ``|r.Sv| / |Sv| <= tol``;
+  then one last Newton step is applied without a new evaluation (the foot moved
+  to first order, an error of order tol^2), which brings the parameters of
+  well-conditioned points to rounding level.
+
+Only the not-yet-converged points are evaluated at each step.
+
+References
+----------
+L. Piegl, W. Tiller, *The NURBS Book*, 2nd ed., Springer 1997, Sec. 6.1
+(point inversion and projection for curves and surfaces, eqs. 6.3-6.8).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..errors import GeometryError
+from .nurbs import curve_derivatives, surface_derivatives
+
+__all__ = ["Projection", "CurveProjection", "project_to_surface", "project_to_curve"]
+
+_MIN_SAMPLES = 16      # seed samples per direction at least (single-span Bézier patches of low degree)
+_MAX_HALVINGS = 12     # backtracking steps before a point falls back to Gauss-Newton
+_OBJ_SLACK = 8 * np.finfo(np.float64).eps  # relative rounding allowance when comparing squared distances
+_FLOOR = 1e-9          # smallest curvature of the Newton model, relative to |Su|^2 (|Sv|^2, |C'|^2)
+_N_CANDIDATES = 8      # nearest seeds examined for a second start in another basin
+_DEGENERATE = 1e-12    # a grid line of the seeds shorter than this x diagonal is a collapsed (pole) edge
+_NOISE = 1e-3          # a trial point may lie farther by this fraction of tol (rounding in S - P hides smaller changes)
+
+
+class Projection(NamedTuple):
+    """Result of `project_to_surface`.
+
+    Attributes
+    ----------
+    uv : (n, 2) float64
+        Parameters of the closest point found, inside the domain.
+    foot : (n, 3) float64
+        S(uv).
+    distance : (n,) float64
+        |P - S(uv)|.
+    converged : (n,) bool
+        The iteration met the tolerance (stationary in the free directions).
+    on_boundary : (n,) bool
+        The unconstrained minimiser lies outside the domain: the foot is on a
+        domain edge and the distance keeps decreasing outwards.
+    iterations : int
+        Newton iterations run (for the slowest point).
+    """
+
+    uv: np.ndarray
+    foot: np.ndarray
+    distance: np.ndarray
+    converged: np.ndarray
+    on_boundary: np.ndarray
+    iterations: int
+
+
+class CurveProjection(NamedTuple):
+    """Result of `project_to_curve` (fields as in `Projection`, with t (n,) for uv)."""
+
+    t: np.ndarray
+    foot: np.ndarray
+    distance: np.ndarray
+    converged: np.ndarray
+    on_boundary: np.ndarray
+    iterations: int
+
+
+# --------------------------------------------------------------------------- validation
+
+def _knot_vector(knots, degree: int, n_ctrl: int, name: str) -> np.ndarray:
+    kn = np.asarray(knots, dtype=np.float64)
+    if kn.ndim != 1 or kn.shape[0] != n_ctrl + degree + 1:
+        raise GeometryError(f"{name}: need {n_ctrl + degree + 1} knots for {n_ctrl} control points of degree "
+                            f"{degree}; got shape {kn.shape}")
+    if not np.all(np.isfinite(kn)) or np.any(np.diff(kn) < 0):
+        raise GeometryError(f"{name}: knots must be finite and non-decreasing")
+    if not kn[degree] < kn[-degree - 1]:
+        raise GeometryError(f"{name}: empty parameter domain [{kn[degree]}, {kn[-degree - 1]}]")
+    return kn
+
+
+def _degree(degree, name: str) -> int:
+    if isinstance(degree, bool) or int(degree) != degree or int(degree) < 1:
+        raise GeometryError(f"{name}: degree must be an integer >= 1; got {degree!r}")
+    return int(degree)
+
+
+def _weights(weights, shape: tuple[int, ...], name: str) -> np.ndarray | None:
+    if weights is None:
+        return None
+    w = np.asarray(weights, dtype=np.float64)
+    if w.shape != shape:
+        raise GeometryError(f"{name}: weights must have shape {shape}; got {w.shape}")
+    if not np.all(np.isfinite(w)) or np.any(w <= 0):
+        raise GeometryError(f"{name}: weights must be positive and finite")
+    return None if np.all(w == 1.0) else w
+
+
+def _points(points, dim: int, name: str) -> np.ndarray:
+    pts = np.asarray(points, dtype=np.float64)
+    if pts.ndim == 1 and pts.shape[0] == dim:
+        pts = pts[None, :]
+    if pts.ndim != 2 or pts.shape[1] != dim:
+        raise GeometryError(f"{name}: points must have shape (n, {dim}); got {np.shape(points)}")
+    if not np.all(np.isfinite(pts)):
+        i = int(np.argwhere(~np.isfinite(pts))[0, 0])
+        raise GeometryError(f"{name}: point {i} is not finite")
+    return pts
+
+
+def _options(tol_rel, max_iter, name: str) -> tuple[float, int]:
+    tol_rel = float(tol_rel)
+    if not (np.isfinite(tol_rel) and tol_rel > 0):
+        raise GeometryError(f"{name}: tol_rel must be a positive number; got {tol_rel!r}")
+    if int(max_iter) != max_iter or int(max_iter) < 1:
+        raise GeometryError(f"{name}: max_iter must be a positive integer; got {max_iter!r}")
+    return tol_rel, int(max_iter)
+
+
+def _diagonal(control_points: np.ndarray) -> float:
+    pts = control_points.reshape(-1, control_points.shape[-1])
+    diag = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
+    return diag if diag > 0 else 1.0
+
+
+# --------------------------------------------------------------------------- seeding
+
+def _samples_1d(knots: np.ndarray, degree: int, per_span: int | None) -> np.ndarray:
+    """Parameters spread over the domain: ``per_span`` samples in each non-empty knot span."""
+    lo, hi = knots[degree], knots[-degree - 1]
+    brk = np.unique(knots[(knots >= lo) & (knots <= hi)])
+    n_spans = brk.shape[0] - 1
+    if per_span is None:
+        per_span = max(degree + 1, -(-_MIN_SAMPLES // n_spans))
+    frac = np.arange(per_span) / per_span
+    t = (brk[:-1, None] + frac[None, :] * np.diff(brk)[:, None]).ravel()
+    return np.append(t, hi)
+
+
+def _seed_values(seed_grid, knots_list, degrees, name: str) -> list[np.ndarray]:
+    if seed_grid is None or isinstance(seed_grid, (int, np.integer, float, np.floating)):
+        per_span = None
+        if seed_grid is not None:
+            if isinstance(seed_grid, bool) or int(seed_grid) != seed_grid or int(seed_grid) < 1:
+                raise GeometryError(f"{name}: seed_grid as a number must be a positive integer (samples per "
+                                    f"knot span); got {seed_grid!r}")
+            per_span = int(seed_grid)
+        return [_samples_1d(k, p, per_span) for k, p in zip(knots_list, degrees)]
+    if not isinstance(seed_grid, (tuple, list)) or len(seed_grid) != len(knots_list):
+        raise GeometryError(f"{name}: seed_grid must be an int or {len(knots_list)} arrays of parameters")
+    out = []
+    for vals, k, p in zip(seed_grid, knots_list, degrees):
+        arr = np.asarray(vals, dtype=np.float64).ravel()
+        if arr.size == 0 or not np.all(np.isfinite(arr)):
+            raise GeometryError(f"{name}: seed_grid parameter arrays must be non-empty and finite")
+        out.append(np.unique(np.clip(arr, k[p], k[-p - 1])))
+    return out
+
+
+class _Seeds(NamedTuple):
+    """Samples of the surface (curve) on a parameter grid, with what the retry test needs."""
+
+    axes: list              # 1-D sample parameters per direction
+    params: np.ndarray      # (ns, d) sample parameters, C order over the grid
+    ders: tuple             # derivative arrays at the samples (point first)
+    radius: np.ndarray      # (ns,) largest distance from a sample to its grid neighbours
+    tree: cKDTree
+
+
+def _build_seeds(axes: list, evaluate, diag: float, *, check_poles: bool = True) -> _Seeds:
+    shape = tuple(a.shape[0] for a in axes)
+    params = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(axes))
+    ders = evaluate(params)
+    pts = ders[0].reshape(*shape, -1)
+    if len(axes) == 2 and check_poles:
+        # a degenerate domain edge (a pole: one point for every v) gives identical seeds that carry no
+        # direction; sample such a grid line a quarter spacing inside instead
+        moved = False
+        for axis in (0, 1):
+            ax = axes[axis]
+            if ax.shape[0] < 2:
+                continue
+            for end, inner in ((0, 1), (-1, -2)):
+                line = np.take(pts, end, axis=axis)
+                if np.ptp(line, axis=0).max() <= _DEGENERATE * diag:
+                    ax = ax.copy()
+                    ax[end] = ax[end] + 0.25 * (ax[inner] - ax[end])
+                    moved = True
+            axes[axis] = ax
+        if moved:
+            return _build_seeds(axes, evaluate, diag, check_poles=False)
+    radius = np.zeros(shape)
+    pad = np.pad(pts, [(1, 1)] * len(axes) + [(0, 0)], mode="edge")
+    for off in np.ndindex(*([3] * len(axes))):
+        window = pad[tuple(slice(o, o + n) for o, n in zip(off, shape))]
+        np.maximum(radius, np.linalg.norm(window - pts, axis=-1), out=radius)
+    return _Seeds(axes, params, ders, radius.ravel(), cKDTree(ders[0]))
+
+
+def _retry_seeds(seeds: _Seeds, nearest: np.ndarray, seed_dist: np.ndarray, foot_params: np.ndarray,
+                 distance: np.ndarray, tol: float, breaks: list) -> tuple[np.ndarray, np.ndarray]:
+    """Points whose closest point may lie in another basin, and the seed to restart each from.
+
+    Any surface point near a sample s lies within ``radius[s]`` of it, so a sample
+    with ``|P - s| - radius[s] < distance`` may have a closer point nearby. Samples
+    within two grid cells of the foot found and not beyond a crease from it belong
+    to the basin already searched.
+    """
+    shape = tuple(a.shape[0] for a in seeds.axes)
+    far = np.zeros(nearest.shape, dtype=bool)
+    grid_index = np.unravel_index(nearest, shape)
+    for axis, (vals, gi, brk) in enumerate(zip(seeds.axes, grid_index, breaks)):
+        cell = np.clip(np.searchsorted(vals, foot_params[:, axis], side="right") - 1, 0, vals.shape[0] - 1)
+        far |= (gi < cell[:, None] - 2) | (gi > cell[:, None] + 3)
+        if brk.shape[0] > 2:
+            foot_box = np.searchsorted(brk[1:-1], foot_params[:, axis], side="right")
+            seed_box = np.searchsorted(brk[1:-1], seeds.params[nearest, axis], side="right")
+            far |= seed_box != foot_box[:, None]
+    cand = far & (seed_dist - seeds.radius[nearest] < (distance - tol)[:, None])
+    points = np.flatnonzero(cand.any(axis=1))
+    first = np.argmax(cand[points], axis=1)
+    return points, nearest[points, first]
+
+
+def _merge(result, sub, idx: np.ndarray):
+    """`result` with the rows `idx` replaced by `sub` where `sub` is closer."""
+    better = sub.distance < result.distance[idx]
+    rows = idx[better]
+    fields = []
+    for name in result._fields:
+        value = getattr(result, name)
+        if name == "iterations":
+            fields.append(max(value, sub.iterations))
+            continue
+        value = value.copy()
+        value[rows] = getattr(sub, name)[better]
+        fields.append(value)
+    return type(result)(*fields)
+
+
+def _seeded_newton(pts, seeds: _Seeds, newton, retry: bool, tol: float, breaks: list):
+    """Newton from the nearest seed, then (if `retry`) once more from a far seed that may do better."""
+    k = min(_N_CANDIDATES if retry else 1, seeds.params.shape[0])
+    seed_dist, nearest = seeds.tree.query(pts, k=k, workers=-1)
+    seed_dist, nearest = seed_dist.reshape(pts.shape[0], k), nearest.reshape(pts.shape[0], k)
+    first = nearest[:, 0]
+    result = newton(pts, seeds.params[first], tuple(d[first] for d in seeds.ders))
+    if not retry or k == 1:
+        return result
+    idx, s = _retry_seeds(seeds, nearest, seed_dist, result.params, result.distance, tol, breaks)
+    if idx.size:
+        sub = newton(pts[idx], seeds.params[s], tuple(d[s] for d in seeds.ders))
+        result = _merge(result, sub, idx)
+    return result
+
+
+# --------------------------------------------------------------------------- Newton iteration
+
+class _Raw(NamedTuple):
+    params: np.ndarray       # (n, d)
+    foot: np.ndarray         # (n, k)
+    distance: np.ndarray     # (n,)
+    converged: np.ndarray    # (n,) bool
+    on_boundary: np.ndarray  # (n,) bool
+    iterations: int
+
+
+def _accept_limit(obj: np.ndarray, tol: float) -> np.ndarray:
+    """Largest squared distance a trial point may have: |r|^2 plus what rounding in S - P can hide.
+
+    Near a foot at distance d the decrease a Newton step achieves (~ residual^2) drowns in the
+    rounding of |S - P|^2 (~ d * eps * |S|); a growth of the distance by ``_NOISE * tol`` is
+    accepted so the iteration can finish.
+    """
+    noise = _NOISE * tol
+    return obj * (1.0 + _OBJ_SLACK) + 2.0 * np.sqrt(obj) * noise + noise * noise
+
+
+def _breakpoints(knots: np.ndarray, degree: int) -> np.ndarray:
+    """Domain ends and the interior knots where the curve may have a crease (multiplicity >= degree)."""
+    lo, hi = knots[degree], knots[-degree - 1]
+    vals, counts = np.unique(knots[(knots > lo) & (knots < hi)], return_counts=True)
+    return np.r_[lo, vals[counts >= degree], hi]
+
+
+def _boxes(breaks: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For parameters x: the crease-free interval holding x, as [lower, upper] with upper one ulp
+    below the next interior breakpoint (so that evaluation there uses the span below it)."""
+    idx = np.clip(np.searchsorted(breaks, x, side="right") - 1, 0, breaks.shape[0] - 2)
+    upper = breaks[idx + 1]
+    inner = idx + 1 < breaks.shape[0] - 1
+    return breaks[idx], np.where(inner, np.nextafter(upper, -np.inf), upper), idx
+
+
+def _step_matrix(H, E, g, fixed, use):
+    """Newton step for the distance in the free parameters, (m, d) from H, E (m, d, d), g (m, d).
+
+    The system is scaled by the speeds |S_i| (Jacobi), so the tests and the regularisation do not
+    depend on how each parameter is scaled (near-degenerate edges have |Sv| << |Su|). Where the
+    scaled Hessian is not positive definite (near a saddle or a focal point of the distance) it is
+    shifted by twice its smallest eigenvalue, which flips the sign of that eigenvalue (saddle-free
+    Newton), so the step follows the negative curvature downhill; after a failed line search
+    (``use`` False) the Gauss-Newton matrix E is used. Returns the step and whether it is a plain
+    Newton step (no shift, no Gauss-Newton).
+    """
+    m, d = g.shape
+    diag = np.einsum("mii->mi", E)
+    tiny = 1e-30 * diag.sum(axis=1, keepdims=True) + np.finfo(np.float64).tiny
+    sc = np.sqrt(np.maximum(diag, tiny))
+    M = np.where(use[:, None, None], H, E) / (sc[:, :, None] * sc[:, None, :])
+    gs = np.where(fixed, 0.0, g / sc)
+    eye = np.eye(d, dtype=bool)
+    # fixed parameters: identity rows and columns, zero gradient -> zero step
+    M = np.where(fixed[:, :, None] | fixed[:, None, :], eye.astype(np.float64), M)
+    if d == 1:
+        lam = M[:, 0, 0]
+    else:
+        a, b, c = M[:, 0, 0], M[:, 0, 1], M[:, 1, 1]
+        lam = 0.5 * (a + c) - np.sqrt(0.25 * (a - c) ** 2 + b * b)
+    shift = np.where(lam < _FLOOR, np.maximum(-2.0 * lam, _FLOOR), 0.0)
+    M = M + shift[:, None, None] * eye
+    if d == 1:
+        step = -gs / M[:, :, 0]
+    else:
+        a, b, c = M[:, 0, 0], M[:, 0, 1], M[:, 1, 1]
+        det = a * c - b * b
+        step = np.stack([(-c * gs[:, 0] + b * gs[:, 1]) / det, (b * gs[:, 0] - a * gs[:, 1]) / det], axis=1)
+    return step / sc, use & (shift == 0)
+
+
+def _gram(D1: np.ndarray) -> np.ndarray:
+    """E[m, i, j] = D1[m, i] . D1[m, j] (pairwise dot products are much faster than one einsum)."""
+    m, d, _ = D1.shape
+    E = np.empty((m, d, d))
+    for i in range(d):
+        for j in range(i, d):
+            E[:, i, j] = E[:, j, i] = np.einsum("mk,mk->m", D1[:, i], D1[:, j])
+    return E
+
+
+def _newton(pts, x, state, evaluate, lo, hi, breaks, tol, max_iter) -> _Raw:
+    """Batched, box-constrained Newton minimisation of |S(x) - P|^2 over d = 1 or 2 parameters.
+
+    ``state`` = (S (m, k), D1 (m, d, k), D2 (m, d, d, k)) at ``x`` (m, d). Creases (knots of
+    multiplicity >= degree) split the domain into boxes: a step never crosses one; a point at a box
+    end that wants to go on moves one ulp across the crease (fresh one-sided derivatives), and a
+    point that, without having moved since, wants to go back across the crease it just crossed is at
+    a crease minimum in that parameter (fixed, like a domain edge, but not reported on_boundary).
+    """
+    n, d = x.shape
+    foot = np.empty((n, pts.shape[1]))
+    conv = np.zeros(n, dtype=bool)
+    onb = np.zeros(n, dtype=bool)
+    gn = np.zeros(n, dtype=bool)              # force a Gauss-Newton step (after a failed line search)
+    crossed = np.full((n, d), np.nan)          # crease value last crossed, per parameter
+    crossed_up = np.zeros((n, d), dtype=bool)  # ... and whether upwards
+    crossed_x = np.full((n, d), np.nan)        # parameters right after that crossing
+    act = np.arange(n)
+    S, D1, D2 = state
+    it = 0
+    while act.size and it < max_iter:
+        it += 1
+        P, xa = pts[act], x[act]
+        r = S - P
+        g = np.einsum("mdk,mk->md", D1, r)
+        E = _gram(D1)
+        speed = np.sqrt(np.einsum("mii->mi", E))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ok = np.where(speed > 0, np.abs(g) / speed, 0.0) <= tol
+        box_lo, box_hi, bidx = zip(*(_boxes(breaks[i], xa[:, i]) for i in range(d)))
+        box_lo, box_hi, bidx = np.stack(box_lo, 1), np.stack(box_hi, 1), np.stack(bidx, 1)
+        down = (xa <= box_lo) & (g > 0) & ~ok      # wants to leave its box downwards
+        up = (xa >= box_hi) & (g < 0) & ~ok        # ... upwards
+        edge = (down & (box_lo <= lo)) | (up & (box_hi >= hi))
+        brk_up = np.stack([breaks[i][bidx[:, i] + 1] for i in range(d)], axis=1)
+        # a crease minimum: wants back across the crease it crossed, and has not moved since (the
+        # other parameter may have changed what the far side wants)
+        still = np.all(xa == crossed_x[act], axis=1)[:, None]
+        crease = still & ((down & ~edge & crossed_up[act] & (crossed[act] == box_lo))
+                          | (up & ~edge & ~crossed_up[act] & (crossed[act] == brk_up)))
+        cross = (down | up) & ~edge & ~crease
+        if np.any(cross):
+            rows = np.flatnonzero(cross.any(axis=1))
+            cr = cross[rows]
+            nx = xa[rows].copy()
+            going_up = up[rows] & cr
+            nx = np.where(cr & ~going_up, np.nextafter(box_lo[rows], -np.inf), nx)
+            nx = np.where(going_up, brk_up[rows], nx)
+            ia = act[rows]
+            crossed[ia] = np.where(cr, np.where(going_up, brk_up[rows], box_lo[rows]), crossed[ia])
+            crossed_up[ia] = np.where(cr, going_up, crossed_up[ia])
+            x[ia] = nx
+            crossed_x[ia] = nx
+            gn[ia] = False
+            sub = evaluate(nx)
+            S, D1, D2 = (arr.copy() for arr in (S, D1, D2))
+            for arr, val in zip((S, D1, D2), sub):
+                arr[rows] = val
+            continue  # re-test the moved points with their one-sided derivatives
+        fixed = edge | crease
+        done = np.all(fixed | ok, axis=1)
+        H = E + np.einsum("mijk,mk->mij", D2, r)
+        use = ~gn[act]
+        step, plain = _step_matrix(H, E, g, fixed, use)
+        if np.any(done):
+            # polish: within tol the iteration is quadratic, so one more Newton step (no evaluation;
+            # the foot follows to first order) takes the parameters to rounding level
+            pol = np.flatnonzero(done & plain)
+            new_x = np.clip(xa[pol] + step[pol], box_lo[pol], box_hi[pol])
+            move = np.einsum("md,mdk->mk", new_x - xa[pol], D1[pol])
+            small = np.linalg.norm(move, axis=1) <= 10.0 * tol
+            idx = act[done]
+            foot[idx] = S[done]
+            x[act[pol[small]]] = new_x[small]
+            foot[act[pol[small]]] = S[pol[small]] + move[small]
+            conv[idx] = True
+            onb[idx] = edge[done].any(axis=1)
+            keep = ~done
+            act, P, xa, r, step = act[keep], P[keep], xa[keep], r[keep], step[keep]
+            box_lo, box_hi = box_lo[keep], box_hi[keep]
+            S, D1, D2 = S[keep], D1[keep], D2[keep]
+            if not act.size:
+                break
+        obj = np.einsum("mk,mk->m", r, r)
+        limit = _accept_limit(obj, tol)
+        # backtracking line search on D, evaluating 2nd derivatives at each trial point
+        trial = np.clip(xa + step, box_lo, box_hi)
+        new = evaluate(trial)
+        rn = new[0] - P
+        bad = np.einsum("mk,mk->m", rn, rn) > limit
+        halvings = 0
+        while np.any(bad) and halvings < _MAX_HALVINGS:
+            halvings += 1
+            bi = np.flatnonzero(bad)
+            step[bi] *= 0.5
+            tx = np.clip(xa[bi] + step[bi], box_lo[bi], box_hi[bi])
+            sub = evaluate(tx)
+            trial[bi] = tx
+            for arr, val in zip(new, sub):
+                arr[bi] = val
+            rs = sub[0] - P[bi]
+            bad[bi] = np.einsum("mk,mk->m", rs, rs) > limit[bi]
+        # points whose step failed keep their state and retry with Gauss-Newton; give up if that failed too
+        stuck = bad & gn[act]
+        gn[act] = bad
+        acc = ~bad
+        x[act[acc]] = trial[acc]
+        S, D1, D2 = (np.where(acc.reshape((-1,) + (1,) * (old.ndim - 1)), nw, old)
+                     for nw, old in zip(new, (S, D1, D2)))
+        if np.any(stuck):
+            foot[act[stuck]] = S[stuck]
+            keep = ~stuck
+            act, S, D1, D2 = act[keep], S[keep], D1[keep], D2[keep]
+    if act.size:  # max_iter reached
+        foot[act] = S
+    distance = np.linalg.norm(pts - foot, axis=1)
+    return _Raw(x, foot, distance, conv, onb, it)
+
+
+# --------------------------------------------------------------------------- surfaces
+
+def _surface_eval(args, uv: np.ndarray):
+    skl = surface_derivatives(*args, uv, n_derivs=2)
+    d1 = np.stack([skl[1, 0], skl[0, 1]], axis=1)
+    d2 = np.stack([np.stack([skl[2, 0], skl[1, 1]], axis=1), np.stack([skl[1, 1], skl[0, 2]], axis=1)], axis=1)
+    return skl[0, 0], d1, d2
+
+
+def project_to_surface(points, degree_u: int, degree_v: int, knots_u, knots_v, control_points, weights=None, *,
+                       tol_rel: float = 1e-10, max_iter: int = 50, seed_grid=None,
+                       retry: bool = True) -> Projection:
+    """Closest points on a NURBS surface to many points (point inversion), batched.
+
+    Parameters
+    ----------
+    points : (n, 3) float64
+        Points P to project.
+    degree_u, degree_v : int
+        Degrees of the surface.
+    knots_u : (nu + degree_u + 1,) float64
+    knots_v : (nv + degree_v + 1,) float64
+    control_points : (nu, nv, 3) float64
+    weights : (nu, nv) float64 or None
+        Positive weights; None for a polynomial surface.
+    tol_rel : float
+        Convergence tolerance relative to the bounding-box diagonal of the
+        control net: the tangential residual ``|(S - P).Su| / |Su|`` (and the
+        same with Sv) must fall below ``tol_rel * diagonal``.
+    max_iter : int
+        Largest number of Newton iterations.
+    seed_grid : int or (array, array), optional
+        Seed samples: an int is the number of samples per knot span in each
+        direction (default ``max(degree + 1, ceil(16 / n_spans))``); two
+        arrays give the u and v sample parameters explicitly.
+    retry : bool
+        Restart once, from the nearest seed sample outside the basin already
+        searched, every point for which such a sample may hold a closer point
+        (see Notes). Costs about 10-60 % more time.
+
+    Returns
+    -------
+    Projection
+        ``uv (n, 2)``, ``foot (n, 3)``, ``distance (n,)``, ``converged (n,)``,
+        ``on_boundary (n,)`` and ``iterations``.
+
+    Raises
+    ------
+    GeometryError
+        Points, knots, control points, weights or options of the wrong shape
+        or value.
+
+    Notes
+    -----
+    Each point descends from its nearest seed sample, so its distance never
+    exceeds that sample's; the result is a local minimiser of the distance.
+    Where the surface comes back within a seed spacing of itself (tight folds,
+    far points near the medial axis) the nearest sample can lie in the wrong
+    basin. With ``retry`` every point with a sample s more than two grid cells
+    from its foot, or beyond a crease from it, and
+    ``|P - s| - radius(s) < distance`` (radius(s): largest
+    distance from s to its grid neighbours) is restarted from the nearest such
+    s, keeping the closer result. Measured with 20k random points on a
+    strongly waved bicubic surface (curvature radius ~0.1 of the diagonal),
+    the share left in a non-global minimum fell from 0.1 % to 0 % for points
+    anywhere in the bounding box and from 0.4 % to 0.09 % for points within
+    10 % of the diagonal (0 % either way within 1 %); on a surface rolled up
+    to 1.5 turns, from 4 % to 0 %; at 10-60 % more time. A denser
+    ``seed_grid`` helps further; a surface that folds over itself within two
+    seed cells (seen on faces of occt__linkrods.step, whose v lines turn back)
+    can still end a point on the wrong sheet. A domain edge that collapses to
+    a point (a pole) is sampled a quarter spacing inside, so seeds near it
+    carry the direction of approach.
+
+    References
+    ----------
+    The NURBS Book, Sec. 6.1, eqs. (6.6)-(6.8) (Newton iteration for surface
+    point inversion).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> cp = np.array([[[0., 0, 0], [0, 1, 0]], [[1, 0, 0], [1, 1, 0]]])
+    >>> pr = project_to_surface([[0.25, 0.5, 2.0]], 1, 1, [0, 0, 1, 1], [0, 0, 1, 1], cp)
+    >>> pr.uv.round(12).tolist(), pr.distance.tolist()
+    ([[0.25, 0.5]], [2.0])
+    """
+    name = "project_to_surface"
+    pu, pv = _degree(degree_u, name), _degree(degree_v, name)
+    cp = np.asarray(control_points, dtype=np.float64)
+    if cp.ndim != 3 or cp.shape[2] != 3:
+        raise GeometryError(f"{name}: control_points must have shape (nu, nv, 3); got {cp.shape}")
+    if not np.all(np.isfinite(cp)):
+        raise GeometryError(f"{name}: control_points contain NaN or infinite values")
+    ku = _knot_vector(knots_u, pu, cp.shape[0], f"{name} (u)")
+    kv = _knot_vector(knots_v, pv, cp.shape[1], f"{name} (v)")
+    w = _weights(weights, cp.shape[:2], name)
+    pts = _points(points, 3, name)
+    tol_rel, max_iter = _options(tol_rel, max_iter, name)
+    tol = tol_rel * _diagonal(cp)
+    args = (pu, pv, ku, kv, cp, w)
+    lo = np.array([ku[pu], kv[pv]])
+    hi = np.array([ku[-pu - 1], kv[-pv - 1]])
+
+    n = pts.shape[0]
+    if n == 0:
+        z = np.zeros(0, dtype=bool)
+        return Projection(np.zeros((0, 2)), np.zeros((0, 3)), np.zeros(0), z, z.copy(), 0)
+
+    axes = _seed_values(seed_grid, (ku, kv), (pu, pv), name)
+    seeds = _build_seeds(axes, lambda uv: _surface_eval(args, uv), tol / tol_rel)
+
+    breaks = [_breakpoints(ku, pu), _breakpoints(kv, pv)]
+
+    def newton(p, uv0, state):
+        return _newton(p, uv0.copy(), state, lambda uv: _surface_eval(args, uv), lo, hi, breaks, tol, max_iter)
+
+    raw = _seeded_newton(pts, seeds, newton, bool(retry), tol, breaks)
+    return Projection(raw.params, raw.foot, raw.distance, raw.converged, raw.on_boundary, raw.iterations)
+
+
+# --------------------------------------------------------------------------- curves
+
+def project_to_curve(points, degree: int, knots, control_points, weights=None, *, tol_rel: float = 1e-10,
+                     max_iter: int = 50, seed_grid=None, retry: bool = True) -> CurveProjection:
+    """Closest points on a NURBS curve (2D or 3D) to many points, batched.
+
+    Parameters
+    ----------
+    points : (n, dim) float64
+        Points P, dim equal to the curve's (2 or 3).
+    degree : int
+    knots : (n_ctrl + degree + 1,) float64
+    control_points : (n_ctrl, dim) float64
+    weights : (n_ctrl,) float64 or None
+    tol_rel : float
+        Convergence when ``|(C - P).C'| / |C'| <= tol_rel * diagonal`` of the
+        control polygon's bounding box.
+    max_iter : int
+        Largest number of Newton iterations.
+    seed_grid : int or (array,), optional
+        Samples per knot span (default ``max(degree + 1, ceil(16 / n_spans))``)
+        or explicit sample parameters.
+    retry : bool
+        Restart once from a far seed sample that may hold a closer point (as
+        in `project_to_surface`).
+
+    Returns
+    -------
+    CurveProjection
+        ``t (n,)``, ``foot (n, dim)``, ``distance (n,)``, ``converged (n,)``,
+        ``on_boundary (n,)`` (the unconstrained minimiser lies beyond an end),
+        ``iterations``.
+
+    Raises
+    ------
+    GeometryError
+        Inputs of the wrong shape or value.
+
+    References
+    ----------
+    The NURBS Book, Sec. 6.1, eqs. (6.3)-(6.5) (Newton iteration for curve
+    point inversion).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> pr = project_to_curve([[0.5, 1.0]], 1, [0, 0, 1, 1], np.array([[0., 0.], [2., 0.]]))
+    >>> pr.t.round(12).tolist(), pr.distance.tolist()
+    ([0.25], [1.0])
+    """
+    name = "project_to_curve"
+    p = _degree(degree, name)
+    cp = np.asarray(control_points, dtype=np.float64)
+    if cp.ndim != 2 or cp.shape[1] not in (2, 3):
+        raise GeometryError(f"{name}: control_points must have shape (n, 2) or (n, 3); got {cp.shape}")
+    if not np.all(np.isfinite(cp)):
+        raise GeometryError(f"{name}: control_points contain NaN or infinite values")
+    kn = _knot_vector(knots, p, cp.shape[0], name)
+    w = _weights(weights, cp.shape[:1], name)
+    dim = cp.shape[1]
+    pts = _points(points, dim, name)
+    tol_rel, max_iter = _options(tol_rel, max_iter, name)
+    tol = tol_rel * _diagonal(cp)
+    args = (p, kn, cp, w)
+    lo, hi = kn[p], kn[-p - 1]
+    n = pts.shape[0]
+    if n == 0:
+        z = np.zeros(0, dtype=bool)
+        return CurveProjection(np.zeros(0), np.zeros((0, dim)), np.zeros(0), z, z.copy(), 0)
+
+    def evaluate(t):
+        ck = curve_derivatives(*args, t[:, 0], n_derivs=2)
+        return ck[0], ck[1][:, None], ck[2][:, None, None]
+
+    axes = _seed_values(seed_grid, (kn,), (p,), name)
+    seeds = _build_seeds(axes, evaluate, tol / tol_rel)
+    breaks = [_breakpoints(kn, p)]
+    lo_, hi_ = np.array([lo]), np.array([hi])
+
+    def newton(pp, t0, state):
+        return _newton(pp, t0.copy(), state, evaluate, lo_, hi_, breaks, tol, max_iter)
+
+    raw = _seeded_newton(pts, seeds, newton, bool(retry), tol, breaks)
+    return CurveProjection(raw.params[:, 0], raw.foot, raw.distance, raw.converged, raw.on_boundary, raw.iterations)

@@ -1,0 +1,109 @@
+"""STEP read and write through Open CASCADE (``cadquery-ocp``).
+
+`read` returns a `Shell` of trimmed NURBS faces with their shared edges (the
+conversion and its conventions are described in `trimsurf.io._occ`); `write`
+writes a `Shell` (or one face, or a sequence of faces) as a STEP AP214 file in
+millimetres that Open CASCADE reads back as a valid shape.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from collections.abc import Sequence
+from pathlib import Path
+
+from ..errors import GeometryError, StepReadError, TrimsurfWarning
+from ..model import Shell, TrimmedFace
+from . import _occ
+from ._atomic import atomic_path
+
+__all__ = ["read", "write", "shell_from_faces"]
+
+shell_from_faces = _occ.shell_from_faces
+
+
+def read_occ_shape(path: str | os.PathLike):
+    """The Open CASCADE shape `read` converts: the file's shape after ``BRepBuilderAPI_NurbsConvert``."""
+    shape = _occ.read_shape(path, "STEP", StepReadError)
+    return _occ.nurbs_shape(shape, path=path, error=StepReadError)
+
+
+def read(path: str | os.PathLike) -> Shell:
+    """Read a STEP file into a `Shell`.
+
+    Parameters
+    ----------
+    path : str or PathLike
+
+    Returns
+    -------
+    Shell
+        One `TrimmedFace` per distinct face of the file (NURBS surface, p-curves
+        of every loop, 3D edge curves) and the edges the faces share.
+
+    Raises
+    ------
+    StepReadError
+        The file is missing, empty, truncated or malformed, or holds no faces.
+        The message is one line naming the file; Open CASCADE's own output is
+        suppressed.
+    """
+    return _occ.shape_to_shell(read_occ_shape(path), name=Path(path).name)
+
+
+def write(shell: Shell | TrimmedFace | Sequence[TrimmedFace], path: str | os.PathLike) -> None:
+    """Write a `Shell` (or one or several `TrimmedFace`) as a STEP file in millimetres.
+
+    Shared edges of the shell become shared STEP edges, so a closed shell is
+    written as a closed solid. The file is written to a temporary file and
+    renamed: a failed write leaves no file behind.
+
+    Warns
+    -----
+    TrimsurfWarning
+        ``BRepCheck_Analyzer`` rejects the built shape (inconsistent input,
+        e.g. a self-intersecting trim loop); the file is written anyway.
+
+    Raises
+    ------
+    GeometryError
+        Open CASCADE could not build or write the shape, or `shell` holds no
+        faces or something else than trimmed faces.
+    OSError
+        The target folder cannot be created or written.
+    """
+    if not isinstance(shell, Shell):
+        shell = shell_from_faces(shell, name=Path(path).stem)
+    with _occ.quiet_occ():
+        try:
+            shape = _occ.shell_to_shape(shell)
+            bad = _occ.invalid_faces(shape)
+        except GeometryError:
+            raise
+        except Exception as exc:  # Open CASCADE's Standard_Failure
+            raise GeometryError(f"{path}: Open CASCADE could not build the shape: "
+                                f"{type(exc).__name__}: {exc}") from None
+    if bad:
+        where = "the shape" if bad == [-1] else f"{len(bad)} face(s)"
+        warnings.warn(f"{path}: BRepCheck_Analyzer rejects {where} of the written shape (inconsistent input "
+                      "faces, e.g. self-intersecting trim loops); writing it anyway", TrimsurfWarning, stacklevel=2)
+    with atomic_path(path) as tmp:
+        _write_step_file(shape, tmp, path)
+
+
+def _write_step_file(shape, tmp: Path, path) -> None:
+    from OCP.IFSelect import IFSelect_RetDone
+    from OCP.Interface import Interface_Static
+    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+
+    with _occ.quiet_occ() as log:
+        Interface_Static.SetCVal_s("write.step.unit", "MM")
+        Interface_Static.SetCVal_s("write.step.schema", "AP214IS")
+        writer = STEPControl_Writer()
+        transferred = writer.Transfer(shape, STEPControl_AsIs)
+        status = writer.Write(str(tmp)) if transferred == IFSelect_RetDone else transferred
+    if status != IFSelect_RetDone:
+        detail = _occ._occ_detail(log)
+        raise GeometryError(f"{path}: Open CASCADE could not write the STEP file "
+                            f"({getattr(status, 'name', status)}{': ' + detail if detail else ''})")

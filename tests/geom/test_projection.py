@@ -1,0 +1,320 @@
+"""Closest-point projection onto NURBS surfaces and curves: parameter recovery, analytic feet, domain edges."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+from numpy.testing import assert_allclose, assert_array_equal
+
+from trimsurf.errors import GeometryError, InputError
+from trimsurf.geom import (CurveProjection, Projection, project_to_curve, project_to_surface, surface_derivatives,
+                           surface_points, unit_normals)
+
+S2 = np.sqrt(0.5)
+
+
+def clamped_uniform(n_ctrl, degree):
+    return np.r_[np.zeros(degree), np.linspace(0, 1, n_ctrl - degree + 1), np.ones(degree)]
+
+
+@pytest.fixture(scope="module")
+def wavy():
+    """Bicubic rational 20 x 20 surface over [0, 1]^2 with waves of curvature radius ~0.15."""
+    rng = np.random.default_rng(3)
+    n, p = 20, 3
+    g = np.linspace(0, 1, n)
+    cp = np.zeros((n, n, 3))
+    cp[..., 0], cp[..., 1] = g[:, None], g[None, :]
+    cp[..., 2] = 0.2 * np.sin(6 * g[:, None]) * np.cos(5 * g[None, :]) + 0.02 * rng.standard_normal((n, n))
+    w = rng.uniform(0.5, 2.0, (n, n))
+    kn = clamped_uniform(n, p)
+    return (p, p, kn, kn, cp, w)
+
+
+@pytest.fixture(scope="module")
+def cylinder():
+    """Quarter cylinder of radius 2 about the z axis (rational quadratic x linear), z in [0, 3]."""
+    arc = np.array([[2.0, 0, 0], [2, 2, 0], [0, 2, 0]])
+    cp = np.stack([arc, arc + [0, 0, 3]], axis=1)
+    w = np.array([[1, 1], [S2, S2], [1, 1]])
+    return (2, 1, [0, 0, 0, 1, 1, 1], [0, 0, 1, 1], cp, w)
+
+
+def test_random_surface_points_recover_parameters(wavy):
+    rng = np.random.default_rng(0)
+    uv = rng.random((20_000, 2))
+    pr = project_to_surface(surface_points(*wavy, uv), *wavy)
+    assert isinstance(pr, Projection)
+    assert pr.converged.all() and not pr.on_boundary.any()
+    assert_allclose(pr.uv, uv, rtol=0, atol=1e-9)  # the issue's target; |Su|, |Sv| >= ~0.5 here
+    assert pr.distance.max() <= 1e-9
+    assert_allclose(pr.foot, surface_points(*wavy, pr.uv), rtol=0, atol=1e-15)  # foot is S(uv)
+
+
+def test_points_off_along_the_normal_recover_the_foot(wavy):
+    rng = np.random.default_rng(1)
+    uv = rng.uniform(0.02, 0.98, (5000, 2))
+    d = surface_derivatives(*wavy, uv, n_derivs=1)
+    nrm = unit_normals(d[1, 0], d[0, 1])
+    h = rng.uniform(-0.02, 0.02, (5000, 1))  # well inside the smallest curvature radius (~0.15)
+    pr = project_to_surface(d[0, 0] + h * nrm, *wavy)
+    assert pr.converged.all() and not pr.on_boundary.any()
+    # tolerance 1e-10 x diagonal (~1.5) on the tangential residual; |Su| ~ 1, curvature <= 7 -> 1e-9 margin
+    assert_allclose(pr.uv, uv, rtol=0, atol=1e-9)
+    assert_allclose(pr.distance, np.abs(h[:, 0]), rtol=0, atol=1e-12)
+    assert_allclose(pr.foot, d[0, 0], rtol=0, atol=1e-9)
+
+
+def test_rational_cylinder_analytic_foot(cylinder):
+    rng = np.random.default_rng(2)
+    ang = rng.uniform(0.05, np.pi / 2 - 0.05, 3000)
+    rad = rng.uniform(0.2, 5.0, 3000)  # inside (r.Suu terms matter: up to 10x the curvature radius) and outside
+    z = rng.uniform(0, 3, 3000)
+    pts = np.c_[rad * np.cos(ang), rad * np.sin(ang), z]
+    pr = project_to_surface(pts, *cylinder)
+    assert pr.converged.all() and not pr.on_boundary.any()
+    expect = np.c_[2 * np.cos(ang), 2 * np.sin(ang), z]
+    # tangential residual <= 1e-10 x diag(~4.7); the foot moves by residual x 2 / rad <= 5e-9 at rad = 0.2
+    assert_allclose(pr.foot, expect, rtol=0, atol=1e-8)
+    assert_allclose(pr.distance, np.abs(rad - 2), rtol=0, atol=1e-12)
+
+
+def test_points_beyond_the_domain_report_on_boundary():
+    # flat bicubic patch over [0, 2] x [0, 1] in z = 0: the foot is the clamped xy
+    n = 6
+    gx, gy = np.linspace(0, 2, n), np.linspace(0, 1, n)
+    cp = np.zeros((n, n, 3))
+    cp[..., 0], cp[..., 1] = gx[:, None], gy[None, :]
+    kn = clamped_uniform(n, 3)
+    rng = np.random.default_rng(4)
+    pts = np.c_[rng.uniform(-1, 3, 4000), rng.uniform(-1, 2, 4000), rng.uniform(-1, 1, 4000)]
+    pr = project_to_surface(pts, 3, 3, kn, kn, cp)
+    clamped = np.c_[np.clip(pts[:, 0], 0, 2), np.clip(pts[:, 1], 0, 1), np.zeros(4000)]
+    outside = np.any(clamped[:, :2] != pts[:, :2], axis=1)
+    assert pr.converged.all()
+    assert_array_equal(pr.on_boundary, outside)
+    assert_allclose(pr.foot, clamped, rtol=0, atol=1e-9)  # tol 1e-10 x diag on a unit-speed plane
+    assert np.all(pr.uv >= 0) and np.all(pr.uv <= 1)
+    corner = project_to_surface([[-1.0, -1.0, 0.5], [3.0, 2.0, 0.0]], 3, 3, kn, kn, cp)
+    assert corner.on_boundary.all()
+    assert_allclose(corner.uv, [[0, 0], [1, 1]], rtol=0, atol=0)
+
+
+def test_edge_foot_on_curved_surface_is_the_edge_minimum(wavy):
+    # beyond the u = 1 edge: the foot minimises the distance along the edge curve S(1, v)
+    rng = np.random.default_rng(5)
+    pts = np.c_[rng.uniform(1.2, 1.5, 200), rng.uniform(0.1, 0.9, 200), rng.uniform(-0.2, 0.2, 200)]
+    pr = project_to_surface(pts, *wavy)
+    assert pr.converged.all() and pr.on_boundary.all()
+    assert_allclose(pr.uv[:, 0], 1.0, rtol=0, atol=0)
+    v = np.linspace(0, 1, 20001)
+    edge = surface_points(*wavy, np.c_[np.ones_like(v), v])
+    dense = np.min(np.linalg.norm(pts[:, None] - edge[None], axis=-1), axis=1)
+    assert np.all(pr.distance <= dense + 1e-12)  # never worse than dense sampling of the edge
+    assert np.all(dense - pr.distance <= 1e-8)  # and sampling at spacing 5e-5 misses at most ~1e-9
+
+
+def test_global_minimum_against_dense_sampling(wavy):
+    rng = np.random.default_rng(6)
+    uv = rng.random((2000, 2))
+    d = surface_derivatives(*wavy, uv, n_derivs=1)
+    pts = d[0, 0] + rng.uniform(-0.015, 0.015, (2000, 1)) * unit_normals(d[1, 0], d[0, 1])
+    pr = project_to_surface(pts, *wavy)
+    g = np.linspace(0, 1, 301)
+    grid = surface_points(*wavy, np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2))
+    from scipy.spatial import cKDTree
+    dense, _ = cKDTree(grid).query(pts)
+    assert np.all(pr.distance <= dense + 1e-12)
+
+
+def folded_surface():
+    """A surface rolled up 1.5 turns (radius 0.1) whose sheets come closer than the default seed spacing."""
+    n = 20
+    g = np.linspace(0, 1, n)
+    th = g * 3 * np.pi
+    cp = np.zeros((n, n, 3))
+    cp[..., 0] = (0.1 * np.sin(th) + 0.02 * g)[:, None]
+    cp[..., 1] = (0.1 * (1 - np.cos(th)) * np.sign(np.sin(th / 3) + 1e-9))[:, None]
+    cp[..., 2] = g[None, :]
+    kn = clamped_uniform(n, 3)
+    return (3, 3, kn, kn, cp, None)
+
+
+def test_retry_escapes_the_wrong_basin():
+    surf = folded_surface()
+    rng = np.random.default_rng(8)
+    pts = surface_points(*surf, rng.random((3000, 2)))
+    once = project_to_surface(pts, *surf, retry=False)
+    twice = project_to_surface(pts, *surf)
+    assert np.all(twice.distance <= once.distance + 1e-15)
+    assert np.sum(once.distance > 1e-6) > 10  # the nearest seed lies on the wrong sheet for some points
+    assert twice.distance.max() <= 1e-9 and twice.converged.all()
+
+
+def test_sphere_octant_with_a_pole():
+    # rational biquadratic octant of the unit sphere; the edge u = 0 collapses to the pole (0, 0, 1)
+    w = np.outer([1, S2, 1], [1, S2, 1])
+    cp = np.array([[[0, 0, 1], [0, 0, 1], [0, 0, 1]], [[1, 0, 1], [1, 1, 1], [0, 1, 1]],
+                   [[1, 0, 0], [1, 1, 0], [0, 1, 0]]], float)
+    surf = (2, 2, [0, 0, 0, 1, 1, 1], [0, 0, 0, 1, 1, 1], cp, w)
+    rng = np.random.default_rng(12)
+    near_pole = np.c_[rng.uniform(0.0, 0.1, (2000, 2)), rng.uniform(0.9, 1.1, 2000)]
+    pr = project_to_surface(near_pole, *surf)
+    assert pr.converged.all()
+    assert_allclose(pr.distance, np.abs(np.linalg.norm(near_pole, axis=1) - 1), rtol=0, atol=1e-12)
+    pts = rng.uniform(-0.5, 1.5, (2000, 3))  # many beyond the octant's edges
+    pr = project_to_surface(pts, *surf)
+    g = np.linspace(0, 1, 401)
+    grid = surface_points(*surf, np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2))
+    from scipy.spatial import cKDTree
+    dense, _ = cKDTree(grid).query(pts)
+    assert pr.converged.all() and np.all(pr.distance <= dense + 1e-12)
+
+
+def test_crease_of_a_degree_one_roof():
+    # tent in u (C0 ridge at u = 0.5, x = z = 1), straight in v: points in the ridge's normal cone
+    # (|x - 1| < z - 1) have their foot on the ridge, the others on a slope
+    cp = np.array([[[0.0, 0, 0], [0, 1, 0]], [[1, 0, 1], [1, 1, 1]], [[2, 0, 0], [2, 1, 0]]])
+    surf = (1, 1, [0, 0, 0.5, 1, 1], [0, 0, 1, 1], cp, None)
+    rng = np.random.default_rng(13)
+    h = rng.uniform(0.1, 1.0, 3000)
+    a = rng.uniform(-1.5, 1.5, 3000) * h
+    y = rng.uniform(0, 1, 3000)
+    pts = np.c_[1 + a, y, 1 + h]
+    pr = project_to_surface(pts, *surf)
+    assert pr.converged.all() and not pr.on_boundary.any()
+    ridge = np.abs(a) < h
+    assert_allclose(pr.foot[ridge], np.c_[np.ones(ridge.sum()), y[ridge], np.ones(ridge.sum())], rtol=0, atol=1e-12)
+    # off the cone: distance to the slope plane z = x (a < 0) or z = 2 - x (a > 0)
+    slope = np.where(a < 0, np.abs(pts[:, 0] - pts[:, 2]), np.abs(2 - pts[:, 0] - pts[:, 2])) / np.sqrt(2)
+    assert_allclose(pr.distance[~ridge], slope[~ridge], rtol=0, atol=1e-12)
+    assert_allclose(pr.distance[ridge], np.hypot(a, h)[ridge], rtol=0, atol=1e-12)
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(1, 4), st.integers(1, 4), st.integers(0, 2**31))
+def test_random_bsplines_recover_parameters(pu, pv, seed):
+    rng = np.random.default_rng(seed)
+    nu, nv = pu + 3, pv + 4
+    gu, gv = np.linspace(0, 1, nu), np.linspace(0, 2, nv)
+    cp = np.zeros((nu, nv, 3))
+    cp[..., 0], cp[..., 1] = gu[:, None], gv[None, :]
+    cp += rng.uniform(-0.05, 0.05, cp.shape)
+    cp[..., 2] += rng.uniform(-0.2, 0.2, (nu, nv))
+    w = rng.uniform(0.7, 1.5, (nu, nv))
+    ku = np.r_[np.zeros(pu), np.sort(rng.uniform(0.5, 3.5, nu - pu - 1)), np.full(pu, 4.0)]
+    ku = np.r_[0.0, ku, 4.0]
+    kv = np.r_[np.full(pv + 1, -1.0), np.sort(rng.uniform(-0.9, 0.9, nv - pv - 1)), np.full(pv + 1, 1.0)]
+    uv = np.c_[rng.uniform(0.1, 3.9, 300), rng.uniform(-0.9, 0.9, 300)]
+    surf = (pu, pv, ku, kv, cp, w)
+    pr = project_to_surface(surface_points(*surf, uv), *surf)
+    assert pr.converged.all()
+    assert pr.distance.max() <= 1e-9  # tangential residual 1e-10 x diag (~2.3) -> the point itself
+    assert_allclose(surface_points(*surf, pr.uv), surface_points(*surf, uv), rtol=0, atol=1e-9)
+
+
+def test_max_iter_reports_not_converged(wavy):
+    rng = np.random.default_rng(9)
+    pts = surface_points(*wavy, rng.random((500, 2))) + [0, 0, 0.01]
+    pr = project_to_surface(pts, *wavy, max_iter=1)
+    assert pr.iterations == 1 and not pr.converged.all()
+    assert_allclose(pr.foot, surface_points(*wavy, pr.uv), rtol=0, atol=1e-15)  # still a consistent answer
+
+
+def test_seed_grid_options_and_no_mutation(wavy):
+    pts = np.array([[0.3, 0.6, 0.5], [0.9, 0.1, -0.4]])
+    frozen = [np.array(a, copy=True) if isinstance(a, np.ndarray) else a for a in wavy]
+    p0 = pts.copy()
+    base = project_to_surface(pts, *wavy)
+    for grid in (2, 10, (np.linspace(0, 1, 7), np.linspace(0, 1, 9))):
+        other = project_to_surface(pts, *wavy, seed_grid=grid)
+        assert_allclose(other.uv, base.uv, rtol=0, atol=1e-9)
+    assert_array_equal(pts, p0)
+    for a, b in zip(wavy, frozen):
+        assert_array_equal(a, b)
+    empty = project_to_surface(np.zeros((0, 3)), *wavy)
+    assert empty.uv.shape == (0, 2) and empty.iterations == 0
+
+
+# --------------------------------------------------------------------------- curves
+
+CIRCLE = (2, np.array([0, 0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 4], float),
+          2 * np.array([[1, 0], [1, 1], [0, 1], [-1, 1], [-1, 0], [-1, -1], [0, -1], [1, -1], [1, 0]], float),
+          np.array([1, S2, 1, S2, 1, S2, 1, S2, 1]))
+
+
+def test_circle_analytic_foot():
+    rng = np.random.default_rng(10)
+    ang = rng.uniform(0, 2 * np.pi, 5000)
+    rad = rng.uniform(0.3, 6, 5000)
+    pts = np.c_[rad * np.cos(ang), rad * np.sin(ang)]
+    pr = project_to_curve(pts, *CIRCLE)
+    assert isinstance(pr, CurveProjection)
+    assert pr.converged.all() and not pr.on_boundary.any()
+    # residual 1e-10 x diag (~5.7) moves the foot by residual x 2 / rad <= 4e-9
+    assert_allclose(pr.foot, 2 * np.c_[np.cos(ang), np.sin(ang)], rtol=0, atol=1e-8)
+    assert_allclose(pr.distance, np.abs(rad - 2), rtol=0, atol=1e-12)
+
+
+def test_curve_recovers_parameters_and_reports_ends():
+    rng = np.random.default_rng(11)
+    cp = np.c_[np.linspace(0, 3, 9), np.sin(np.linspace(0, 3, 9)), 0.3 * rng.standard_normal(9)]
+    kn = clamped_uniform(9, 3)
+    from trimsurf.geom import curve_points
+    t = rng.random(3000)
+    pr = project_to_curve(curve_points(3, kn, cp, None, t), 3, kn, cp)
+    assert pr.converged.all() and not pr.on_boundary.any()
+    assert_allclose(pr.t, t, rtol=0, atol=1e-9)
+    beyond = project_to_curve([[-1.0, 0, 0], [4.0, 0, 0]], 3, kn, cp)
+    assert_array_equal(beyond.on_boundary, [True, True])
+    assert_allclose(beyond.t, [0, 1], rtol=0, atol=0)
+    # quarter arc: points outside its angle range report on_boundary
+    arc = (2, [0, 0, 0, 1, 1, 1], CIRCLE[2][:3], CIRCLE[3][:3])
+    ang = rng.uniform(-np.pi, np.pi, 1000)
+    pts = np.c_[np.cos(ang), np.sin(ang)] * rng.uniform(0.5, 4, (1000, 1))
+    pa = project_to_curve(pts, *arc)
+    inside = (ang > 0.01) & (ang < np.pi / 2 - 0.01)
+    outside = (ang < -0.01) | (ang > np.pi / 2 + 0.01)
+    assert not pa.on_boundary[inside].any() and pa.on_boundary[outside].all()
+
+
+def test_polyline_zigzag_global_foot():
+    # degree-1 curve: creases at every vertex; both sides of a concave corner hold a local minimum
+    cp = np.c_[np.arange(8.0), np.tile([0.0, 1.0], 4)]
+    kn = np.r_[0.0, np.arange(8.0), 7.0]
+    rng = np.random.default_rng(14)
+    pts = np.c_[rng.uniform(-1, 8, 5000), rng.uniform(-1, 2, 5000)]
+    pr = project_to_curve(pts, 1, kn, cp)
+    a, b = cp[:-1], cp[1:]
+    raw = np.einsum("nmd,md->nm", pts[:, None] - a[None], b - a) / np.sum((b - a) ** 2, axis=1)
+    dist = np.linalg.norm(pts[:, None] - (a + np.clip(raw, 0, 1)[..., None] * (b - a)), axis=-1)
+    exact = dist.min(axis=1)
+    assert pr.converged.all()
+    assert_allclose(pr.distance, exact, rtol=0, atol=1e-12)
+    # beyond an end: the closest segment is the first (last) one, with its foot before (after) it
+    nearest = np.argmin(dist, axis=1)
+    beyond = ((nearest == 0) & (raw[:, 0] < 0)) | ((nearest == 6) & (raw[:, 6] > 1))
+    assert_array_equal(pr.on_boundary, beyond)
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda s: project_to_surface(np.zeros((3, 2)), *s), r"points must have shape \(n, 3\)"),
+    (lambda s: project_to_surface([[0, np.nan, 0]], *s), "point 0 is not finite"),
+    (lambda s: project_to_surface(np.zeros((1, 3)), 0, *s[1:]), "degree must be an integer"),
+    (lambda s: project_to_surface(np.zeros((1, 3)), *s[:2], s[2][:-1], *s[3:]), "knots"),
+    (lambda s: project_to_surface(np.zeros((1, 3)), *s[:2], s[2][::-1], *s[3:]), "non-decreasing"),
+    (lambda s: project_to_surface(np.zeros((1, 3)), *s[:4], s[4][..., :2], s[5]), r"shape \(nu, nv, 3\)"),
+    (lambda s: project_to_surface(np.zeros((1, 3)), *s[:5], -s[5]), "positive"),
+    (lambda s: project_to_surface(np.zeros((1, 3)), *s[:5], s[5][:2]), "weights must have shape"),
+    (lambda s: project_to_surface(np.zeros((1, 3)), *s, tol_rel=0), "tol_rel"),
+    (lambda s: project_to_surface(np.zeros((1, 3)), *s, max_iter=0), "max_iter"),
+    (lambda s: project_to_surface(np.zeros((1, 3)), *s, seed_grid=0), "seed_grid"),
+    (lambda s: project_to_surface(np.zeros((1, 3)), *s, seed_grid=([0.5],)), "seed_grid"),
+    (lambda s: project_to_curve(np.zeros((1, 3)), *CIRCLE), r"points must have shape \(n, 2\)"),
+    (lambda s: project_to_curve(np.zeros((1, 2)), 2, CIRCLE[1][:-1], *CIRCLE[2:]), "knots"),
+    (lambda s: project_to_curve(np.zeros((1, 2)), 2, CIRCLE[1], np.zeros((9, 4)), None), r"shape \(n, 2\)"),
+    (lambda s: project_to_curve(np.zeros((1, 2)), *CIRCLE[:3], np.zeros(9)), "positive"),
+])
+def test_bad_input(cylinder, call, match):
+    with pytest.raises(GeometryError, match=match) as info:
+        call(cylinder)
+    assert isinstance(info.value, InputError)
