@@ -44,8 +44,8 @@ def default_tolerance(diagonal: float, *, rel_point: float = 1e-7) -> Tolerance:
 
     Examples
     --------
-    >>> default_tolerance(100.0).point
-    1e-05
+    >>> default_tolerance(2.0)
+    Tolerance(point=2e-07, parameter=1e-09, angle_rad=1e-06)
     """
     diagonal = float(diagonal)
     if not (np.isfinite(diagonal) and diagonal > 0):
