@@ -19,6 +19,7 @@ from math import comb
 import numpy as np
 
 from ..errors import GeometryError
+from ._nurbs_kernels import surface_derivatives_kernel
 
 __all__ = ["find_spans", "basis_functions", "curve_derivatives", "curve_points", "surface_derivatives",
            "surface_points", "unit_normals", "first_fundamental_form"]
@@ -221,62 +222,12 @@ def surface_derivatives(degree_u: int, degree_v: int, knots_u, knots_v, control_
     uv = _as_params(uv, "uv", 2)
     u = _clamp(uv[:, 0], ku, degree_u)
     v = _clamp(uv[:, 1], kv, degree_v)
-    pw = _homogeneous(control_points, weights)
+    pw = np.ascontiguousarray(_homogeneous(control_points, weights))
     nd = int(n_derivs)
-    n = uv.shape[0]
-    out = np.zeros((nd + 1, nd + 1, n, 3))
-    ar_u = np.arange(degree_u + 1)
-    ar_v = np.arange(degree_v + 1)
-    nv_ctrl = pw.shape[1]
-    flat = pw.reshape(-1, pw.shape[-1])
-    for s in range(0, n, _CHUNK):
-        uc, vc = u[s:s + _CHUNK], v[s:s + _CHUNK]
-        su = find_spans(degree_u, ku, uc)
-        sv = find_spans(degree_v, kv, vc)
-        bu = basis_functions(degree_u, ku, su, uc, nd)
-        bv = basis_functions(degree_v, kv, sv, vc, nd)
-        iu = su[:, None] - degree_u + ar_u
-        iv = sv[:, None] - degree_v + ar_v
-        # gather the (p+1) x (q+1) local nets through flat indices (much faster than 2D fancy indexing)
-        net = np.take(flat, (iu[:, :, None] * nv_ctrl + iv[:, None, :]).reshape(len(uc), -1), axis=0)
-        skl = _contract(net.reshape(len(uc), degree_u + 1, degree_v + 1, -1), bu, bv)
-        if weights is None:
-            for k in range(nd + 1):
-                out[k, :nd + 1 - k, s:s + _CHUNK] = skl[k, :nd + 1 - k]
-        else:
-            out[:, :, s:s + _CHUNK] = _rational_surface(skl, nd)
+    out = np.zeros((nd + 1, nd + 1, uv.shape[0], 3))
+    surface_derivatives_kernel(int(degree_u), int(degree_v), np.ascontiguousarray(ku), np.ascontiguousarray(kv),
+                               pw, weights is not None, np.ascontiguousarray(u), np.ascontiguousarray(v), nd, out)
     return out
-
-
-def _contract(net: np.ndarray, bu: np.ndarray, bv: np.ndarray) -> np.ndarray:
-    """sum_ij bu[k, n, i] bv[l, n, j] net[n, i, j, d] -> (K, L, n, d), as two batched matmuls."""
-    n, p1, q1, dim = net.shape
-    if bu.shape[0] == 1 and bv.shape[0] == 1:
-        w = (bu[0][:, :, None] * bv[0][:, None, :]).reshape(n, 1, p1 * q1)
-        return np.matmul(w, net.reshape(n, p1 * q1, dim)).reshape(1, 1, n, dim)
-    k, l = bu.shape[0], bv.shape[0]
-    x = np.matmul(net.transpose(0, 3, 1, 2).reshape(n, dim * p1, q1), bv.transpose(1, 2, 0))
-    x = x.reshape(n, dim, p1, l).transpose(0, 2, 1, 3).reshape(n, p1, dim * l)
-    y = np.matmul(bu.transpose(1, 0, 2), x)
-    return y.reshape(n, k, dim, l).transpose(1, 3, 0, 2)
-
-
-def _rational_surface(sklw: np.ndarray, nd: int) -> np.ndarray:
-    a, w = sklw[..., :-1], sklw[..., -1:]
-    skl = np.zeros_like(a)
-    for k in range(nd + 1):
-        for l in range(nd - k + 1):
-            v = a[k, l].copy()
-            for j in range(1, l + 1):
-                v -= comb(l, j) * w[0, j] * skl[k, l - j]
-            for i in range(1, k + 1):
-                v -= comb(k, i) * w[i, 0] * skl[k - i, l]
-                v2 = np.zeros_like(v)
-                for j in range(1, l + 1):
-                    v2 += comb(l, j) * w[i, j] * skl[k - i, l - j]
-                v -= comb(k, i) * v2
-            skl[k, l] = v / w[0, 0]
-    return skl
 
 
 def surface_points(degree_u: int, degree_v: int, knots_u, knots_v, control_points, weights, uv) -> np.ndarray:
