@@ -139,3 +139,18 @@ def surface_derivatives_kernel(pu, pv, ku, kv, pw, rational, u, v, nd, out):
                             v2 += binom[l, j] * skl[q, j, dim] * out[k - q, l - j, i, d]
                         val -= binom[k, q] * v2
                     out[k, l, i, d] = val / w0
+
+
+@njit(cache=True, nogil=True)
+def basis_functions_kernel(p, knots, spans, t, nd, out):
+    """out[k, i, r] = k-th derivative of N_{spans[i]-p+r, p} at t[i] (A2.3 per point)."""
+    ndu = np.empty((p + 1, p + 1))
+    a = np.empty((2, p + 1))
+    left = np.empty(p + 1)
+    right = np.empty(p + 1)
+    ders = np.empty((nd + 1, p + 1))
+    for i in range(t.shape[0]):
+        _ders_basis(spans[i], t[i], p, knots, nd, ndu, a, left, right, ders)
+        for k in range(nd + 1):
+            for r in range(p + 1):
+                out[k, i, r] = ders[k, r]

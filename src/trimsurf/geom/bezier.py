@@ -25,6 +25,7 @@ from math import comb
 import numpy as np
 
 from ..errors import GeometryError
+from .nurbs import _as_params
 
 __all__ = ["bernstein", "bernstein_derivatives", "elevate_bezier", "bezier_curve_points",
            "bezier_curve_derivatives", "bezier_patch_points", "bezier_patch_derivatives",
@@ -64,20 +65,6 @@ def _check_axis(axis, ndim: int, name: str) -> int:
     if not -ndim <= axis < ndim:
         raise GeometryError(f"axis {axis} is out of range for {name} with {ndim} dimensions")
     return int(axis) % ndim
-
-
-def _as_params(t, name: str, cols: int | None) -> np.ndarray:
-    arr = _as_float(t, name)
-    if cols is None:
-        arr = np.atleast_1d(arr)
-        if arr.ndim != 1:
-            raise GeometryError(f"{name} must have shape (n,); got {arr.shape}")
-    else:
-        if arr.ndim == 1 and arr.shape[0] == cols:
-            arr = arr[None, :]
-        if arr.ndim != 2 or arr.shape[1] != cols:
-            raise GeometryError(f"{name} must have shape (n, {cols}); got {arr.shape}")
-    return arr
 
 
 def _check_weights(weights, shape: tuple[int, ...], name: str) -> np.ndarray | None:

@@ -19,7 +19,7 @@ from math import comb
 import numpy as np
 
 from ..errors import GeometryError
-from ._nurbs_kernels import surface_derivatives_kernel
+from ._nurbs_kernels import basis_functions_kernel, surface_derivatives_kernel
 
 __all__ = ["find_spans", "basis_functions", "curve_derivatives", "curve_points", "surface_derivatives",
            "surface_points", "unit_normals", "first_fundamental_form"]
@@ -82,51 +82,10 @@ def basis_functions(degree: int, knots: np.ndarray, spans: np.ndarray, t: np.nda
         ders[k, i, r] = d^k N_{spans[i] - degree + r, degree}(t[i]) / dt^k.
         Derivatives above the degree are zero.
     """
-    p = int(degree)
-    n = t.shape[0]
-    left = np.empty((p + 1, n))
-    right = np.empty((p + 1, n))
-    ndu = np.empty((p + 1, p + 1, n))
-    ndu[0, 0] = 1.0
-    for j in range(1, p + 1):
-        left[j] = t - knots[spans + 1 - j]
-        right[j] = knots[spans + j] - t
-        saved = np.zeros(n)
-        for r in range(j):
-            ndu[j, r] = right[r + 1] + left[j - r]
-            temp = ndu[r, j - 1] / ndu[j, r]
-            ndu[r, j] = saved + right[r + 1] * temp
-            saved = left[j - r] * temp
-        ndu[j, j] = saved
-    nd = int(n_derivs)
-    ders = np.zeros((nd + 1, n, p + 1))
-    ders[0] = ndu[:, p].T
-    if nd == 0:
-        return ders
-    a = np.empty((2, p + 1, n))
-    for r in range(p + 1):
-        s1, s2 = 0, 1
-        a[0, 0] = 1.0
-        for k in range(1, min(nd, p) + 1):
-            d = np.zeros(n)
-            rk, pk = r - k, p - k
-            if r >= k:
-                a[s2, 0] = a[s1, 0] / ndu[pk + 1, rk]
-                d += a[s2, 0] * ndu[rk, pk]
-            j1 = 1 if rk >= -1 else -rk
-            j2 = k - 1 if r - 1 <= pk else p - r
-            for j in range(j1, j2 + 1):
-                a[s2, j] = (a[s1, j] - a[s1, j - 1]) / ndu[pk + 1, rk + j]
-                d += a[s2, j] * ndu[rk + j, pk]
-            if r <= pk:
-                a[s2, k] = -a[s1, k - 1] / ndu[pk + 1, r]
-                d += a[s2, k] * ndu[r, pk]
-            ders[k, :, r] = d
-            s1, s2 = s2, s1
-    factor = p
-    for k in range(1, min(nd, p) + 1):
-        ders[k] *= factor
-        factor *= p - k
+    ders = np.empty((int(n_derivs) + 1, t.shape[0], int(degree) + 1))
+    basis_functions_kernel(int(degree), np.ascontiguousarray(knots, dtype=np.float64),
+                           np.ascontiguousarray(spans, dtype=np.int64), np.ascontiguousarray(t, dtype=np.float64),
+                           int(n_derivs), ders)
     return ders
 
 
