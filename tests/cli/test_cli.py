@@ -95,6 +95,43 @@ def test_info_finds_the_gap_pair_gap_in_a_step_file(tmp_path, capsys):
     assert gaps and 0.2e-3 * report["diagonal"] < max(gaps) < 3e-3 * report["diagonal"]
 
 
+def _plane_face(loop_corners):
+    from trimsurf.model import Loop, NurbsCurve, NurbsSurface, PCurve, TrimmedFace
+    cp = np.array([[[0, 0, 0], [0, 1, 0]], [[1, 0, 0], [1, 1, 0]]], dtype=float)
+    plane = NurbsSurface(1, 1, [0, 0, 1, 1], [0, 0, 1, 1], cp)
+    c = [np.asarray(p, dtype=float) for p in loop_corners]
+    segs = [PCurve(NurbsCurve(1, [0, 0, 1, 1], np.array([c[i], c[(i + 1) % len(c)]])), 0.0, 1.0) for i in range(len(c))]
+    return TrimmedFace(plane, (Loop(tuple(segs)),))
+
+
+def test_info_reports_self_crossing_trim_loops():
+    from trimsurf.model import Shell
+    bow_tie = _plane_face([(0.1, 0.1), (0.9, 0.9), (0.9, 0.1), (0.1, 0.9)])  # segments 0 and 2 cross at the middle
+    square = _plane_face([(0.1, 0.1), (0.9, 0.1), (0.9, 0.9), (0.1, 0.9)])
+    # a zero-length p-curve (a point, repeated samples) between two segments is not a crossing
+    with_point = _plane_face([(0.1, 0.1), (0.9, 0.1), (0.9, 0.1), (0.9, 0.9), (0.1, 0.9)])
+    report = info_cmd.shell_report(Shell((square, bow_tie, with_point)))
+    crossings = [p for p in report["problems"] if p["kind"] == "self_crossing_loop"]
+    assert len(crossings) == 1
+    c = crossings[0]
+    assert (c["face"], c["loop"], c["n_crossings"], c["segments"]) == (1, 0, 1, [0, 2])
+    np.testing.assert_allclose(c["uv"], [0.5, 0.5], rtol=0, atol=1e-12)  # two straight lines: exact to rounding
+    assert "face 1 loop 0: trim loop crosses itself" in info_cmd.format_report(report)
+
+
+def test_info_finds_the_self_crossing_loop_of_real_data():
+    from tests.io.test_step import load  # shares the session's single read of the file with the STEP tests
+
+    report = info_cmd.shell_report(load("occtpr946__bug32596_abc_0_13.step").shell)
+    crossings = [p for p in report["problems"] if p["kind"] == "self_crossing_loop"]
+    # after NurbsConvert, face 65's outer loop crosses itself (BRepCheck rejects that face, see test_step);
+    # no other loop of the file does
+    assert [(p["face"], p["loop"], p["segments"]) for p in crossings] == [(65, 0, [1, 2])]
+    # where the sampled polylines cross; the curves' own crossing is within a chord's sag (< 1e-3 of the
+    # face's (u, v) extent, about 1 x 0.02) of it
+    np.testing.assert_allclose(crossings[0]["uv"], [0.0114, 0.766], rtol=0, atol=1e-3)
+
+
 def test_shell_report_of_the_box_in_memory():
     from trimsurf.samples import bspline_box, gap_pair
     r = info_cmd.shell_report(bspline_box())

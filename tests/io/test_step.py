@@ -18,7 +18,8 @@ from numpy.testing import assert_allclose
 
 from trimsurf.errors import FileFormatError, GeometryError, StepReadError, TrimsurfWarning
 from trimsurf.io import _iges, _occ, _step, read_shell, write_shell
-from trimsurf.model import Loop, NurbsCurve, PCurve, Shell, TrimmedFace
+from trimsurf.model import Edge, Loop, NurbsCurve, NurbsSurface, PCurve, Shell, TrimmedFace
+from trimsurf.samples import bspline_box
 
 CAD = (Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "cad").resolve()
 STEP_FILES = sorted(p.name for p in CAD.glob("*") if p.suffix.lower() in (".step", ".stp"))
@@ -601,6 +602,102 @@ def test_faces_without_topology_are_sewn(tmp_path):
     assert len(back.faces) == len(faces) and back.is_closed()
 
 
+def _reversed_curve(c: NurbsCurve) -> NurbsCurve:
+    """c run backwards on the same domain [a, b]: r(s) = c(a + b - s)."""
+    a, b = c.domain
+    w = None if c.weights is None else c.weights[::-1]
+    return NurbsCurve(c.degree, (a + b) - c.knots[::-1], c.control_points[::-1], w)
+
+
+def _box_with_edge_stored_backwards(ei: int) -> Shell:
+    """bspline_box with edge `ei` (and its p-curves, same parameter) on reversed curves: t0 > t1, same vertices."""
+    box = bspline_box()
+    e = box.edges[ei]
+    a, b = e.curve.domain
+    faces = list(box.faces)
+    for fi, li, si in e.uses:
+        f = faces[fi]
+        loops = list(f.loops)
+        segs = list(loops[li].segments)
+        s = segs[si]
+        assert s.curve.domain == (a, b)  # shared parameter: the p-curves are reversed on the same map
+        segs[si] = PCurve(_reversed_curve(s.curve), a + b - s.t0, a + b - s.t1, _reversed_curve(s.edge_curve),
+                          s.edge_id)
+        loops[li] = Loop(tuple(segs))
+        faces[fi] = TrimmedFace(f.surface, tuple(loops), f.same_sense, f.name, f.tolerance)
+    edges = list(box.edges)
+    edges[ei] = Edge(_reversed_curve(e.curve), a + b - e.t0, a + b - e.t1, e.vertices, e.uses, e.tolerance)
+    return Shell(tuple(faces), tuple(edges), box.vertices, name="flipped_box")
+
+
+def test_edge_stored_against_its_curve_is_written_valid(tmp_path):
+    from OCP.BRepCheck import BRepCheck_Analyzer
+
+    # edge 1 of the box: its old writing put the vertices at the wrong ends, which BRepCheck rejected
+    # (a TrimsurfWarning, an error here); every edge is flipped in turn in the loop below
+    box = bspline_box()
+    for ei in range(len(box.edges)):
+        shell = _box_with_edge_stored_backwards(ei)
+        e = shell.edges[ei]
+        assert e.t0 > e.t1
+        # the flipped edge still starts at vertex[0]: b(t0) is that vertex (the box's edges are exact)
+        assert_allclose(e.curve.evaluate([e.t0, e.t1]), shell.vertices[list(e.vertices)], rtol=0, atol=1e-9)
+        out = tmp_path / f"flipped{ei}.step"
+        _step.write(shell, out)
+        assert BRepCheck_Analyzer(_step.read_occ_shape(out)).IsValid()
+        back = _step.read(out)
+        assert back.is_closed() and len(back.edges) == 12 and len(back.vertices) == 8
+        # the vertices stay where they were (box corners; tolerance: the exact corners, rounding only)
+        assert_allclose(np.sort(back.vertices, axis=0), np.sort(box.vertices, axis=0), rtol=0, atol=1e-9)
+
+
+def test_edges_without_vertices_are_read_with_index_minus_one(monkeypatch):
+    box = bspline_box()
+    edges = list(box.edges)
+    e = edges[0]
+    edges[0] = Edge(e.curve, e.t0, e.t1, (-1, -1), e.uses, tolerance=e.tolerance)
+    shell = Shell(box.faces, tuple(edges), box.vertices)
+    # ShapeFix_Shape would add the missing vertices: build the shape without it
+    monkeypatch.setattr(_occ, "_fix", lambda shape: shape)
+    back = _occ.shape_to_shell(_occ.nurbs_shape(_occ.shell_to_shape(shell)), name="no_vertices")
+    assert [ed.vertices for ed in back.edges].count((-1, -1)) == 1
+    assert all(min(ed.vertices) >= 0 for ed in back.edges if ed.vertices != (-1, -1))
+    assert len(back.vertices) == 8 and back.is_closed()
+
+
+def _box_faces_with_gap(gap: float) -> Shell:
+    """The box's faces without topology, face 0 moved by `gap` along z (its edges too)."""
+    box = bspline_box()
+    d = np.array([0.0, 0.0, gap])
+    faces = []
+    for fi, f in enumerate(box.faces):
+        shift = d if fi == 0 else np.zeros(3)
+        s = f.surface
+        surface = NurbsSurface(s.degree_u, s.degree_v, s.knots_u, s.knots_v, s.control_points + shift, s.weights)
+        loops = tuple(Loop(tuple(PCurve(g.curve, g.t0, g.t1, NurbsCurve(g.edge_curve.degree, g.edge_curve.knots,
+                                                                         g.edge_curve.control_points + shift))
+                                 for g in lp.segments)) for lp in f.loops)
+        faces.append(TrimmedFace(surface, loops, f.same_sense, f.name, f.tolerance))
+    return Shell.from_faces(faces, name="gapped_box")
+
+
+def test_sew_tolerance_controls_which_gaps_are_closed(tmp_path):
+    shell = _box_faces_with_gap(1e-3)  # the default sewing tolerance is 1e-5 * 478 mm = 4.8e-3 mm > gap
+    assert not shell.has_topology
+    out = tmp_path / "sewn.step"
+    _step.write(shell, out)
+    assert _step.read(out).is_closed()
+    _step.write(shell, out, sew_tolerance=1e-5)  # below the gap: face 0 stays apart
+    back = _step.read(out)
+    assert not back.is_closed() and len(back.free_edges()) == 4
+    _step.write(shell, out, sew_tolerance=1e-2)
+    assert _step.read(out).is_closed()
+    for bad in (0.0, -1.0, float("nan"), "1e-3", True):
+        with pytest.raises(GeometryError, match="sew_tolerance must be a positive finite number"):
+            _step.write(shell, tmp_path / "bad.step", sew_tolerance=bad)
+    assert not (tmp_path / "bad.step").exists()
+
+
 def test_writing_a_shape_open_cascade_rejects_warns(tmp_path):
     # NurbsConvert's p-curves of face 65 of this file self-intersect (the analytic original is valid), so
     # BRepCheck rejects that face of the written shape: the file is written, with a warning
@@ -617,7 +714,7 @@ def test_write_bad_input(tmp_path):
     with pytest.raises(GeometryError, match="no faces"):
         _step.write(Shell(()), tmp_path / "empty.step")
     with pytest.raises(GeometryError, match="item 1"):
-        _step.shell_from_faces([load("occt__screw.step").shell.faces[0], 3])
+        _step.shell_from_faces([load("occt__screw.step").shell.faces[0], 3])  # the old name still works
     assert list(tmp_path.iterdir()) == []
 
 

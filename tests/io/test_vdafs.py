@@ -305,6 +305,69 @@ def test_read_cons_range_outside_its_curve_warns(tmp_path):
         _vdafs.read(path)
 
 
+def _with_face(statements, face_tokens):
+    return [(n, k, face_tokens if n == "F1" else t) for n, k, t in statements]
+
+
+def _same_loop(a: Loop, b: Loop) -> bool:
+    return len(a) == len(b) and all(
+        (s.t0, s.t1) == (r.t0, r.t1) and np.array_equal(s.curve.control_points, r.curve.control_points)
+        and (s.edge_curve is None) == (r.edge_curve is None) for s, r in zip(a.segments, b.segments))
+
+
+def test_read_clockwise_loops_are_normalised_to_the_model_orientation(tmp_path):
+    # the fixture's loops run the other way: outer loop clockwise (C4, C3, C2, C1 each reversed), hole
+    # counter-clockwise (H2, H1 reversed); the reader reverses both, giving back the fixture's loops exactly
+    cw = ["S1", "2", "4", "C4", "0.0", "-1.0", "C3", "0.0", "1.0", "C2", "5.0", "2.0", "C1", "1.0", "0.0",
+          "2", "H2", "1.0", "0.0", "H1", "1.0", "0.0"]
+    reference = _vdafs.read(_write(tmp_path, _vda_text(_fixture_statements()))).faces[0]
+    face = _vdafs.read(_write(tmp_path, _vda_text(_with_face(_fixture_statements(), cw)), "cw.vda")).faces[0]
+    outer, hole = face.loops
+    assert outer.signed_area() > 0 > hole.signed_area()
+    assert _same_loop(outer, reference.loops[0]) and _same_loop(hole, reference.loops[1])
+    assert outer.is_closed(1e-15) and hole.is_closed(1e-15)  # gaps 0 to rounding, as in the fixture
+
+
+def test_read_only_the_sense_of_a_wrong_loop_is_changed(tmp_path):
+    # outer loop as in the fixture (counter-clockwise), hole counter-clockwise: only the hole is reversed
+    face_tokens = list(_fixture_statements()[8][2])
+    face_tokens[16:22] = ["H2", "1.0", "0.0", "H1", "1.0", "0.0"]
+    face = _vdafs.read(_write(tmp_path, _vda_text(_with_face(_fixture_statements(), face_tokens)))).faces[0]
+    assert [s.t0 for s in face.loops[0].segments] == [0.0, 2.0, 1.0, -1.0]
+    assert [(s.t0, s.t1) for s in face.loops[1].segments] == [(0.0, 1.0), (0.0, 1.0)]
+
+
+def test_read_hole_listed_before_the_outer_loop_warns(tmp_path):
+    # file order makes the small circle the outer loop: the big loop cannot be a hole inside it
+    swapped = ["S1", "2", "2", "H1", "0.0", "1.0", "H2", "0.0", "1.0",
+               "4", "C1", "0.0", "1.0", "C2", "2.0", "5.0", "C3", "1.0", "0.0", "C4", "-1.0", "0.0"]
+    path = _write(tmp_path, _vda_text(_with_face(_fixture_statements(), swapped)))
+    with pytest.warns(TrimsurfWarning, match=r"FACE F1: trim loop 2 \(a hole\) is not inside the outer trim loop 1"):
+        face = _vdafs.read(path).faces[0]
+    # roles still follow the file order: first loop counter-clockwise, the other clockwise
+    assert face.loops[0].signed_area() > 0 > face.loops[1].signed_area()
+
+
+def test_read_hole_inside_another_hole_warns(tmp_path):
+    statements = _fixture_statements()
+    nested = list(statements[8][2]) + ["2", "H1", "0.0", "1.0", "H2", "0.0", "1.0"]
+    nested[1] = "3"
+    # a third loop: the hole circle at half the radius (CONS H3, H4), inside the hole of loop 2
+    (cx, cy), r = HOLE
+    k = 4.0 / 3.0 * (r / 2)
+    lower = _cubic_bezier_monomials([(cx + r / 2, cy), (cx + r / 2, cy - k), (cx - r / 2, cy - k), (cx - r / 2, cy)])
+    upper = _cubic_bezier_monomials([(cx - r / 2, cy), (cx - r / 2, cy + k), (cx + r / 2, cy + k), (cx + r / 2, cy)])
+    extra = [(name, "CONS", ["S1", "", "0.0", "1.0", "1", "0.0", "1.0", "4"] + [repr(float(x)) for x in seg.ravel()])
+             for name, seg in (("H3", lower), ("H4", upper))]
+    nested[-6:] = ["H3", "0.0", "1.0", "H4", "0.0", "1.0"]
+    statements = _with_face(statements, nested)
+    statements = statements[:8] + extra + statements[8:]
+    path = _write(tmp_path, _vda_text(statements))
+    with pytest.warns(TrimsurfWarning, match=r"FACE F1: trim loop 3 \(a hole\) lies inside the hole trim loop 2"):
+        face = _vdafs.read(path).faces[0]
+    assert len(face.loops) == 3 and face.loops[2].signed_area() < 0
+
+
 # ------------------------------------------------------------------------------------------------
 # bad input: VdafsReadError naming file, line and entity
 # ------------------------------------------------------------------------------------------------

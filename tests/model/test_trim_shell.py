@@ -66,6 +66,27 @@ def test_shell_topology_queries():
     assert_allclose(shell.diagonal(), np.sqrt(13), rtol=1e-14)
 
 
+def test_vertex_index_minus_one_means_no_vertex():
+    face = TrimmedFace(plane(), (square_loop(),))
+    shell = Shell((face,), (Edge(None, 0, 1, (-1, -1), ((0, 0, 0),)), Edge(None, 0, 1, (0, -1), ((0, 0, 1),))),
+                  np.zeros((1, 3)))
+    assert [e.vertices for e in shell.edges] == [(-1, -1), (0, -1)]
+    assert Shell((face,), (Edge(None, 0, 1, (-1, -1), ((0, 0, 0),)),)).has_topology  # no vertices at all
+    for bad in ((-2, 0), (0, 1)):
+        with pytest.raises(GeometryError, match=r"refers to vertex .* shell has 1 \(-1 means no vertex\)"):
+            Shell((face,), (Edge(None, 0, 1, bad, ((0, 0, 0),)),), np.zeros((1, 3)))
+
+
+def test_shell_from_faces():
+    face = TrimmedFace(plane(), (square_loop(),))
+    shell = Shell.from_faces([face, face], name="two")
+    assert shell.faces == (face, face) and shell.edges == () and shell.vertices.shape == (0, 3)
+    assert shell.name == "two" and not shell.has_topology and not shell.is_closed()
+    assert Shell.from_faces(face).faces == (face,)
+    with pytest.raises(GeometryError, match=r"Shell.from_faces: item 1 is a str, not a TrimmedFace"):
+        Shell.from_faces([face, "face"])
+
+
 def test_bad_input():
     with pytest.raises(TrimLoopError, match="at least one segment"):
         Loop(())

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FileFormatError, MeshError
+from ..geom import polyline_self_intersections
 from ..model import Shell, TriMesh
 from ..tolerance import default_tolerance
 from ._common import EXIT_OK, examples, format_table, print_json
@@ -22,7 +23,8 @@ Describe a CAD file (STEP, IGES, VDAFS) or a mesh file (OBJ, PLY, STL, OFF, glTF
 For CAD files: faces, surface kinds (degrees, rational or not, control-net size),
 loops and their segments, bounding box and diagonal, edges (shared, free,
 non-manifold, degenerate), whether the shell is closed, and the problems found:
-open trim loops (with gap sizes), p-curves leaving the surface domain, and 3D edge
+open trim loops (with gap sizes), trim loops that cross themselves in (u, v)
+(with the first crossing), p-curves leaving the surface domain, and 3D edge
 curves that miss the surface (max |F(p(t)) - b(t)| per face against the edge
 tolerance). For meshes: vertices, triangles, boundary loops, components, Euler
 characteristic, watertight, oriented, non-manifold edges, degenerate triangles,
@@ -32,6 +34,9 @@ EPILOG = examples("trimsurf info part.step",
                   "trimsurf samples fender --out fender.step && trimsurf info fender.step")
 
 _N_SAMPLES = 33  # points per trim segment for the checks
+# points per trim segment of the polyline checked for self-crossing loops (a p-curve is smooth between
+# knots; 64 resolves the crossings of real data, e.g. occtpr946__bug32596_abc_0_13 face 65)
+_N_CROSSING_SAMPLES = 64
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
@@ -67,7 +72,7 @@ def _surface_kind(surface) -> str:
 
 
 def _face_checks(f: int, face, edges, tol_point: float, tol_param: float) -> tuple[dict, list[dict]]:
-    """Per-face figures and problems: open loops, p-curves outside the domain, edge-curve gaps.
+    """Per-face figures and problems: open loops, self-crossing loops, p-curves outside the domain, edge-curve gaps.
 
     A segment's limit is its edge's stated tolerance, else the face's, else
     the default point tolerance of the shell.
@@ -117,6 +122,15 @@ def _face_checks(f: int, face, edges, tol_point: float, tol_param: float) -> tup
                                      "message": f"face {f} loop {l} segment {s}: edge curve misses F(p(t)) by "
                                                 f"{gap:.3g} (tolerance {lim:.3g})"})
                 worst_ratio = max(worst_ratio, gap / lim)
+    for l, loop in enumerate(face.loops):
+        crossing = _self_crossing(loop, tol_param * max(extent, 1.0))
+        if crossing is not None:
+            n, (u, v), (sa, sb) = crossing
+            problems.append({"kind": "self_crossing_loop", "face": f, "loop": l, "n_crossings": n,
+                             "uv": [u, v], "segments": [sa, sb],
+                             "message": f"face {f} loop {l}: trim loop crosses itself ({n} crossing(s) of its "
+                                        f"sampled polyline), first at (u, v) = ({u:.6g}, {v:.6g}) between "
+                                        f"segments {sa} and {sb}"})
     figures = {"index": f, "name": face.name, "surface": _surface_kind(surface),
                "degree_u": surface.degree_u, "degree_v": surface.degree_v, "rational": surface.is_rational,
                "control_net": list(surface.shape), "domain": [list(surface.domain[0]), list(surface.domain[1])],
@@ -124,6 +138,38 @@ def _face_checks(f: int, face, edges, tol_point: float, tol_param: float) -> tup
                "same_sense": face.same_sense, "tolerance": face.tolerance, "edge_curve_gap_max": edge_gap,
                "edge_curve_gap_over_tolerance": worst_ratio, "pcurve_outside_max": outside}
     return figures, problems
+
+
+def _self_crossing(loop, same_uv: float) -> tuple[int, tuple[float, float], tuple[int, int]] | None:
+    """Self-crossings of a trim loop's polyline in (u, v) (`_N_CROSSING_SAMPLES` points per segment).
+
+    Returns None for a simple loop, else (number of crossing polyline
+    edge pairs, (u, v) of the first crossing, the loop segments of its two
+    polyline edges). A point within `same_uv` of the one before it (a
+    zero-length p-curve, a pole) is dropped first, so its neighbours do not
+    count as touching.
+    """
+    n = _N_CROSSING_SAMPLES
+    poly = loop.polyline(n)
+    seg_of = np.repeat(np.arange(len(loop)), n - 1)
+    keep = np.linalg.norm(poly - np.roll(poly, 1, axis=0), axis=1) > same_uv
+    if np.count_nonzero(keep) < 3:
+        return None
+    poly, seg_of = poly[keep], seg_of[keep]
+    pairs = polyline_self_intersections(poly)
+    if not len(pairs):
+        return None
+    i, j = (int(k) for k in pairs[0])
+    a, b = poly[i], poly[(i + 1) % len(poly)]
+    c, d = poly[j], poly[(j + 1) % len(poly)]
+    r, q = b - a, d - c
+    den = r[0] * q[1] - r[1] * q[0]
+    if den != 0.0:  # proper crossing: a + s r
+        s = ((c[0] - a[0]) * q[1] - (c[1] - a[1]) * q[0]) / den
+        point = a + min(max(s, 0.0), 1.0) * r
+    else:  # parallel edges that touch or overlap: a shared end point
+        point = next((p for p in (a, b) if np.all(np.minimum(c, d) <= p) and np.all(p <= np.maximum(c, d))), c)
+    return len(pairs), (float(point[0]), float(point[1])), (int(seg_of[i]), int(seg_of[j]))
 
 
 def shell_report(shell: Shell, *, name: str = "") -> dict:

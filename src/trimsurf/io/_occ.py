@@ -79,7 +79,7 @@ from ..errors import FileFormatError, GeometryError
 from ..model import Edge, Loop, NurbsCurve, NurbsSurface, PCurve, Shell, TrimmedFace
 
 __all__ = ["quiet_occ", "read_shape", "nurbs_shape", "map_topology", "OccTopology", "shape_to_shell",
-           "shell_to_shape", "shell_from_faces", "count_faces", "curve_from_occ", "curve_to_occ",
+           "shell_to_shape", "count_faces", "curve_from_occ", "curve_to_occ",
            "surface_from_occ", "surface_to_occ", "check_file", "invalid_faces"]
 
 # relative parametric slack below which a p-curve outside the surface domain is left to clamping
@@ -757,17 +757,6 @@ def _edge_curve(edge) -> NurbsCurve | None:
 # Shell -> shape
 # --------------------------------------------------------------------------------------------------------------
 
-def shell_from_faces(faces: TrimmedFace | Sequence[TrimmedFace], *, name: str = "") -> Shell:
-    """A `Shell` without shared-edge topology holding `faces` (one face or several)."""
-    if isinstance(faces, TrimmedFace):
-        faces = (faces,)
-    faces = tuple(faces)
-    for i, f in enumerate(faces):
-        if not isinstance(f, TrimmedFace):
-            raise GeometryError(f"shell_from_faces: item {i} is a {type(f).__name__}, not a TrimmedFace")
-    return Shell(faces, name=name)
-
-
 def shell_to_shape(shell: Shell, *, sew_tolerance: float | None = None):
     """Build an Open CASCADE shape from a `Shell`, sharing its edges, fixed with ShapeFix_Shape.
 
@@ -900,7 +889,9 @@ def _make_edge(builder, e: Edge, shell: Shell, occ_vertices, occ_faces, ei):
     else:  # a pole, or an edge known by its p-curves only (its 3D curve is built from them later)
         builder.MakeEdge(edge)
         builder.Degenerated(edge, e.is_degenerate)
-    v0, v1 = e.vertices
+    # Open CASCADE's FORWARD vertex sits at the low end of the range: for an edge stored against its
+    # curve (t0 > t1) vertices[0] = b(t0) is the high end, so the roles swap
+    v0, v1 = e.vertices if e.t0 < e.t1 else e.vertices[::-1]
     if 0 <= v0 < len(occ_vertices) and 0 <= v1 < len(occ_vertices):
         builder.Add(edge, occ_vertices[v0].Oriented(TopAbs_FORWARD))
         builder.Add(edge, occ_vertices[v1].Oriented(TopAbs_REVERSED))

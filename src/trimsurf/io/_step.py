@@ -8,6 +8,7 @@ millimetres that Open CASCADE reads back as a valid shape.
 
 from __future__ import annotations
 
+import math
 import os
 import warnings
 from collections.abc import Sequence
@@ -20,7 +21,8 @@ from ._atomic import atomic_path
 
 __all__ = ["read", "write", "shell_from_faces"]
 
-shell_from_faces = _occ.shell_from_faces
+#: Kept for callers: the same as `Shell.from_faces`.
+shell_from_faces = Shell.from_faces
 
 
 def read_occ_shape(path: str | os.PathLike):
@@ -52,12 +54,25 @@ def read(path: str | os.PathLike) -> Shell:
     return _occ.shape_to_shell(read_occ_shape(path), name=Path(path).name)
 
 
-def write(shell: Shell | TrimmedFace | Sequence[TrimmedFace], path: str | os.PathLike) -> None:
+def write(shell: Shell | TrimmedFace | Sequence[TrimmedFace], path: str | os.PathLike, *,
+          sew_tolerance: float | None = None) -> None:
     """Write a `Shell` (or one or several `TrimmedFace`) as a STEP file in millimetres.
 
     Shared edges of the shell become shared STEP edges, so a closed shell is
-    written as a closed solid. The file is written to a temporary file and
+    written as a closed solid. Faces without shared-edge topology (a shell
+    without edges, e.g. from VDAFS or `Shell.from_faces`) are sewn with
+    ``BRepBuilderAPI_Sewing``. The file is written to a temporary file and
     renamed: a failed write leaves no file behind.
+
+    Parameters
+    ----------
+    shell : Shell, TrimmedFace or sequence of TrimmedFace
+    path : str or PathLike
+    sew_tolerance : float, optional
+        Largest gap (model units) that sewing closes between faces without
+        topology; None means 1e-5 of the bounding-box diagonal. Ignored when
+        the shell has edges. ``trimsurf.io.write_shell`` always uses the
+        default; call this function to set it.
 
     Warns
     -----
@@ -68,16 +83,20 @@ def write(shell: Shell | TrimmedFace | Sequence[TrimmedFace], path: str | os.Pat
     Raises
     ------
     GeometryError
-        Open CASCADE could not build or write the shape, or `shell` holds no
-        faces or something else than trimmed faces.
+        Open CASCADE could not build or write the shape, `shell` holds no
+        faces or something else than trimmed faces, or `sew_tolerance` is
+        not a positive finite number.
     OSError
         The target folder cannot be created or written.
     """
+    if sew_tolerance is not None and (isinstance(sew_tolerance, bool) or not isinstance(sew_tolerance, (int, float))
+                                      or not math.isfinite(sew_tolerance) or sew_tolerance <= 0):
+        raise GeometryError(f"{path}: sew_tolerance must be a positive finite number or None; got {sew_tolerance!r}")
     if not isinstance(shell, Shell):
-        shell = shell_from_faces(shell, name=Path(path).stem)
+        shell = Shell.from_faces(shell, name=Path(path).stem)
     with _occ.quiet_occ():
         try:
-            shape = _occ.shell_to_shape(shell)
+            shape = _occ.shell_to_shape(shell, sew_tolerance=None if sew_tolerance is None else float(sew_tolerance))
             bad = _occ.invalid_faces(shape)
         except GeometryError:
             raise

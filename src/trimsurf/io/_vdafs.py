@@ -124,6 +124,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GeometryError, InputError, TrimsurfWarning, VdafsReadError
+from ..geom.predicates import points_in_polygons, polygon_signed_area
 from ..geom.knots import bezier_curve_to_nurbs, bezier_extract, bezier_extract_surface, bezier_grid_to_nurbs
 from ..model import Loop, NurbsCurve, NurbsSurface, PCurve, Shell, TrimmedFace
 from ..tolerance import Tolerance, default_tolerance
@@ -140,6 +141,8 @@ _DIGIT_STEPS = (17, 20, 24, 30, 40, 50, 60)
 _NAME_RE = re.compile(r"[A-Za-z0-9_]+\Z")
 _STATEMENT_RE = re.compile(r"\s*([^\s=]+)\s*=\s*([A-Za-z$]+)\s*(?:/(.*))?\Z")
 _NUMBER_RE = re.compile(r"([+-]?)(\d*)(?:\.(\d*))?(?:[EeDd]([+-]?\d+))?\Z")
+# samples per CONS when a trim loop's sense and containment are measured
+_ORIENT_SAMPLES = 32
 _SKIPPED = frozenset({"POINT", "PSET", "MDI", "CIRCLE", "TOP", "GROUP", "SET", "TMAT", "TLIST"})
 
 
@@ -932,7 +935,69 @@ def _face(path: Path, face: _Face, surfs, conses, curves, surface, curve3d, tol:
             _warn(f"{where}: trim loop {k + 1} is not closed: gap {gaps[worst]:.3g} in (u, v) after CONS "
                   f"{names[worst]} (tolerance {tol_uv:.3g})")
         loops.append(loop)
-    return TrimmedFace(surf, tuple(loops), name=face.name)
+    return TrimmedFace(surf, _oriented_loops(loops, where, tol_uv), name=face.name)
+
+
+def _reversed_loop(loop: Loop) -> Loop:
+    """The loop run the other way: segments in reverse order, each used from t1 to t0."""
+    return Loop(tuple(PCurve(s.curve, s.t1, s.t0, s.edge_curve, s.edge_id) for s in reversed(loop.segments)))
+
+
+def _distances_to_polygon(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
+    """Distance of each point (n, 2) to the closed polygon (k, 2), shape (n,)."""
+    a, b = polygon, np.roll(polygon, -1, axis=0)
+    d = b - a
+    dd = np.einsum("ij,ij->i", d, d)
+    out = np.empty(len(points))
+    step = max(1, (1 << 20) // max(1, len(a)))  # bounds memory: points x edges pairs at once
+    for i in range(0, len(points), step):
+        p = points[i:i + step, None, :]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = np.einsum("nkj,kj->nk", p - a[None], d) / dd
+        s = np.clip(np.nan_to_num(s, nan=0.0), 0.0, 1.0)
+        out[i:i + step] = np.linalg.norm(p - (a[None] + s[..., None] * d[None]), axis=2).min(axis=1)
+    return out
+
+
+def _oriented_loops(loops: list[Loop], where: str, tol_uv: float) -> tuple[Loop, ...]:
+    """Loops in the model's orientation: the first (outer) counter-clockwise in (u, v), the others clockwise.
+
+    A loop of the wrong sense is reversed (`_reversed_loop`) silently: VDA-FS
+    does not fix the sense. Roles come from the file order (the first loop is
+    the outer boundary); a warning names the FACE when the file's loops do
+    not fit these roles: a loop of (nearly) zero area, a hole not inside the
+    outer loop, or a hole inside another hole. Points within `tol_uv` of the
+    other loop count as inside (loops may touch).
+    """
+    polys = [loop.polyline(_ORIENT_SAMPLES) for loop in loops]
+    out = []
+    for k, (loop, poly) in enumerate(zip(loops, polys)):
+        area = polygon_signed_area(poly)
+        perimeter = float(np.sum(np.linalg.norm(np.roll(poly, -1, axis=0) - poly, axis=1)))
+        if abs(area) <= tol_uv * perimeter:
+            _warn(f"{where}: trim loop {k + 1} encloses (nearly) no area ({area:.3g}); its sense is kept as read")
+        elif (area > 0) != (k == 0):
+            loop = _reversed_loop(loop)
+        out.append(loop)
+    if len(polys) > 1:
+        outer = polys[0]
+        for k in range(1, len(polys)):
+            pts = polys[k]
+            outside = ~points_in_polygons(pts, [outer])
+            if outside.any() and _distances_to_polygon(pts[outside], outer).max() > tol_uv:
+                _warn(f"{where}: trim loop {k + 1} (a hole) is not inside the outer trim loop 1 "
+                      "(loops in the wrong order, or crossing)")
+                continue
+            for j in range(1, len(polys)):
+                if j != k and _inside_beyond(polys[j][:1], polys[k], tol_uv):
+                    _warn(f"{where}: trim loop {j + 1} (a hole) lies inside the hole trim loop {k + 1}")
+    return tuple(out)
+
+
+def _inside_beyond(points: np.ndarray, polygon: np.ndarray, tol: float) -> bool:
+    """Whether some point lies inside `polygon` by more than `tol`."""
+    inside = points_in_polygons(points, [polygon])
+    return bool(inside.any() and _distances_to_polygon(points[inside], polygon).max() > tol)
 
 
 # ----------------------------------------------------------------------------------------------

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,10 +22,21 @@ class Edge:
     Parameters
     ----------
     curve : NurbsCurve or None
-        3D curve b(t) of the edge on [t0, t1] (None for a degenerate edge).
+        3D curve b(t) of the edge on [t0, t1] (None for a degenerate edge, or
+        an edge known by its p-curves only).
     t0, t1 : float
+        The edge runs from b(t0) to b(t1). ``t0 > t1`` is allowed and means
+        the edge runs against its curve's own direction; it is kept as given
+        (not normalised), and the STEP writer handles it (Open CASCADE wants
+        its FORWARD vertex at the low end of the range, so it swaps the
+        vertex roles). The p-curves of `uses` share the parameter t with
+        b(t) either way; each use's own direction is that of its segment
+        (``PCurve.t0 > PCurve.t1`` runs against the curve). The STEP reader
+        always returns ``t0 < t1``.
     vertices : (int, int)
-        Indices into `Shell.vertices` of the start and end vertex.
+        Indices into `Shell.vertices` of the vertex at b(t0) and the one at
+        b(t1); -1 for an end without a vertex (e.g. a closed edge that Open
+        CASCADE stores without vertices).
     uses : tuple of (face, loop, segment)
         Every loop segment that runs along this edge; two for a manifold
         interior edge, one for a free (boundary) edge.
@@ -78,8 +90,42 @@ class Shell:
             for f, _, _ in e.uses:
                 if not 0 <= f < n_faces:
                     raise GeometryError(f"Shell edge {i} refers to face {f}; shell has {n_faces}")
-            if any(not 0 <= v < n_verts for v in e.vertices) and n_verts:
-                raise GeometryError(f"Shell edge {i} refers to vertex {e.vertices}; shell has {n_verts}")
+            if any(not -1 <= v < n_verts for v in e.vertices):
+                raise GeometryError(f"Shell edge {i} refers to vertex {e.vertices}; shell has {n_verts} "
+                                    "(-1 means no vertex)")
+
+    @classmethod
+    def from_faces(cls, faces: TrimmedFace | Sequence[TrimmedFace], *, name: str = "") -> Shell:
+        """A shell without shared-edge topology (no edges, no vertices) holding `faces`.
+
+        Parameters
+        ----------
+        faces : TrimmedFace or sequence of TrimmedFace
+        name : str
+
+        Returns
+        -------
+        Shell
+            ``has_topology`` is False; the STEP writer sews such faces.
+
+        Raises
+        ------
+        GeometryError
+            An item of `faces` is not a `TrimmedFace`.
+
+        Examples
+        --------
+        >>> shell = Shell.from_faces([], name="empty")
+        >>> shell.has_topology, len(shell.vertices)
+        (False, 0)
+        """
+        if isinstance(faces, TrimmedFace):
+            faces = (faces,)
+        faces = tuple(faces)
+        for i, f in enumerate(faces):
+            if not isinstance(f, TrimmedFace):
+                raise GeometryError(f"Shell.from_faces: item {i} is a {type(f).__name__}, not a TrimmedFace")
+        return cls(faces, name=name)
 
     @property
     def has_topology(self) -> bool:
