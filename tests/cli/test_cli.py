@@ -281,3 +281,31 @@ def test_progress_draws_only_on_a_terminal(monkeypatch, capsys):
             bar.advance(description="working")
     captured = capsys.readouterr()
     assert captured.out == "" and captured.err != ""          # drawn on stderr, never on stdout
+
+
+def test_info_strict_rejects_an_open_trim_loop_with_exit_2(tmp_path, capsys):
+    from trimsurf import io
+    from trimsurf.model import Shell
+    # the last corner misses the first by 0.05 in u: the loop is open
+    open_face = _plane_face([(0.1, 0.1), (0.9, 0.1), (0.9, 0.9), (0.15, 0.9), (0.15, 0.15)])
+    segs = open_face.loops[0].segments[:-1]  # drop the closing segment: a 0.05 gap remains
+    from trimsurf.model import Loop, TrimmedFace
+    face = TrimmedFace(open_face.surface, (Loop(segs),))
+    path = tmp_path / "open.vda"
+    with pytest.warns(Warning):
+        io.write_shell(Shell.from_faces([face]), path)
+        io.read_shell(path)
+    capsys.readouterr()
+    assert main(["info", str(path)]) == 0  # a report, not a verdict
+    capsys.readouterr()
+    assert main(["info", "--strict", str(path)]) == 2
+    err = capsys.readouterr().err
+    # the reader's warning about the gap, then the one error line
+    warning, line = err.strip().splitlines()
+    assert warning.startswith("trimsurf: warning: ") and "not closed" in warning
+    line = _one_error_line(line)
+    assert "open.vda" in line and "problem" in line and "open" in line
+    square = _plane_face([(0.1, 0.1), (0.9, 0.1), (0.9, 0.9), (0.1, 0.9)])
+    good = tmp_path / "square.vda"
+    io.write_shell(Shell.from_faces([square]), good)
+    assert main(["info", "--strict", str(good)]) == 0

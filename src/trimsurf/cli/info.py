@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import FileFormatError, MeshError
+from ..errors import FileFormatError, InputError, MeshError
 from ..geom import polyline_self_intersections
 from ..model import Shell, TriMesh
 from ..tolerance import default_tolerance
@@ -31,7 +31,7 @@ characteristic, watertight, oriented, non-manifold edges, degenerate triangles,
 smallest angle."""
 EPILOG = examples("trimsurf info part.step",
                   "trimsurf info --json scan.ply > scan-info.json",
-                  "trimsurf samples fender --out fender.step && trimsurf info fender.step")
+                  "trimsurf info --strict part.step || echo 'part.step needs repair'")
 
 _N_SAMPLES = 33  # points per trim segment for the checks
 # points per trim segment of the polyline checked for self-crossing loops (a p-curve is smooth between
@@ -42,6 +42,9 @@ _N_CROSSING_SAMPLES = 64
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("file", type=Path, help="CAD or mesh file; the format comes from the suffix")
     parser.add_argument("--json", action="store_true", help="print one JSON object on stdout instead of text")
+    parser.add_argument("--strict", action="store_true",
+                        help="treat any problem found (open or self-crossing trim loop, p-curve outside the domain, "
+                             "edge-curve gap) as bad input: print the report, then one error line and exit 2")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -60,6 +63,10 @@ def run(args: argparse.Namespace) -> int:
         print_json(report)
     else:
         print(format_report(report))
+    problems = report.get("problems") or []
+    if args.strict and problems:
+        first = problems[0].get("message", problems[0].get("kind", "problem"))
+        raise InputError(f"{path}: {len(problems)} problem(s) found, first: {first}")
     return EXIT_OK
 
 
