@@ -25,7 +25,7 @@ from math import comb
 import numpy as np
 
 from ..errors import GeometryError
-from .nurbs import _as_params
+from .nurbs import _as_params, _rational_curve
 
 __all__ = ["bernstein", "bernstein_derivatives", "elevate_bezier", "bezier_curve_points",
            "bezier_curve_derivatives", "bezier_patch_points", "bezier_patch_derivatives",
@@ -258,17 +258,6 @@ def elevate_bezier(control_points, times: int = 1, *, axis: int = 0) -> np.ndarr
 
 
 # ----------------------------------------------------------------------------- evaluation
-
-
-def _rational_curve(ckw: np.ndarray, nd: int) -> np.ndarray:
-    a, w = ckw[..., :-1], ckw[..., -1]
-    ck = np.empty_like(a)
-    for k in range(nd + 1):
-        v = a[k].copy()
-        for i in range(1, k + 1):
-            v -= comb(k, i) * w[i][:, None] * ck[k - i]
-        ck[k] = v / w[0][:, None]
-    return ck
 
 
 def _rational_surface(sklw: np.ndarray, nd: int) -> np.ndarray:

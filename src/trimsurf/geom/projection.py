@@ -361,7 +361,6 @@ def _solve(pts, seeds: _Seeds, evaluate, newton, retry: bool, tol: float, breaks
     next to their foot (`_crease_starts`) and once from a far seed sample that may
     hold a closer point (`_retry_seeds`); the closer result is kept.
     """
-    n = pts.shape[0]
     seed_dist, first = seeds.tree.query(pts, k=1, workers=-1)
     used = first.copy()
     if start is None:

@@ -35,19 +35,20 @@ def _cad_module(path):
     return import_module(f".{_CAD_MODULES[suffix]}", __name__)
 
 
-def _check_readable(path) -> Path:
+def check_readable(path, error: type[FileFormatError] = FileFormatError) -> Path:
+    """`path` as a Path; raises `error` (a FileFormatError kind) unless it is an existing, non-empty file."""
     p = Path(path)
     if not p.is_file():
-        raise FileFormatError(f"{path}: no such file")
+        raise error(f"{path}: no such file")
     if p.stat().st_size == 0:
-        raise FileFormatError(f"{path}: file is empty")
+        raise error(f"{path}: file is empty")
     return p
 
 
 def read_shell(path: str | os.PathLike) -> Shell:
     """Read a STEP, IGES or VDAFS file into a `Shell`."""
     module = _cad_module(path)
-    _check_readable(path)
+    check_readable(path)
     return module.read(path)
 
 
@@ -56,7 +57,7 @@ def read_mesh(path: str | os.PathLike) -> TriMesh:
     if _suffix(path) not in _MESH_SUFFIXES:
         raise FileFormatError(f"{path}: unknown mesh file suffix {_suffix(path)!r}; "
                               f"expected one of {', '.join(MESH_SUFFIXES)}")
-    _check_readable(path)
+    check_readable(path)
     from . import _meshfile
     return _meshfile.read(path)
 

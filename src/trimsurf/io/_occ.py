@@ -70,13 +70,13 @@ import re
 import sys
 import tempfile
 from collections.abc import Iterator, Sequence
-from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
 from ..errors import FileFormatError, GeometryError
 from ..model import Edge, Loop, NurbsCurve, NurbsSurface, PCurve, Shell, TrimmedFace
+from . import check_readable as check_file
 
 __all__ = ["quiet_occ", "read_shape", "nurbs_shape", "map_topology", "OccTopology", "shape_to_shell",
            "shell_to_shape", "count_faces", "curve_from_occ", "curve_to_occ",
@@ -199,16 +199,6 @@ def read_shape(path: str | os.PathLike, fmt: str, error: type[FileFormatError]):
     if shape.IsNull() or count_faces(shape) == 0:
         raise error(f"{path}: the {fmt} file holds no faces")
     return shape
-
-
-def check_file(path: str | os.PathLike, error: type[FileFormatError]) -> Path:
-    """`path` as a Path; raises `error` if it is not an existing, non-empty file."""
-    p = Path(path)
-    if not p.is_file():
-        raise error(f"{path}: no such file")
-    if p.stat().st_size == 0:
-        raise error(f"{path}: file is empty")
-    return p
 
 
 def invalid_faces(shape) -> list[int]:
