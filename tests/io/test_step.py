@@ -658,7 +658,7 @@ def test_edges_without_vertices_are_read_with_index_minus_one(monkeypatch):
     edges[0] = Edge(e.curve, e.t0, e.t1, (-1, -1), e.uses, tolerance=e.tolerance)
     shell = Shell(box.faces, tuple(edges), box.vertices)
     # ShapeFix_Shape would add the missing vertices: build the shape without it
-    monkeypatch.setattr(_occ, "_fix", lambda shape: shape)
+    monkeypatch.setattr(_occ._to_shape, "_fix", lambda shape: shape)
     back = _occ.shape_to_shell(_occ.nurbs_shape(_occ.shell_to_shape(shell)), name="no_vertices")
     assert [ed.vertices for ed in back.edges].count((-1, -1)) == 1
     assert all(min(ed.vertices) >= 0 for ed in back.edges if ed.vertices != (-1, -1))

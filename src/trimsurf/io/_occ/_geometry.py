@@ -1,0 +1,315 @@
+"""Open CASCADE curves and surfaces <-> `NurbsCurve` / `NurbsSurface` (arrays, knots, domains)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...model import NurbsCurve, NurbsSurface
+
+# relative parametric slack below which a p-curve outside the surface domain is left to clamping
+# (the 3D error is then < 1e-12 of the surface's extent)
+_REL_PARAM_EPS = 1e-12
+# relative margin added when the domain is extended, so points sampled between p-curve samples stay inside
+_REL_EXTEND_MARGIN = 1e-6
+
+
+# OCC arrays -> numpy
+# --------------------------------------------------------------------------------------------------------------
+
+def _reals(arr) -> np.ndarray:
+    return np.fromiter(arr, dtype=np.float64, count=arr.Length())
+
+
+def _points2(arr) -> np.ndarray:
+    """Array2_gp_Pnt (rows along u) -> (nu, nv, 3)."""
+    pts = np.array([p.Coord() for p in arr], dtype=np.float64)
+    return pts.reshape(arr.NbRows(), arr.NbColumns(), 3)
+
+
+def _points1(arr, dim: int) -> np.ndarray:
+    """Array1_gp_Pnt or Array1_gp_Pnt2d -> (n, dim)."""
+    return np.array([p.Coord() for p in arr], dtype=np.float64).reshape(-1, dim)
+
+
+def _homogeneous(points: np.ndarray, weights: np.ndarray | None) -> np.ndarray:
+    w = np.ones(points.shape[:-1]) if weights is None else weights
+    return np.concatenate([points * w[..., None], w[..., None]], axis=-1)
+
+
+def _cartesian(pw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    w = pw[..., -1]
+    return pw[..., :-1] / w[..., None], w
+
+
+# --------------------------------------------------------------------------------------------------------------
+# curves
+# --------------------------------------------------------------------------------------------------------------
+
+def _curve_to_bspline(curve, first: float, last: float, dim: int):
+    """A B-spline copy of an Open CASCADE curve (a B-spline already after NurbsConvert)."""
+    if curve.DynamicType().Name() in ("Geom_BSplineCurve", "Geom2d_BSplineCurve"):
+        return curve.Copy()
+    if dim == 3:
+        from OCP.Geom import Geom_TrimmedCurve
+        from OCP.GeomConvert import GeomConvert
+        return GeomConvert.CurveToBSplineCurve_s(Geom_TrimmedCurve(curve, first, last))
+    from OCP.Geom2d import Geom2d_TrimmedCurve
+    from OCP.Geom2dConvert import Geom2dConvert
+    return Geom2dConvert.CurveToBSplineCurve_s(Geom2d_TrimmedCurve(curve, first, last))
+
+
+def _is_clamped(flat_knots: np.ndarray, degree: int) -> bool:
+    return bool(np.all(flat_knots[:degree + 1] == flat_knots[0]) and np.all(flat_knots[-degree - 1:] == flat_knots[-1]))
+
+
+def _knot_index(values: np.ndarray, x: float, tol: float) -> int | None:
+    hit = np.flatnonzero(np.abs(values - x) <= tol)
+    return int(hit[0]) + 1 if hit.size else None
+
+
+def curve_from_occ(curve, first: float, last: float, dim: int) -> NurbsCurve:
+    """Convert an Open CASCADE (2D or 3D) curve to a `NurbsCurve` whose domain holds [first, last].
+
+    A periodic B-spline is made non-periodic; when [first, last] leaves its
+    knot span the origin is moved (knot insertion + ``SetOrigin``) and the
+    knots are translated by whole periods, so the parameterization is kept.
+    """
+    bs = _curve_to_bspline(curve, first, last, dim)
+    lo, hi = min(first, last), max(first, last)
+    shift = 0.0
+    if bs.IsPeriodic():
+        c0, c1 = bs.FirstParameter(), bs.LastParameter()
+        period = c1 - c0
+        eps = _REL_PARAM_EPS * period
+        if (lo < c0 - eps or hi > c1 + eps) and hi - lo <= period * (1 + 1e-9):
+            k = math.floor((lo - c0) / period)
+            start = lo - k * period
+            shift = k * period
+            bs.InsertKnot(start, 1, eps, False)
+            index = _knot_index(_reals(bs.Knots()), start, eps)
+            if index is not None:
+                bs.SetOrigin(index)
+            else:  # pragma: no cover - insertion always leaves the knot
+                shift = 0.0
+        bs.SetNotPeriodic()
+    if not _is_clamped(_reals(bs.KnotSequence()), bs.Degree()):
+        bs.Segment(bs.FirstParameter(), bs.LastParameter())
+    knots = _reals(bs.KnotSequence()) + shift
+    poles = _points1(bs.Poles(), dim)
+    weights = _reals(bs.WeightsArray()) if bs.IsRational() else None
+    return NurbsCurve(bs.Degree(), knots, poles, weights)
+
+
+def curve_to_occ(curve: NurbsCurve):
+    """A ``Geom_BSplineCurve`` or ``Geom2d_BSplineCurve`` of a `NurbsCurve`."""
+    from OCP.collections import Array1_gp_Pnt, Array1_gp_Pnt2d, Array1_int
+    from OCP.gp import gp_Pnt, gp_Pnt2d
+
+    values, mults = _compress_knots(curve.knots)
+    knots_a = _array1_double(values)
+    mults_a = Array1_int(1, len(mults))
+    for i, m in enumerate(mults, start=1):
+        mults_a.SetValue(i, int(m))
+    n = curve.n_control_points
+    if curve.dim == 3:
+        from OCP.Geom import Geom_BSplineCurve
+        poles = Array1_gp_Pnt(1, n)
+        for i, (x, y, z) in enumerate(curve.control_points.tolist(), start=1):
+            poles.SetValue(i, gp_Pnt(x, y, z))
+        cls = Geom_BSplineCurve
+    else:
+        from OCP.Geom2d import Geom2d_BSplineCurve
+        poles = Array1_gp_Pnt2d(1, n)
+        for i, (x, y) in enumerate(curve.control_points.tolist(), start=1):
+            poles.SetValue(i, gp_Pnt2d(x, y))
+        cls = Geom2d_BSplineCurve
+    if curve.weights is None:
+        return cls(poles, knots_a, mults_a, curve.degree)
+    return cls(poles, _array1_double(curve.weights), knots_a, mults_a, curve.degree)
+
+
+def _array1_double(values) -> object:
+    from OCP.collections import Array1_double
+    values = np.asarray(values, dtype=np.float64).ravel()
+    arr = Array1_double(1, len(values))
+    for i, x in enumerate(values.tolist(), start=1):
+        arr.SetValue(i, x)
+    return arr
+
+
+def _compress_knots(knots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    values, counts = np.unique(np.asarray(knots), return_counts=True)
+    return values, counts
+
+
+# --------------------------------------------------------------------------------------------------------------
+# surfaces
+# --------------------------------------------------------------------------------------------------------------
+
+def _make_nonperiodic(bs, direction: str, lo: float, hi: float) -> float:
+    """Make one direction of a periodic Geom_BSplineSurface non-periodic; return the knot translation."""
+    first, last = bs.Bounds()[0:2] if direction == "u" else bs.Bounds()[2:4]
+    period = last - first
+    eps = _REL_PARAM_EPS * period
+    shift = 0.0
+    if (lo < first - eps or hi > last + eps) and hi - lo <= period * (1 + 1e-9):
+        k = math.floor((lo - first) / period)
+        start = lo - k * period
+        shift = k * period
+        if direction == "u":
+            bs.InsertUKnot(start, 1, eps, False)
+            index = _knot_index(_reals(bs.UKnots()), start, eps)
+            if index is not None:
+                bs.SetUOrigin(index)
+        else:
+            bs.InsertVKnot(start, 1, eps, False)
+            index = _knot_index(_reals(bs.VKnots()), start, eps)
+            if index is not None:
+                bs.SetVOrigin(index)
+        if index is None:  # pragma: no cover - insertion always leaves the knot
+            shift = 0.0
+    if direction == "u":
+        bs.SetUNotPeriodic()
+    else:
+        bs.SetVNotPeriodic()
+    return shift
+
+
+def _bezier_end_multiplicity(bs, direction: str, at_end: bool) -> None:
+    """Raise the knot next to one end to multiplicity `degree`, so the end span's poles are its Bézier points."""
+    if direction == "u":
+        n, deg = bs.NbUKnots(), bs.UDegree()
+        if n > 2:
+            i = n - 1 if at_end else 2
+            bs.InsertUKnot(bs.UKnot(i), deg, 0.0, False)
+    else:
+        n, deg = bs.NbVKnots(), bs.VDegree()
+        if n > 2:
+            i = n - 1 if at_end else 2
+            bs.InsertVKnot(bs.VKnot(i), deg, 0.0, False)
+
+
+def _extend_end(knots: np.ndarray, pw: np.ndarray, degree: int, target: float) -> tuple[np.ndarray, np.ndarray]:
+    """Continue the last span's polynomial to `target` > knots[-1] (exact, homogeneous, along axis 0).
+
+    Requires the last p + 1 control points to be the end span's Bézier points
+    (the knot before the end of multiplicity >= p). The span [a, b] becomes
+    [a, target]: its Bézier points are the left half of the de Casteljau
+    subdivision at s = (target - a) / (b - a) > 1.
+    """
+    p = degree
+    b = knots[-1]
+    a = knots[-p - 2]
+    s = (target - a) / (b - a)
+    q = pw[-p - 1:].copy()
+    new = [q[0].copy()]
+    for _ in range(p):
+        q = (1.0 - s) * q[:-1] + s * q[1:]
+        new.append(q[0].copy())
+    out = pw.copy()
+    out[-p - 1:] = np.stack(new)
+    k = knots.copy()
+    k[-p - 1:] = target
+    return k, out
+
+
+def _extend(knots: np.ndarray, pw: np.ndarray, degree: int, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
+    """Extend a clamped direction (axis 0 of `pw`) so its domain holds [lo, hi]."""
+    d0, d1 = knots[degree], knots[-degree - 1]
+    margin = _REL_EXTEND_MARGIN * (d1 - d0)
+    if hi > d1:
+        knots, pw = _extend_end(knots, pw, degree, hi + margin)
+    if lo < d0:
+        rk, rp = _extend_end(-knots[::-1], pw[::-1], degree, -(lo - margin))
+        knots, pw = -rk[::-1], rp[::-1]
+    return knots, pw
+
+
+def surface_from_occ(surface, uv_lo: np.ndarray, uv_hi: np.ndarray) -> NurbsSurface:
+    """Convert an Open CASCADE surface to a `NurbsSurface` whose domain holds the box [uv_lo, uv_hi].
+
+    See the module notes for the periodic-seam and domain-extension conventions.
+    """
+    if surface.DynamicType().Name() == "Geom_BSplineSurface":
+        bs = surface.Copy()
+    else:
+        from OCP.GeomConvert import GeomConvert
+        bs = GeomConvert.SurfaceToBSplineSurface_s(surface)
+    shifts = [0.0, 0.0]
+    periodic = [bs.IsUPeriodic(), bs.IsVPeriodic()]
+    for axis, direction in enumerate("uv"):
+        if periodic[axis]:
+            shifts[axis] = _make_nonperiodic(bs, direction, float(uv_lo[axis]), float(uv_hi[axis]))
+    if not (_is_clamped(_reals(bs.UKnotSequence()), bs.UDegree())
+            and _is_clamped(_reals(bs.VKnotSequence()), bs.VDegree())):
+        bs.Segment(*bs.Bounds())  # clamp: end knots of multiplicity degree + 1, same surface
+    # which ends need an extension (non-periodic directions only)
+    u0, u1, v0, v1 = bs.Bounds()
+    bounds = ((u0 + shifts[0], u1 + shifts[0]), (v0 + shifts[1], v1 + shifts[1]))
+    ends = []
+    for axis, direction in enumerate("uv"):
+        d0, d1 = bounds[axis]
+        eps = _REL_PARAM_EPS * (d1 - d0)
+        need_lo = not periodic[axis] and uv_lo[axis] < d0 - eps
+        need_hi = not periodic[axis] and uv_hi[axis] > d1 + eps
+        ends.append((need_lo, need_hi))
+        if need_lo:
+            _bezier_end_multiplicity(bs, direction, at_end=False)
+        if need_hi:
+            _bezier_end_multiplicity(bs, direction, at_end=True)
+    poles = _points2(bs.Poles())
+    weights = None
+    if bs.IsURational() or bs.IsVRational():
+        w = bs.WeightsArray()
+        weights = np.fromiter(w, dtype=np.float64, count=w.Size()).reshape(w.NbRows(), w.NbColumns())
+    ku = _reals(bs.UKnotSequence()) + shifts[0]
+    kv = _reals(bs.VKnotSequence()) + shifts[1]
+    pu, pv = bs.UDegree(), bs.VDegree()
+    if any(a or b for a, b in ends):
+        pw = _homogeneous(poles, weights)
+        lo_u = min(float(uv_lo[0]), ku[pu]) if ends[0][0] else ku[pu]
+        hi_u = max(float(uv_hi[0]), ku[-pu - 1]) if ends[0][1] else ku[-pu - 1]
+        nku, npw = _extend(ku, pw, pu, lo_u, hi_u)
+        lo_v = min(float(uv_lo[1]), kv[pv]) if ends[1][0] else kv[pv]
+        hi_v = max(float(uv_hi[1]), kv[-pv - 1]) if ends[1][1] else kv[-pv - 1]
+        nkv, npw_t = _extend(kv, np.swapaxes(npw, 0, 1), pv, lo_v, hi_v)
+        npw = np.swapaxes(npw_t, 0, 1)
+        if np.all(npw[..., -1] > 0):
+            ku, kv = nku, nkv
+            poles, w = _cartesian(npw)
+            weights = None if weights is None else w
+    return NurbsSurface(pu, pv, ku, kv, poles, weights)
+
+
+def surface_to_occ(surface: NurbsSurface):
+    """A ``Geom_BSplineSurface`` of a `NurbsSurface`."""
+    from OCP.collections import Array1_int, Array2_double, Array2_gp_Pnt
+    from OCP.Geom import Geom_BSplineSurface
+    from OCP.gp import gp_Pnt
+
+    nu, nv = surface.shape
+    poles = Array2_gp_Pnt(1, nu, 1, nv)
+    cp = surface.control_points.tolist()
+    for i in range(nu):
+        row = cp[i]
+        for j in range(nv):
+            x, y, z = row[j]
+            poles.SetValue(i + 1, j + 1, gp_Pnt(x, y, z))
+    args = []
+    for knots in (surface.knots_u, surface.knots_v):
+        values, mults = _compress_knots(knots)
+        m = Array1_int(1, len(mults))
+        for i, k in enumerate(mults.tolist(), start=1):
+            m.SetValue(i, int(k))
+        args.append((_array1_double(values), m))
+    (uk, um), (vk, vm) = args
+    if surface.weights is None:
+        return Geom_BSplineSurface(poles, uk, vk, um, vm, surface.degree_u, surface.degree_v)
+    w = Array2_double(1, nu, 1, nv)
+    wl = surface.weights.tolist()
+    for i in range(nu):
+        for j in range(nv):
+            w.SetValue(i + 1, j + 1, wl[i][j])
+    return Geom_BSplineSurface(poles, w, uk, vk, um, vm, surface.degree_u, surface.degree_v)

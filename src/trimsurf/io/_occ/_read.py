@@ -1,0 +1,158 @@
+"""Reading files with Open CASCADE quietly, and the whole-shape B-spline conversion."""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import os
+import re
+import sys
+import tempfile
+from collections.abc import Iterator
+
+from ...errors import FileFormatError
+from .. import check_readable as check_file
+from ._to_shell import map_topology
+
+
+def _flush_c_stdio() -> None:
+    with contextlib.suppress(Exception):
+        ctypes.CDLL(None).fflush(None)
+
+
+@contextlib.contextmanager
+def quiet_occ() -> Iterator[list[str]]:
+    """Run a block with fds 1 and 2 redirected into a temporary file.
+
+    Yields a list that, after the block, holds the non-empty lines Open
+    CASCADE printed (ANSI colour codes removed).
+    """
+    lines: list[str] = []
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    _flush_c_stdio()
+    saved = [os.dup(1), os.dup(2)]
+    with tempfile.TemporaryFile(mode="w+b") as sink:
+        os.dup2(sink.fileno(), 1)
+        os.dup2(sink.fileno(), 2)
+        try:
+            yield lines
+        finally:
+            _flush_c_stdio()
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            for fd in saved:
+                os.close(fd)
+            sink.seek(0)
+            text = sink.read().decode("utf-8", "replace")
+            for raw in text.splitlines():
+                line = _strip_ansi(raw).strip(" *\t")
+                if line:
+                    lines.append(line)
+
+
+_ANSI = re.compile(r"\x1b\[[0-9;]*[A-Za-z]")
+
+
+def _strip_ansi(text: str) -> str:
+    return _ANSI.sub("", text)
+
+
+def _occ_detail(lines: list[str]) -> str:
+    """The most telling line Open CASCADE printed (an error line if any), shortened."""
+    pick = [ln for ln in lines if "ERR" in ln or "Fail" in ln or "rror" in ln] or lines
+    if not pick:
+        return ""
+    text = " ".join(pick[0].split())
+    for prefix in ("ERR StepFile : Undefined Parsing:", "ERR StepFile :"):
+        if text.startswith(prefix):
+            text = text[len(prefix):].strip()
+    return text[:160]
+
+
+# --------------------------------------------------------------------------------------------------------------
+# reading
+# --------------------------------------------------------------------------------------------------------------
+
+def read_shape(path: str | os.PathLike, fmt: str, error: type[FileFormatError]):
+    """Read a STEP or IGES file into an Open CASCADE shape that holds at least one face.
+
+    Parameters
+    ----------
+    path : str or PathLike
+    fmt : {"STEP", "IGES"}
+    error : FileFormatError subclass
+        Raised, with a one-line message naming `path`, when the file is
+        missing, empty, unreadable or holds no faces.
+
+    Returns
+    -------
+    TopoDS_Shape
+    """
+    from OCP.IFSelect import IFSelect_RetDone
+
+    p = check_file(path, error)
+    if fmt == "STEP":
+        from OCP.STEPControl import STEPControl_Reader
+        reader = STEPControl_Reader()
+    else:
+        from OCP.IGESControl import IGESControl_Reader
+        reader = IGESControl_Reader()
+    shape, failure = None, ""
+    with quiet_occ() as log:
+        try:
+            status = reader.ReadFile(str(p))
+            # TransferRoots on a failed read crashes the process: only transfer after RetDone
+            if status == IFSelect_RetDone:
+                reader.TransferRoots()
+                shape = reader.OneShape()
+            else:
+                failure = f"status {getattr(status, 'name', status)}"
+        except Exception as exc:  # Open CASCADE raises Standard_Failure subclasses
+            failure = f"{type(exc).__name__}: {exc}"
+    if shape is None:
+        detail = _occ_detail(log) or failure
+        raise error(f"{path}: not a readable {fmt} file (truncated or malformed: {detail})")
+    if shape.IsNull() or count_faces(shape) == 0:
+        raise error(f"{path}: the {fmt} file holds no faces")
+    return shape
+
+
+def invalid_faces(shape) -> list[int]:
+    """Indices (as in `map_topology`) of the faces ``BRepCheck_Analyzer`` rejects; [] for a valid shape."""
+    from OCP.BRepCheck import BRepCheck_Analyzer
+
+    analyzer = BRepCheck_Analyzer(shape)
+    if analyzer.IsValid():
+        return []
+    return [i for i, f in enumerate(map_topology(shape).faces) if not analyzer.IsValid(f)] or [-1]
+
+
+def count_faces(shape) -> int:
+    """Number of distinct faces of an Open CASCADE shape."""
+    from OCP.collections import (
+        IndexedMap_TopoDS_Shape_TopTools_ShapeMapHasher as ShapeMap,
+    )
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopExp import TopExp
+
+    faces = ShapeMap()
+    TopExp.MapShapes_s(shape, TopAbs_FACE, faces)
+    return faces.Extent()
+
+
+def nurbs_shape(shape, *, path: str | os.PathLike = "", error: type[FileFormatError] = FileFormatError):
+    """The shape with every curve and surface converted to B-splines (``BRepBuilderAPI_NurbsConvert``)."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_NurbsConvert
+
+    failure = ""
+    with quiet_occ() as log:
+        try:
+            converted = BRepBuilderAPI_NurbsConvert(shape, True).Shape()
+        except Exception as exc:
+            converted, failure = None, f"{type(exc).__name__}: {exc}"
+    if converted is None or converted.IsNull():
+        detail = _occ_detail(log) or failure
+        raise error(f"{path}: Open CASCADE could not convert the shape to B-splines ({detail})")
+    return converted

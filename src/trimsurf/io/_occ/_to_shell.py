@@ -1,0 +1,222 @@
+"""Open CASCADE shape -> `Shell`: faces, loops, p-curves, edges, vertices."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import NamedTuple
+
+import numpy as np
+
+from ...errors import GeometryError
+from ...model import Edge, Loop, NurbsCurve, PCurve, Shell, TrimmedFace
+from ._geometry import curve_from_occ, surface_from_occ
+
+# p-curve samples per segment when measuring the (u, v) range a face uses
+_RANGE_SAMPLES = 65
+# control points per edge for the same-parameter deviation (Open CASCADE's BRepCheck uses 23)
+_VALIDATE_POINTS = 47
+
+
+
+def _wires_outer_first(face) -> list:
+    from OCP.BRepTools import BRepTools
+    from OCP.TopAbs import TopAbs_WIRE
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    wires = []
+    ex = TopExp_Explorer(face, TopAbs_WIRE)
+    while ex.More():
+        wires.append(TopoDS.Wire(ex.Current()))
+        ex.Next()
+    if len(wires) > 1:
+        outer = BRepTools.OuterWire_s(face)
+        if not outer.IsNull():
+            wires.sort(key=lambda w: not w.IsSame(outer))
+    return wires
+
+
+def _wire_edges(wire, face) -> list:
+    """Edges of a wire in connection order, oriented as used (BRepTools_WireExplorer; falls back to storage order)."""
+    from OCP.BRepTools import BRepTools_WireExplorer
+    from OCP.TopoDS import TopoDS, TopoDS_Iterator
+
+    edges = []
+    wex = BRepTools_WireExplorer(wire, face)
+    while wex.More():
+        edges.append(TopoDS.Edge(wex.Current()))
+        wex.Next()
+    stored = []
+    it = TopoDS_Iterator(wire)
+    while it.More():
+        stored.append(TopoDS.Edge(it.Value()))
+        it.Next()
+    return edges if len(edges) == len(stored) else stored
+
+
+def _segment_uv_range(curves: Sequence[PCurve]) -> tuple[np.ndarray, np.ndarray]:
+    pts = [c.curve.evaluate(np.linspace(c.t0, c.t1, _RANGE_SAMPLES)) for c in curves]
+    allp = np.concatenate(pts, axis=0)
+    return allp.min(axis=0), allp.max(axis=0)
+
+
+def _same_parameter_deviation(edge, face) -> float:
+    """max |S(p(t)) - C(t)| of an edge on a face, by Open CASCADE's BRepLib_ValidateEdge."""
+    from OCP.Adaptor3d import Adaptor3d_CurveOnSurface
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+    from OCP.BRepLib import BRepLib_ValidateEdge
+    from OCP.Geom2dAdaptor import Geom2dAdaptor_Curve
+    from OCP.GeomAdaptor import GeomAdaptor_Surface
+
+    pc = BRep_Tool.CurveOnSurface_s(edge, face, 0.0, 0.0)
+    if pc is None:
+        return 0.0
+    a, b = BRep_Tool.Range_s(edge, face)
+    cos = Adaptor3d_CurveOnSurface(Geom2dAdaptor_Curve(pc, a, b), GeomAdaptor_Surface(BRep_Tool.Surface_s(face)))
+    check = BRepLib_ValidateEdge(BRepAdaptor_Curve(edge), cos, True)
+    check.SetControlPointsNumber(_VALIDATE_POINTS)
+    check.Process()
+    return float(check.GetMaxDistance()) if check.IsDone() else 0.0
+
+
+class OccTopology(NamedTuple):
+    """The Open CASCADE entities behind a converted `Shell`, index for index.
+
+    faces : list of TopoDS_Face, oriented as in the shape (``Shell.faces[i]``)
+    loops : per face, per loop, the oriented TopoDS_Edge of each segment, as met by
+        ``BRepTools_WireExplorer`` on the FORWARD face (``Shell.faces[i].loops[j].segments[k]``)
+    edges : list of TopoDS_Edge, FORWARD (``Shell.edges[e]``)
+    vertices : list of TopoDS_Vertex (``Shell.vertices[v]``)
+    """
+
+    faces: list
+    loops: list
+    edges: list
+    vertices: list
+
+
+def map_topology(shape) -> OccTopology:
+    """Number the faces, loops, edges and vertices of a shape the way `shape_to_shell` does.
+
+    Faces come in the order of ``TopExp::MapShapes`` (a face shared by two
+    solids appears once); edges and vertices in the order the faces' loops
+    first meet them.
+    """
+    from OCP.collections import (
+        IndexedMap_TopoDS_Shape_TopTools_ShapeMapHasher as ShapeMap,
+    )
+    from OCP.TopAbs import TopAbs_FACE, TopAbs_FORWARD
+    from OCP.TopExp import TopExp
+    from OCP.TopoDS import TopoDS
+
+    fmap, emap, vmap = ShapeMap(), ShapeMap(), ShapeMap()
+    TopExp.MapShapes_s(shape, TopAbs_FACE, fmap)
+    faces, loops = [], []
+    for fi in range(1, fmap.Extent() + 1):
+        face = TopoDS.Face(fmap.FindKey(fi))
+        fwd = TopoDS.Face(face.Oriented(TopAbs_FORWARD))
+        face_loops = []
+        for wire in _wires_outer_first(fwd):
+            edges = _wire_edges(wire, fwd)
+            for edge in edges:
+                emap.Add(edge)
+            if edges:
+                face_loops.append(edges)
+        faces.append(face)
+        loops.append(face_loops)
+    edges = []
+    for ei in range(1, emap.Extent() + 1):
+        edge = TopoDS.Edge(emap.FindKey(ei).Oriented(TopAbs_FORWARD))
+        edges.append(edge)
+        for v in (TopExp.FirstVertex_s(edge), TopExp.LastVertex_s(edge)):
+            if not v.IsNull():
+                vmap.Add(v)
+    vertices = [TopoDS.Vertex(vmap.FindKey(i)) for i in range(1, vmap.Extent() + 1)]
+    return OccTopology(faces, loops, edges, vertices)
+
+
+def shape_to_shell(shape, *, name: str = "") -> Shell:
+    """Convert a NurbsConvert-ed Open CASCADE shape into a `Shell` (see the module notes).
+
+    Entities are numbered as by `map_topology`.
+    """
+    from OCP.BRep import BRep_Tool
+    from OCP.collections import (
+        IndexedMap_TopoDS_Shape_TopTools_ShapeMapHasher as ShapeMap,
+    )
+    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
+    from OCP.TopExp import TopExp
+    from OCP.TopoDS import TopoDS
+
+    topo = map_topology(shape)
+    emap, vmap = ShapeMap(), ShapeMap()
+    for e in topo.edges:
+        emap.Add(e)
+    for v in topo.vertices:
+        vmap.Add(v)
+    edge_curves = [_edge_curve(e) for e in topo.edges]
+    edge_uses: list[list[tuple[int, int, int]]] = [[] for _ in topo.edges]
+    edge_dev = [0.0] * len(topo.edges)
+    faces: list[TrimmedFace] = []
+    for fi, (face, face_loops) in enumerate(zip(topo.faces, topo.loops)):
+        same_sense = face.Orientation() != TopAbs_REVERSED
+        fwd = TopoDS.Face(face.Oriented(TopAbs_FORWARD))
+        loops_raw: list[list[tuple[NurbsCurve, float, float, int]]] = []
+        for li, edges in enumerate(face_loops):
+            segs = []
+            for si, edge in enumerate(edges):
+                ei = emap.FindIndex(edge) - 1
+                pc = BRep_Tool.CurveOnSurface_s(edge, fwd, 0.0, 0.0)
+                if pc is None:
+                    raise GeometryError(f"{name}: face {fi} edge {ei} has no p-curve")
+                a, b = BRep_Tool.Range_s(edge, fwd)
+                t0, t1 = (b, a) if edge.Orientation() == TopAbs_REVERSED else (a, b)
+                if edge_curves[ei] is not None:
+                    edge_dev[ei] = max(edge_dev[ei], _same_parameter_deviation(edge, fwd))
+                edge_uses[ei].append((fi, li, si))
+                segs.append((curve_from_occ(pc, a, b, 2), t0, t1, ei))
+            loops_raw.append(segs)
+        u0, u1, v0, v1 = _uv_bounds(fwd)
+        lo, hi = np.array([u0, v0]), np.array([u1, v1])
+        all_segs = [PCurve(c, t0, t1) for segs in loops_raw for c, t0, t1, _ in segs]
+        if all_segs:
+            slo, shi = _segment_uv_range(all_segs)
+            lo, hi = np.minimum(lo, slo), np.maximum(hi, shi)
+        surface = surface_from_occ(BRep_Tool.Surface_s(fwd), lo, hi)
+        loops = tuple(Loop(tuple(PCurve(c, t0, t1, edge_curves[ei], ei) for c, t0, t1, ei in segs))
+                      for segs in loops_raw)
+        faces.append(TrimmedFace(surface, loops, same_sense=same_sense, name=f"{name} face {fi}".strip(),
+                                 tolerance=BRep_Tool.Tolerance_s(fwd)))
+    edges = []
+    for ei, edge in enumerate(topo.edges):
+        first, last = TopExp.FirstVertex_s(edge), TopExp.LastVertex_s(edge)
+        vids = tuple(vmap.FindIndex(v) - 1 if not v.IsNull() else -1 for v in (first, last))
+        t0, t1 = BRep_Tool.Range_s(edge)
+        tol = max(BRep_Tool.Tolerance_s(edge), edge_dev[ei])
+        edges.append(Edge(edge_curves[ei], t0, t1, vids, tuple(edge_uses[ei]), tolerance=tol,
+                          is_degenerate=BRep_Tool.Degenerated_s(edge)))
+    vertices = np.array([_vertex_point(v) for v in topo.vertices], dtype=np.float64).reshape(-1, 3)
+    return Shell(tuple(faces), tuple(edges), vertices, name=name)
+
+
+def _uv_bounds(face) -> tuple[float, float, float, float]:
+    from OCP.BRepTools import BRepTools
+    return BRepTools.UVBounds_s(face)
+
+
+def _vertex_point(vertex) -> tuple[float, float, float]:
+    from OCP.BRep import BRep_Tool
+    p = BRep_Tool.Pnt_s(vertex)
+    return p.X(), p.Y(), p.Z()
+
+
+def _edge_curve(edge) -> NurbsCurve | None:
+    from OCP.BRep import BRep_Tool
+    if BRep_Tool.Degenerated_s(edge):
+        return None
+    curve = BRep_Tool.Curve_s(edge, 0.0, 0.0)
+    if curve is None:
+        return None
+    a, b = BRep_Tool.Range_s(edge)
+    return curve_from_occ(curve, a, b, 3)
