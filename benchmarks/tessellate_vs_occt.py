@@ -9,6 +9,10 @@ For every model in ../shared/data/cad and the shell samples:
 * Open CASCADE 8 (``BRepMesh_IncrementalMesh`` through ``trimsurf.io.occ_mesh_faces``,
   angular deflection 0.5): the linear deflection is searched (bisection in log scale) for the
   largest value whose MEASURED max deviation (the same metric as ours) is at most eps;
+* gmsh (if it is installed: ``pip install -e '.[bench]'``), in a subprocess of its own (it links its
+  own Open CASCADE): 2D mesh with curvature-based sizing (``Mesh.MeshSizeFromCurvature`` = n elements
+  per 2 pi, ``Mesh.MeshSizeMax`` = diagonal), n searched like Open CASCADE's deflection; its surfaces
+  are matched to our faces by bounding box (the measurement needs the face of every triangle);
 * the paper's baselines (Sec. 3.2, 3.4), with trimsurf's trims and assembly: a uniform
   parameter grid with both criteria, and tolerance-only uniform sampling (GLU-like);
   their triangle counts only (their lines meet the same criteria by construction).
@@ -19,7 +23,9 @@ of the per-triangle smallest angle. Wall time: meshing only (our ``measure=False
 ``occ_mesh_faces`` including the shape build it needs), best of 2. Ratios are trimsurf / OCCT;
 the last row is their geometric mean.
 
-Usage: python benchmarks/tessellate_vs_occt.py [--json out.json] [--models a,b] [--quick]
+The printed geometric mean is over the COMPARABLE rows only: both meshes measured within eps.
+
+Usage: python benchmarks/tessellate_vs_occt.py [--json out.json] [--models a,b] [--quick] [--no-gmsh]
 """
 
 from __future__ import annotations
@@ -27,7 +33,10 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -92,24 +101,25 @@ def ours(shell, eps: float, h: float, strategy: str = "equidistributed") -> tupl
     return res.mesh, best
 
 
-def occ_search(shell, eps: float, diag: float) -> tuple[dict, float, float]:
-    """Largest linear deflection whose measured max deviation is <= eps (log bisection)."""
+def coarsest_within(mesh_at, c0: float, eps: float, diag: float, floor: float) -> tuple[dict, float, float]:
+    """Largest coarseness c (Open CASCADE: the linear deflection; gmsh: 1 / elements per 2 pi) whose
+    mesh ``mesh_at(c) -> (TriMesh, seconds)`` measures a max deviation <= eps (log bisection)."""
     lo, hi = None, None          # lo: known good (dev <= eps), hi: known bad
-    d = eps
+    d = c0
     found = None
     for _ in range(SEARCH_STEPS):
-        mesh, sec = occ_mesh(shell, d)
+        mesh, sec = mesh_at(d)
         if mesh.n_triangles > MAX_TRIANGLES and found is None and lo is None:
             m = {"triangles": mesh.n_triangles, "max_dev": float("inf"), "p5_angle": float("nan"),
-                 "min_angle": float("nan"), "boundary": -1, "nonmanifold": -1, "deflection": d}
+                 "min_angle": float("nan"), "boundary": -1, "nonmanifold": -1}
             return m, sec, d     # too fine to measure here: reported as not within eps
-        m = measure(mesh, shell, diag)
+        m = measure(mesh, shell_of[0], diag)
         if m["max_dev"] <= eps:
             lo, found = d, (m, sec, d)
         else:
             hi = d
         if lo is None:
-            if d <= MIN_DEFLECTION * eps:
+            if d <= floor:
                 break
             d = d / 4.0 if hi is not None else d
         elif hi is None:
@@ -119,12 +129,105 @@ def occ_search(shell, eps: float, diag: float) -> tuple[dict, float, float]:
         if lo is not None and hi is not None and hi / lo < 1.15:
             break
     if found is None:            # never within eps: report the finest tried (dev/eps > 1 in the table)
-        m["deflection"] = d
         return m, sec, d
     return found
 
 
-def run_model(name: str, shell) -> dict:
+shell_of = [None]                # the shell being measured (coarsest_within's mesh_at takes only c)
+
+
+def occ_search(shell, eps: float, diag: float) -> tuple[dict, float, float]:
+    shell_of[0] = shell
+    return coarsest_within(lambda d: occ_mesh(shell, d), eps, eps, diag, MIN_DEFLECTION * eps)
+
+
+# --- gmsh -------------------------------------------------------------------------------------------
+
+def gmsh_available() -> bool:
+    try:
+        import gmsh  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def _gmsh_worker(cad: str, n: int, out: str) -> None:
+    """In a process of its own: mesh `cad` with gmsh, n elements per 2 pi; write nodes/triangles per surface."""
+    import gmsh
+    gmsh.initialize(["gmsh", "-nopopup"])
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.model.occ.importShapes(cad)
+    gmsh.model.occ.synchronize()
+    box = gmsh.model.getBoundingBox(-1, -1)
+    diag = float(np.linalg.norm(np.subtract(box[3:], box[:3])))
+    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", n)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", diag)
+    best = float("inf")
+    for _ in range(REPEATS):
+        gmsh.model.mesh.clear()
+        t = time.perf_counter()
+        gmsh.model.mesh.generate(2)
+        best = min(best, time.perf_counter() - t)
+    tags, xyz, _ = gmsh.model.mesh.getNodes()
+    index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
+    index[tags.astype(np.int64)] = np.arange(len(tags))
+    tris, surf = [], []
+    for _, tag in gmsh.model.getEntities(2):
+        types, _, nodes = gmsh.model.mesh.getElements(2, tag)
+        for ty, nd in zip(types, nodes):
+            if ty == 2:      # 3-node triangle
+                t3 = index[np.asarray(nd, dtype=np.int64).reshape(-1, 3)]
+                tris.append(t3)
+                surf.append(np.full(len(t3), tag, dtype=np.int64))
+    gmsh.finalize()
+    np.savez(out, vertices=xyz.reshape(-1, 3), triangles=np.concatenate(tris), surface=np.concatenate(surf),
+             seconds=best)
+
+
+def _face_boxes(shell) -> np.ndarray:
+    """(n_faces, 6) bounding boxes of the trimmed faces (from a coarse Open CASCADE mesh of each)."""
+    boxes = np.full((len(shell.faces), 6), np.nan)
+    for i, m in enumerate(_occ_mesh_faces(shell, 1e-2 * shell.diagonal())):
+        if m.n_triangles:
+            boxes[i] = np.r_[m.vertices.min(axis=0), m.vertices.max(axis=0)]
+    return boxes
+
+
+def gmsh_mesh(cad: Path, n: int, boxes: np.ndarray) -> tuple[TriMesh, float]:
+    """gmsh's mesh of `cad` with face_id = our face whose bounding box is nearest each gmsh surface's."""
+    from scipy.optimize import linear_sum_assignment
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "g.npz")
+        subprocess.run([sys.executable, __file__, "--gmsh-worker", str(cad), str(n), out], check=True,
+                       timeout=900)
+        z = np.load(out)
+        v, t, surf, sec = z["vertices"], z["triangles"], z["surface"], float(z["seconds"])
+    tags = np.unique(surf)
+    gbox = np.array([np.r_[v[t[surf == g]].reshape(-1, 3).min(axis=0), v[t[surf == g]].reshape(-1, 3).max(axis=0)]
+                     for g in tags])
+    ok = np.isfinite(boxes).all(axis=1)
+    cost = np.abs(gbox[:, None, :] - np.where(ok[:, None], boxes, 1e30)[None, :, :]).sum(axis=2)
+    face = np.argmin(cost, axis=1)
+    if len(tags) <= ok.sum():    # one-to-one where the counts allow
+        rows, cols = linear_sum_assignment(cost)
+        face[rows] = cols
+    fid = face[np.searchsorted(tags, surf)]
+    return TriMesh(v, t, face_id=fid), sec
+
+
+def gmsh_search(cad: Path, shell, eps: float, diag: float) -> tuple[dict, float, float]:
+    shell_of[0] = shell
+    boxes = _face_boxes(shell)
+    m, sec, c = coarsest_within(lambda c: gmsh_mesh(cad, max(3, round(1.0 / c)), boxes), 1.0 / 16, eps, diag,
+                                1.0 / 1024)
+    return m, sec, max(3, round(1.0 / c))
+
+
+def _within(m: dict, eps: float) -> bool:
+    return bool(np.isfinite(m["max_dev"]) and m["max_dev"] <= eps)
+
+
+def run_model(name: str, shell, cad: Path | None, with_gmsh: bool) -> dict:
     diag = shell.diagonal()
     eps, h = REL_TOL * diag, REL_H * diag
     row = {"model": name, "faces": len(shell.faces), "eps": eps}
@@ -139,11 +242,23 @@ def run_model(name: str, shell) -> dict:
     row["tol_only_uniform"] = {"triangles": m.n_triangles, "seconds": sec}
     om, osec, odefl = occ_search(shell, eps, diag)
     row["occt"] = om | {"seconds": osec, "deflection": odefl}
-    o = row["occt"]
     t = row["ours_tol"]
-    row["ratio_triangles"] = t["triangles"] / o["triangles"]
-    row["ratio_p5_angle"] = t["p5_angle"] / max(o["p5_angle"], 1e-9)
-    row["ratio_seconds"] = t["seconds"] / o["seconds"]
+    for ref in ("occt", "gmsh"):
+        if ref == "gmsh":
+            if not with_gmsh:
+                continue
+            with tempfile.TemporaryDirectory() as tmp:
+                if cad is None:          # a sample: gmsh reads it from the STEP we write
+                    from trimsurf.io import write_shell
+                    cad = Path(tmp) / f"{name}.step"
+                    write_shell(shell, cad)
+                gm, gsec, gn = gmsh_search(cad, shell, eps, diag)
+            row["gmsh"] = gm | {"seconds": gsec, "elements_per_2pi": gn}
+        o = row[ref]
+        row[f"comparable_{ref}"] = _within(t, eps) and _within(o, eps)
+        row[f"{ref}_ratio_triangles"] = t["triangles"] / o["triangles"]
+        row[f"{ref}_ratio_p5_angle"] = t["p5_angle"] / max(o["p5_angle"], 1e-9)
+        row[f"{ref}_ratio_seconds"] = t["seconds"] / o["seconds"]
     return row
 
 
@@ -152,7 +267,14 @@ def main(argv=None) -> int:
     parser.add_argument("--json", type=Path, help="also write the rows as JSON")
     parser.add_argument("--models", default="", help="comma-separated subset (file names or sample names)")
     parser.add_argument("--quick", action="store_true", help="samples and three small files only")
+    parser.add_argument("--no-gmsh", action="store_true", help="leave gmsh out even when it is installed")
+    parser.add_argument("--gmsh-worker", nargs=3, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.gmsh_worker:
+        cad, n, out = args.gmsh_worker
+        _gmsh_worker(cad, int(n), out)
+        return 0
+    with_gmsh = gmsh_available() and not args.no_gmsh
     models = [(p.name, p) for p in sorted(DATA.iterdir()) if p.suffix.lower() in (".step", ".stp", ".iges", ".igs")]
     models += [(s, s) for s in SAMPLES]
     if args.quick:
@@ -162,30 +284,46 @@ def main(argv=None) -> int:
         keep = set(args.models.split(","))
         models = [m for m in models if m[0] in keep]
     rows = []
-    head = (f"{'model':38s} {'eps':>9s} | {'ours':>6s} {'dev/eps':>7s} {'p5':>5s} {'s':>6s} | {'paper':>6s} "
+    head = (f"{'model':30s} {'eps':>8s} | {'ours':>6s} {'dev/eps':>7s} {'p5':>5s} {'s':>6s} | {'paper':>6s} "
             f"{'p5':>5s} | {'unif':>6s} {'tolonly':>7s} | {'OCCT':>6s} {'dev/eps':>7s} {'p5':>5s} {'s':>6s} "
-            f"{'defl/eps':>8s} | {'tri':>5s} {'p5':>5s} {'time':>5s}")
+            f"{'defl/eps':>8s} | {'gmsh':>6s} {'dev/eps':>7s} {'p5':>5s} {'s':>6s} | {'tri':>5s} {'p5':>5s} "
+            f"{'time':>5s} | {'tri':>5s} {'p5':>5s} {'time':>5s}")
+    print("ratios: trimsurf tol-only / OCCT (first three), / gmsh (last three); gmsh: "
+          + ("on" if with_gmsh else "not installed or --no-gmsh"))
     print(head)
     print("-" * len(head))
+    nan = {"triangles": 0, "max_dev": float("nan"), "p5_angle": float("nan"), "seconds": float("nan")}
     for name, src in models:
         shell = build_sample(src) if isinstance(src, str) else read_shell(src)
-        r = run_model(name, shell)
+        r = run_model(name, shell, None if isinstance(src, str) else src, with_gmsh)
         rows.append(r)
         t, p, u, g, o = r["ours_tol"], r["ours_paper"], r["uniform_grid"], r["tol_only_uniform"], r["occt"]
-        print(f"{name[:38]:38s} {r['eps']:9.3g} | {t['triangles']:6d} {t['max_dev'] / r['eps']:7.2f} "
+        gm = r.get("gmsh", nan)
+        mark = lambda ok: " " if ok else "*"   # noqa: E731
+        print(f"{name[:30]:30s} {r['eps']:8.3g} | {t['triangles']:6d} {t['max_dev'] / r['eps']:7.2f} "
               f"{t['p5_angle']:5.1f} {t['seconds']:6.2f} | {p['triangles']:6d} {p['p5_angle']:5.1f} | "
               f"{u['triangles']:6d} {g['triangles']:7d} | {o['triangles']:6d} {o['max_dev'] / r['eps']:7.2f} "
               f"{o['p5_angle']:5.1f} {o['seconds']:6.2f} {o['deflection'] / r['eps']:8.3g} | "
-              f"{r['ratio_triangles']:5.2f} {r['ratio_p5_angle']:5.2f} {r['ratio_seconds']:5.2f}", flush=True)
+              f"{gm['triangles']:6d} {gm['max_dev'] / r['eps']:7.2f} {gm['p5_angle']:5.1f} {gm['seconds']:6.2f} | "
+              f"{r['occt_ratio_triangles']:5.2f} {r['occt_ratio_p5_angle']:5.2f} {r['occt_ratio_seconds']:5.2f}"
+              f"{mark(r['comparable_occt'])}| "
+              + (f"{r['gmsh_ratio_triangles']:5.2f} {r['gmsh_ratio_p5_angle']:5.2f} {r['gmsh_ratio_seconds']:5.2f}"
+                 f"{mark(r['comparable_gmsh'])}" if "gmsh" in r else "    -     -     -"), flush=True)
 
-    def gmean(key):
-        v = np.array([r[key] for r in rows if np.isfinite(r[key]) and r[key] > 0])
-        return float(np.exp(np.mean(np.log(v)))) if len(v) else float("nan")
+    def gmean(ref, key):
+        v = np.array([r[f"{ref}_{key}"] for r in rows if r.get(f"comparable_{ref}")])
+        v = v[np.isfinite(v) & (v > 0)]
+        return (float(np.exp(np.mean(np.log(v)))) if len(v) else float("nan")), int(len(v))
 
-    summary = {k: gmean(k) for k in ("ratio_triangles", "ratio_p5_angle", "ratio_seconds")}
     print("-" * len(head))
-    print(f"geometric mean of ratios (trimsurf tol-only / OCCT): triangles {summary['ratio_triangles']:.2f}, "
-          f"p5 angle {summary['ratio_p5_angle']:.2f}, wall time {summary['ratio_seconds']:.2f}")
+    print("* = not comparable (a mesh measured beyond eps): left out of the means")
+    summary = {}
+    for ref in ("occt", "gmsh") if with_gmsh else ("occt",):
+        s = {k: gmean(ref, k) for k in ("ratio_triangles", "ratio_p5_angle", "ratio_seconds")}
+        summary[ref] = {k: v[0] for k, v in s.items()} | {"comparable_models": s["ratio_triangles"][1]}
+        print(f"geometric mean over the {s['ratio_triangles'][1]} comparable models, trimsurf tol-only / "
+              f"{ref}: triangles {s['ratio_triangles'][0]:.2f}, p5 angle {s['ratio_p5_angle'][0]:.2f}, "
+              f"wall time {s['ratio_seconds'][0]:.2f}")
     if args.json:
         args.json.write_text(json.dumps({"rows": rows, "geometric_mean": summary}, indent=2, default=float) + "\n")
     return 0
