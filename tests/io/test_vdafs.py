@@ -282,8 +282,24 @@ def test_read_surf_patches_that_do_not_meet_warn(tmp_path):
     surf = list(statements[0][2])
     surf[11] = repr(float(surf[11]) + 0.5)  # constant x coefficient of the first patch: off by 0.5
     path = _write(tmp_path, _vda_text([("S1", "SURF", surf)]))
-    with pytest.warns(TrimsurfWarning, match=r"SURF S1: adjacent patches do not meet: largest gap"):
-        _vdafs.read(path)
+    with pytest.warns(TrimsurfWarning, match=r"SURF S1: adjacent patches \(1, 1\) and \(2, 1\) do not meet: "
+                                             r"largest gap 0\.5 "):
+        face = _vdafs.read(path).faces[0]
+    # recorded for repair (`trimsurf.tessellate.repair` rejects faces that use the broken boundary)
+    grid = face.surface.patch_grid
+    assert_allclose(grid.gaps_s.max(), 0.5, rtol=1e-12)
+    assert grid.gaps_t.max() <= 0.5 + 1e-12 and grid.breaks_problem() == ""
+
+
+def test_read_surf_breakpoints_not_increasing_warn_and_are_recorded(tmp_path):
+    """Not a read error: the FACE on the SURF is rejected by repair, the rest of the file is read."""
+    path = _write(tmp_path, _vda_text(_modified(_fixture_statements(), "S1", 2, "1.0")))
+    with pytest.warns(TrimsurfWarning, match=r"SURF S1: its s breakpoints do not increase strictly: "
+                                             r"s\(1\) = 1\.0, s\(2\) = 0\.5; faces on it cannot be tessellated"):
+        shell = _vdafs.read(path)
+    assert [f.name for f in shell.faces] == ["F1", "S2"]
+    assert_allclose(shell.faces[0].surface.patch_grid.s_breaks, [1.0, 0.5, 2.0])
+    assert shell.faces[1].surface.patch_grid.breaks_problem() == ""
 
 
 def test_read_zero_length_cons_in_loop_warns_and_is_left_out(tmp_path):
@@ -470,7 +486,6 @@ def test_read_number_out_of_range(tmp_path):
 
 @pytest.mark.parametrize("index, value, message", [
     (0, "0", r"the number of patches in s \(nps\) must be >= 1"),
-    (2, "1.0", r"s breakpoint must increase strictly"),
     (9, "2.5", r"patch \(1, 1\): the order in s must be an integer; got '2\.5'"),
 ])
 def test_read_bad_surf_parameters(tmp_path, index, value, message):

@@ -2,8 +2,14 @@
 
 * Patch grids: a surface made of Bézier patches must have one degree per row
   and column (the readers assemble patch grids into one NURBS with
-  `geom.bezier_grid_to_nurbs`, which elevates the degrees); here the surface
-  is checked for finite data and a non-empty domain.
+  `geom.bezier_grid_to_nurbs`, which elevates the degrees). Its domain values
+  must be finite and increase strictly, and adjacent patches must share their
+  boundary control points: `patch_grid_defect` checks the grid the VDA-FS
+  reader recorded (`PatchGrid`: breakpoints, gap per shared boundary) and,
+  for any surface, interior knots of multiplicity degree + 1 (a break in the
+  surface). A face whose grid is broken where it is used (a gap above the
+  tolerance on a patch boundary inside the trim) is rejected by name, with the
+  patch pair and the gap; a broken boundary outside the trim is only reported.
 * G1 continuity inside the trimmed area along internal C0 knot lines (knots of
   full multiplicity): checked, and a surface that fails is *flagged* (still
   tessellated, reported), as the paper colours such faces.
@@ -24,7 +30,7 @@ import numpy as np
 from ..geom.predicates import polyline_self_intersections
 from ..model import Loop, NurbsCurve, PCurve, TrimmedFace
 
-__all__ = ["FaceRepair", "repair_face", "g1_defects", "remove_polygon_loops"]
+__all__ = ["FaceRepair", "repair_face", "g1_defects", "patch_grid_defect", "remove_polygon_loops"]
 
 
 @dataclass(eq=False)
@@ -87,6 +93,76 @@ def g1_defects(face: TrimmedFace, *, n: int = 33) -> float:
     return worst
 
 
+def _inside_trim(face: TrimmedFace, u_range, v_range, n: int = 17) -> bool:
+    """Whether some point of the (u, v) segment from (u0, v0) to (u1, v1) lies inside the face's trim."""
+    if not face.loops:
+        return True
+    from ..quality.sampling import inside_face
+
+    w = np.linspace(0.0, 1.0, n)
+    uv = np.column_stack([u_range[0] + w * (u_range[1] - u_range[0]), v_range[0] + w * (v_range[1] - v_range[0])])
+    return bool(inside_face(face, uv, n_per_segment=16).any())
+
+
+def _knot_breaks(s):
+    """Breaks of a surface at interior knots of multiplicity degree + 1: (gap, axis, knot value), largest first."""
+    out = []
+    for axis, knots, p in ((0, s.knots_u, s.degree_u), (1, s.knots_v, s.degree_v)):
+        vals, first, counts = np.unique(knots, return_index=True, return_counts=True)
+        lo, hi = knots[p], knots[-p - 1]
+        for v, f, c in zip(vals, first, counts):
+            if lo < v < hi and c > p:
+                cp = np.moveaxis(s.control_points, axis, 0)
+                out.append((float(np.linalg.norm(cp[f - 1] - cp[f], axis=-1).max()), axis, float(v)))
+    return sorted(out, reverse=True)
+
+
+def patch_grid_defect(face: TrimmedFace, tolerance: float) -> tuple[str | None, list]:
+    """Check the domain values and shared boundary control points of a face's patch grid (paper Sec. 4.1).
+
+    Parameters
+    ----------
+    face : TrimmedFace
+    tolerance : float
+        Largest distance allowed between the shared boundary control points of adjacent patches.
+
+    Returns
+    -------
+    failure : str or None
+        Why the face cannot be tessellated (it names the face, the SURF, the patch pair and the gap),
+        or None.
+    notes : list of str
+        Broken boundaries outside the trim (harmless: the trimmed face does not use them).
+    """
+    name = face.name or "face"
+    s = face.surface
+    notes: list = []
+    grid = getattr(s, "patch_grid", None)      # recorded by the VDA-FS reader (`io._vdafs.PatchGrid`)
+    if grid is not None:
+        problem = grid.breaks_problem()
+        if problem:
+            return f"{name}: {grid.where}: {problem}; the patch grid has no valid domain", notes
+        for gap, a, b, (ur, vr) in sorted(grid.seams(), key=lambda x: -x[0]):
+            if gap <= tolerance:
+                break
+            where = f"{name}: {grid.where}: adjacent patches {a} and {b} do not share their boundary " \
+                    f"control points ({gap:.3g} apart > tolerance {tolerance:.3g})"
+            if _inside_trim(face, ur, vr):
+                return where + " inside the trimmed area; cannot be repaired", notes
+            notes.append(where + " outside the trimmed area; ignored")
+    (u0, u1), (v0, v1) = s.domain
+    for gap, axis, k in _knot_breaks(s):
+        if gap <= tolerance:
+            break
+        ur, vr = ((k, k), (v0, v1)) if axis == 0 else ((u0, u1), (k, k))
+        where = (f"{name}: the surface breaks apart at {'uv'[axis]} = {k:.6g} (a knot of multiplicity "
+                 f"degree + 1; {gap:.3g} apart > tolerance {tolerance:.3g})")
+        if _inside_trim(face, ur, vr):
+            return where + " inside the trimmed area; cannot be repaired", notes
+        notes.append(where + " outside the trimmed area; ignored")
+    return None, notes
+
+
 def repair_face(face: TrimmedFace, *, tolerance: float, g1_angle_deg: float = 1.0) -> FaceRepair:
     """Check and repair one face (paper Sec. 4.1).
 
@@ -111,6 +187,10 @@ def repair_face(face: TrimmedFace, *, tolerance: float, g1_angle_deg: float = 1.
     (u0, u1), (v0, v1) = s.domain
     if not (u1 > u0 and v1 > v0):
         return FaceRepair(face, "failed", [f"{name}: empty parameter domain"])
+    failure, notes = patch_grid_defect(face, tolerance)
+    if failure:
+        return FaceRepair(face, "failed", [failure])
+    msgs.extend(notes)
     loops, filled, status = [], [], "ok"
     for li, loop in enumerate(face.loops):
         segs = list(loop.segments)

@@ -84,10 +84,11 @@ class _Params:
             # (bounds the size of the exact integers the conversion works with)
         return out
 
-    def breaks(self, count: int, what: str) -> np.ndarray:
+    def breaks(self, count: int, what: str, *, strict: bool = True) -> np.ndarray:
+        """`count` breakpoints; with ``strict`` (default) they must increase strictly."""
         first = self.tokens[self.pos] if self.pos < len(self.tokens) else None
         values = self.reals(count, what)
-        if np.any(np.diff(values) <= 0):
+        if strict and np.any(np.diff(values) <= 0):
             raise self.error(f"{what} must increase strictly; got {values.tolist()}", first)
         return values
 
@@ -136,8 +137,10 @@ def _parse_surf(p: _Params) -> _Surf:
     nps = p.integer("the number of patches in s (nps)")
     npt = p.integer("the number of patches in t (npt)")
     p.need(nps + npt + 2, "the global parameters s(1..nps+1), t(1..npt+1)")
-    s_breaks = p.breaks(nps + 1, "s breakpoint")
-    t_breaks = p.breaks(npt + 1, "t breakpoint")
+    # checked by the reader (a SURF whose breakpoints do not increase is read and its faces rejected
+    # by name in `trimsurf.tessellate.repair`, instead of the whole file failing)
+    s_breaks = p.breaks(nps + 1, "s breakpoint", strict=False)
+    t_breaks = p.breaks(npt + 1, "t breakpoint", strict=False)
     raw = []
     for j in range(npt):
         for i in range(nps):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import warnings
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -29,32 +30,102 @@ def _warn(message: str) -> None:
     warnings.warn(message, TrimsurfWarning, stacklevel=3)
 
 
-def _close_seams(patches: np.ndarray, where: str, tol_point: float) -> np.ndarray:
-    """Make adjacent Bezier patches share their boundary rows (averaging); warn on gaps > tol_point."""
+@dataclass(frozen=True, eq=False)
+class PatchGrid:
+    """A SURF's patch grid as read: the paper's check of domain values and shared control points (Sec. 4.1).
+
+    The reader records it and builds the surface anyway; `trimsurf.tessellate.repair`
+    rejects a face whose grid is broken where the face uses it (by name, with the
+    patch pair and the gap), so one broken SURF does not make the whole file unreadable.
+
+    Attributes
+    ----------
+    where : str
+        ``"file:line: SURF name"``.
+    s_breaks, t_breaks : (nps + 1,), (npt + 1,) float64
+        The SURF's global parameters (domain values) as read.
+    gaps_s : (nps - 1, npt) float64
+        Largest distance between the shared boundary control points of patches
+        (i, j) and (i + 1, j) (orders unified by degree elevation first).
+    gaps_t : (nps, npt - 1) float64
+        The same for patches (i, j) and (i, j + 1).
+    """
+
+    where: str
+    s_breaks: np.ndarray
+    t_breaks: np.ndarray
+    gaps_s: np.ndarray
+    gaps_t: np.ndarray
+
+    def breaks_problem(self) -> str:
+        """Why the domain values are unusable (``""`` when they are finite and increase strictly)."""
+        for what, br in (("s", self.s_breaks), ("t", self.t_breaks)):
+            if not np.all(np.isfinite(br)):
+                return f"its {what} breakpoints are not finite: {br.tolist()}"
+            bad = np.flatnonzero(np.diff(br) <= 0)
+            if len(bad):
+                k = int(bad[0])
+                return (f"its {what} breakpoints do not increase strictly: {what}({k + 1}) = {float(br[k])!r}, "
+                        f"{what}({k + 2}) = {float(br[k + 1])!r}")
+        return ""
+
+    def seams(self):
+        """Every shared patch boundary: (gap, patch_a, patch_b, (u-range, v-range) of the boundary), 1-based patches."""
+        s, t = self.s_breaks, self.t_breaks
+        for (i, j), g in np.ndenumerate(self.gaps_s):
+            yield float(g), (i + 1, j + 1), (i + 2, j + 1), ((s[i + 1], s[i + 1]), (t[j], t[j + 1]))
+        for (i, j), g in np.ndenumerate(self.gaps_t):
+            yield float(g), (i + 1, j + 1), (i + 1, j + 2), ((s[i], s[i + 1]), (t[j + 1], t[j + 1]))
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class PatchGridSurface(NurbsSurface):
+    """The NURBS surface of a VDA-FS SURF, carrying the reader's `PatchGrid` for repair."""
+
+    patch_grid: PatchGrid | None = None
+
+
+def _seam_gaps(patches: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Largest distance between the shared boundary control points of adjacent patches, per pair."""
+    gs = np.linalg.norm(patches[:-1, :, -1] - patches[1:, :, 0], axis=-1).max(axis=-1)
+    gt = np.linalg.norm(patches[:, :-1, :, -1] - patches[:, 1:, :, 0], axis=-1).max(axis=-1)
+    return gs, gt
+
+
+def _close_seams(patches: np.ndarray) -> np.ndarray:
+    """Adjacent Bezier patches made to share their boundary rows (the average of both sides)."""
     out = patches.copy()
-    worst = 0.0
     if out.shape[0] > 1:
-        a, b = out[:-1, :, -1], out[1:, :, 0]
-        worst = max(worst, float(np.max(np.linalg.norm(a - b, axis=-1))))
-        mean = 0.5 * (a + b)
+        mean = 0.5 * (out[:-1, :, -1] + out[1:, :, 0])
         out[:-1, :, -1] = mean
         out[1:, :, 0] = mean
     if out.shape[1] > 1:
-        a, b = out[:, :-1, :, -1], out[:, 1:, :, 0]
-        worst = max(worst, float(np.max(np.linalg.norm(a - b, axis=-1))))
-        mean = 0.5 * (a + b)
+        mean = 0.5 * (out[:, :-1, :, -1] + out[:, 1:, :, 0])
         out[:, :-1, :, -1] = mean
         out[:, 1:, :, 0] = mean
-    if worst > tol_point:
-        _warn(f"{where}: adjacent patches do not meet: largest gap {worst:.3g} "
-              f"(tolerance {tol_point:.3g}); the boundary control points were averaged")
     return out
 
 
 def _surface(surf: _Surf, where: str, tol: Tolerance) -> NurbsSurface:
-    patches = _close_seams(surf.patches, where, tol.point)
-    pu, pv, ku, kv, cp, _ = bezier_grid_to_nurbs(patches, surf.s_breaks, surf.t_breaks)
-    return NurbsSurface(pu, pv, ku, kv, cp)
+    """The SURF as one NURBS (boundary rows averaged), with its `PatchGrid`; warns on a broken grid.
+
+    Breakpoints that do not increase strictly are replaced by 0, 1, 2, ... so
+    that a surface exists; repair rejects every face on it.
+    """
+    gs, gt = _seam_gaps(surf.patches)
+    grid = PatchGrid(where, surf.s_breaks, surf.t_breaks, gs, gt)
+    s_br, t_br = surf.s_breaks, surf.t_breaks
+    problem = grid.breaks_problem()
+    if problem:
+        _warn(f"{where}: {problem}; faces on it cannot be tessellated")
+        s_br, t_br = np.arange(len(s_br), dtype=np.float64), np.arange(len(t_br), dtype=np.float64)
+    worst = max([g for g, *_ in grid.seams()], default=0.0)
+    if worst > tol.point:
+        g, a, b, _ = max(grid.seams(), key=lambda x: x[0])
+        _warn(f"{where}: adjacent patches {a} and {b} do not meet: largest gap {g:.3g} "
+              f"(tolerance {tol.point:.3g}); the boundary control points were averaged")
+    pu, pv, ku, kv, cp, _ = bezier_grid_to_nurbs(_close_seams(surf.patches), s_br, t_br)
+    return PatchGridSurface(pu, pv, ku, kv, cp, patch_grid=grid)
 
 
 def _curve(curve: _Curve, where: str, tol_point: float) -> NurbsCurve:
