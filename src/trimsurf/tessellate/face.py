@@ -147,7 +147,7 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
     # the twist of the cells: split along the better diagonal, refine rows/columns where it fails;
     # the same for a diagonal longer than max_edge (split across its longer side)
     for _ in range(6):
-        dev, diag, diag_max, side_u, side_v = _cell_deviation(s, us, vs, tolerance)
+        dev, diag, diag_max, side_u, side_v, dev_max = _cell_deviation(s, us, vs, tolerance)
         if polys is not None:
             ci = 0.5 * (us[:-1] + us[1:])
             cj = 0.5 * (vs[:-1] + vs[1:])
@@ -167,6 +167,7 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
             interior[:, 1:] &= ins[:, :-1]
             interior[:, :-1] &= ins[:, 1:]
             diag = np.where(near & ~interior, diag_max, np.where(near, diag, 0.0))
+            # dev = np.where(near & ~interior, dev_max, dev)
         bad = dev > tolerance
         long = (diag > max_edge) & ~bad
         if not bad.any() and not long.any():
@@ -179,8 +180,12 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
     return us, vs
 
 
-def _cell_split(surface, us, vs, ki, kj, tolerance: float | None = None, prefer_main: bool | None = None):
+def _cell_split(surface, us, vs, ki, kj, tolerance: float | None = None, prefer_main: bool | None = None,
+                full: bool = True):
     """Diagonal of cells (ki, kj) (True: (i,j)-(i+1,j+1)), the deviation bound and the cell's lengths.
+
+    Returns (main, dev, diag, diag_max, side_u, side_v, dev_max), dev_max the deviation of the worse
+    of the two splits (the CDT of a crossed cell may cut either way); only (main,) with ``full=False``.
 
     With `tolerance` None, each cell takes the diagonal that best fits the surface
     (the paper). Otherwise every cell takes the face's preferred diagonal
@@ -203,19 +208,23 @@ def _cell_split(surface, us, vs, ki, kj, tolerance: float | None = None, prefer_
         d_pref, d_other = (d_main, d_anti) if pref else (d_anti, d_main)
         switch = (d_pref > 0.5 * tolerance) & (d_other < d_pref)
         main = np.where(switch, not pref, pref)
-    # deviation bound at the triangles' centroids: |S(uv_c) - x_c|
-    t = np.where(main[:, None, None], np.array([[0, 1, 2], [0, 2, 3]])[None], np.array([[0, 1, 3], [1, 2, 3]])[None])
-    rows = np.arange(len(ki))[:, None, None]
-    tuv = np.einsum("bk,nskd->nsbd", _BARY, uv[rows, t])      # (k, 2, b, 2)
-    tx = np.einsum("bk,nskd->nsbd", _BARY, p[rows, t])        # (k, 2, b, 3)
-    dev = surface_distance(surface, tuv.reshape(-1, 2), tx.reshape(-1, 3)).reshape(tx.shape[:3]).max(axis=(1, 2))
+    if not full:
+        return (main,)
+    # deviation at the sample points of both splits: (i,j)-(i+1,j+1) and the other diagonal
+    t = np.array([[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]])
+    tuv = np.einsum("bk,nskd->nsbd", _BARY, uv[:, t])         # (k, 4, b, 2)
+    tx = np.einsum("bk,nskd->nsbd", _BARY, p[:, t])           # (k, 4, b, 3)
+    dt = surface_distance(surface, tuv.reshape(-1, 2), tx.reshape(-1, 3)).reshape(tx.shape[:3]).max(axis=2)
+    dev_m, dev_a = dt[:, :2].max(axis=1), dt[:, 2:].max(axis=1)
+    dev = np.where(main, dev_m, dev_a)
+    dev_max = np.maximum(dev_m, dev_a)
     d02 = np.linalg.norm(p[:, 2] - p[:, 0], axis=1)
     d13 = np.linalg.norm(p[:, 3] - p[:, 1], axis=1)
     diag = np.where(main, d02, d13)
     diag_max = np.maximum(d02, d13)
     side_u = np.maximum(np.linalg.norm(p[:, 1] - p[:, 0], axis=1), np.linalg.norm(p[:, 2] - p[:, 3], axis=1))
     side_v = np.maximum(np.linalg.norm(p[:, 3] - p[:, 0], axis=1), np.linalg.norm(p[:, 2] - p[:, 1], axis=1))
-    return main, dev, diag, diag_max, side_u, side_v
+    return main, dev, diag, diag_max, side_u, side_v, dev_max
 
 
 def _prefer_main(surface, us, vs) -> bool:
@@ -398,14 +407,36 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
     prefer = None if tol is None else _prefer_main(s, us, vs)
 
     def split(ki, kj):
-        return _cell_split(s, us, vs, ki, kj, tol, prefer)[0]
+        return _cell_split(s, us, vs, ki, kj, tol, prefer, full=False)[0]
+
+    trim_xyz = np.concatenate(xyzs)
+
+    def lift(dt):
+        xyz = np.empty((len(dt.uv), 3))
+        xyz[:dt.n_trim] = trim_xyz
+        if len(dt.uv) > dt.n_trim:
+            xyz[dt.n_trim:] = s.evaluate(dt.uv[dt.n_trim:])
+        return xyz
 
     dt = triangulate_domain(us, vs, polys, split=split)
+    xyz = lift(dt)
+    if tol is not None:
+        # the CDT of a crossed cell cuts it other than the cell splits refine_cells checked: where one
+        # of its triangles leaves the tolerance, its centroid joins the CDT (an interior point, so the
+        # trim polygons, shared with the neighbours, stay as they are)
+        extra = np.zeros((0, 2))
+        for _ in range(3):
+            dev = triangle_deviation(s, dt.uv, xyz, dt.triangles)
+            bad = dev > tol
+            if not bad.any():
+                break
+            extra = np.concatenate([extra, dt.uv[dt.triangles[bad]].mean(axis=1)])
+            n_before = len(dt.uv)
+            dt = triangulate_domain(us, vs, polys, split=split, extra=extra)
+            xyz = lift(dt)
+            if len(dt.uv) == n_before:
+                break
     n_trim = dt.n_trim
-    xyz = np.empty((len(dt.uv), 3))
-    xyz[:n_trim] = np.concatenate(xyzs)
-    if len(dt.uv) > n_trim:
-        xyz[n_trim:] = s.evaluate(dt.uv[n_trim:])
     vid = np.full(len(dt.uv), -1, dtype=np.int64)
     vid[:n_trim] = np.concatenate(vids)
     tris = dt.triangles if face.same_sense else dt.triangles[:, ::-1]

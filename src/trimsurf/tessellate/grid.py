@@ -133,7 +133,8 @@ class DomainTriangulation:
     n_cells: int
 
 
-def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=None) -> DomainTriangulation:
+def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=None,
+                       extra=None) -> DomainTriangulation:
     """Triangulate the region bounded by `polygons` on the grid us x vs (paper Sec. 4.3, 5.1).
 
     Parameters
@@ -147,6 +148,11 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
     split : callable or None
         split(i, j) -> bool array: True to cut untouched cell (i, j) along the
         diagonal from (i, j) to (i+1, j+1), False along the other one; None: the former.
+    extra : (k, 2) float64 or None
+        Interior points added to the constrained Delaunay triangulation (e.g. where a
+        triangle of a crossed cell left the tolerance); only those strictly inside a
+        crossed cell and off the trim polygons' points are used. They follow the grid
+        nodes in `uv` (``grid_node`` -1).
 
     Returns
     -------
@@ -252,8 +258,20 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
             segs.append(np.column_stack([a[sel], b[sel]]))
         seg = np.concatenate(segs)
         seg = seg[seg[:, 0] != seg[:, 1]]
-        # Triangle on the vertices these segments use (plus nothing else)
+        # Triangle on the vertices these segments use (plus the extra interior points)
         used = np.unique(seg)
+        if extra is not None and len(extra):
+            e = np.unique(np.asarray(extra, dtype=np.float64).reshape(-1, 2), axis=0)
+            ei = np.searchsorted(us, e[:, 0]) - 1
+            ej = np.searchsorted(vs, e[:, 1]) - 1
+            ok = (ei >= 0) & (ei < nu - 1) & (ej >= 0) & (ej < nv - 1)
+            ok[ok] &= crossed[ei[ok], ej[ok]]
+            ok[ok] &= ~np.isin(e[ok, 0], us) & ~np.isin(e[ok, 1], vs)
+            e = e[ok]
+            if len(e):
+                used = np.r_[used, len(uv) + np.arange(len(e))]
+                uv = np.concatenate([uv, e])
+                grid_node = np.r_[grid_node, np.full(len(e), -1, dtype=np.int64)]
         local = np.full(len(uv), -1, dtype=np.int64)
         local[used] = np.arange(len(used))
         scale_lo = uv[used].min(axis=0)

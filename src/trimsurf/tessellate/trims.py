@@ -170,7 +170,7 @@ def discretize_chunk(uses: list, *, tolerance: float, max_edge: float, strategy:
     if degenerate:
         s = np.array([0.0, 1.0])
     else:
-        s = adaptive_values(evaluate, 0.0, 1.0, tolerance=tolerance, max_edge=max_edge, strategy=strategy,
+        s = adaptive_values(evaluate, 0.0, 1.0, tolerance=0.75 * tolerance, max_edge=max_edge, strategy=strategy,
                             init=init)
     # insert the iso-values of every use (the crossings of its u and v grid lines); repeat on the new
     # points, since a curve that dips across a line and back inside one interval shows up only then
@@ -240,7 +240,7 @@ def discretize_chunk(uses: list, *, tolerance: float, max_edge: float, strategy:
             s_all, iso = s_all[keep], iso[keep]
             uvs = [uv[keep] for uv in uvs]
     if reduce and not degenerate and len(s_all) > 2:
-        s_all, uvs, iso = _reduce(evaluate, s_all, uvs, iso, tolerance, max_edge, uses)
+        s_all, uvs, iso = _reduce(evaluate, s_all, uvs, iso, 0.75 * tolerance, max_edge, uses)
     xyz = np.mean([u.surface.evaluate(uv) for u, uv in zip(uses, uvs)], axis=0)
     if degenerate:
         xyz[:] = xyz.mean(axis=0)
