@@ -73,19 +73,6 @@ def test_real_step_watertight(shared_data, fname, min_p5):
     _check_guarantees(res, closed=True, min_p5_deg=min_p5)
 
 
-def test_bearing_iges_loose_stitching(shared_data):
-    """An unsewn IGES surface model: every face has its own edges; stitching joins them."""
-    shell = read_shell(shared_data / "cad" / "occt__bearing.iges")
-    res = tessellate_shell(shell, measure=False)
-    assert res.mode == "loose"
-    # before stitching every face mesh is its own piece with its own boundary
-    before = sum(len(m.boundary_edges()) for m in res.face_meshes if m is not None)
-    after = topology_report(res.mesh)
-    assert after.n_components <= 3
-    assert after.n_boundary_edges <= 0.1 * before
-    assert res.report["stitch_split"] > 0 and res.report["stitch_merged"] > 0
-
-
 def test_gap_pair_conforming_closes_the_gap():
     """The two faces' shared edge differs by 1e-3 of the size: conforming mode meets exactly."""
     shell = build_sample("gap_pair")

@@ -5,9 +5,11 @@ near it are found with one global k-d tree (the paper's BSP tree; O(n log n)):
 candidates are the boundary edges whose midpoint lies within r_max / 2 + eps
 of v (r_max the longest boundary edge). The closest such edge e_c within eps
 takes v: when the projection v_p of v onto e_c is within eps of an end of e_c,
-that end is merged into v; otherwise e_c is split at v (T-junction removed).
-Check-back (Fig. 13 b): the boundary edges of v's own face closest to v_p
-must be edges at v, else the split is ignored.
+that end is merged into v (every group of merged vertices ends at its mean);
+otherwise e_c is split at v (T-junction removed). Check-back (Fig. 13 b): the
+boundary edges of v's own faces closest to v_p must be edges at v, else the
+split is ignored. A second pass sees vertices shared by two faces: their faces
+are those of their two boundary edges, and their own edges are never candidates.
 """
 
 from __future__ import annotations
@@ -86,8 +88,20 @@ def _boundary(mesh: TriMesh):
     return he[b], b // 3           # directed boundary edges and their triangles
 
 
-def _closest_edges(points, owner, edges_a, edges_b, edge_face, tree, radius, eps, *, same_face: bool):
-    """For each point, the closest boundary edge of another face (or of its own face) within eps."""
+def _closest_edges(points, vfaces, edges_a, edges_b, edge_face, tree, radius, eps, *, same_face: bool,
+                   point_vertex=None, bedges=None):
+    """For each point, the closest boundary edge of another face (or of its own faces) within eps.
+
+    Parameters
+    ----------
+    vfaces : (p, 2) int64
+        The faces each point belongs to (the faces of the boundary edges at a
+        boundary vertex: two after an earlier stitch pass merged faces there).
+    point_vertex : (p,) int64 or None
+        The mesh vertex of each point; with `bedges`, edges at that vertex are never
+        candidates of the other-face search (after a first pass a vertex is shared
+        by two faces, and its own edges would be found at distance 0).
+    """
     if not len(points):
         return np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0)
     lists = tree.query_ball_point(points, radius)
@@ -96,7 +110,10 @@ def _closest_edges(points, owner, edges_a, edges_b, edge_face, tree, radius, eps
         return np.full(len(points), -1), np.full(len(points), np.inf), np.zeros(len(points))
     pi = np.repeat(np.arange(len(points)), cnt)
     ei = np.fromiter((j for x in lists for j in x), dtype=np.int64, count=int(cnt.sum()))
-    keep = (edge_face[ei] == owner[pi]) if same_face else (edge_face[ei] != owner[pi])
+    own = (edge_face[ei] == vfaces[pi, 0]) | (edge_face[ei] == vfaces[pi, 1])
+    keep = own if same_face else ~own
+    if not same_face and point_vertex is not None:
+        keep &= (bedges[ei, 0] != point_vertex[pi]) & (bedges[ei, 1] != point_vertex[pi])
     pi, ei = pi[keep], ei[keep]
     if not len(pi):
         return np.full(len(points), -1), np.full(len(points), np.inf), np.zeros(len(points))
@@ -114,7 +131,8 @@ def _closest_edges(points, owner, edges_a, edges_b, edge_face, tree, radius, eps
     return best, bd, bt
 
 
-def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, return_origin: bool = False):
+def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, tolerance: float | None = None,
+                return_origin: bool = False):
     """Stitch the face boundaries of a mesh with ``face_id`` within distance `eps` (paper Sec. 5.2).
 
     Parameters
@@ -125,6 +143,9 @@ def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, return_origin: bool 
         The paper's epsilon: largest distance bridged (model units).
     tri_dev : (m,) float64 or None
         Per-triangle deviation bound, carried through (raised by how far a triangle's corners move).
+    tolerance : float or None
+        Also bridge gaps wider than `eps` (up to `tolerance`) where the deviation bounds of the
+        triangles that bend or move stay within `tolerance`.
 
     Returns
     -------
@@ -147,41 +168,74 @@ def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, return_origin: bool 
     efac = fid[btri]
     r_max = float(np.linalg.norm(b - a, axis=1).max())
     tree = cKDTree(0.5 * (a + b))
-    radius = 0.5 * r_max + eps
+    reach = eps if tolerance is None else max(eps, float(tolerance))
+    radius = 0.5 * r_max + reach
     bverts = np.unique(bedges)
-    # the face of each boundary vertex (a boundary vertex belongs to exactly one face before stitching)
-    vface = np.empty(len(V), dtype=np.int64)
-    vface[T.ravel()] = np.repeat(fid, 3)
+    # the faces of each boundary vertex: those of its outgoing and incoming boundary edges (one face
+    # before stitching; two where an earlier pass merged the corners of two faces)
+    vfaces = np.empty((len(V), 2), dtype=np.int64)
+    vfaces[bedges[:, 0], 0] = efac
+    vfaces[bedges[:, 1], 1] = efac
     pts = V[bverts]
-    owner = vface[bverts]
-    ec, dist, t = _closest_edges(pts, owner, a, b, efac, tree, radius, eps, same_face=False)
+    ec, dist, t = _closest_edges(pts, vfaces[bverts], a, b, efac, tree, radius, reach, same_face=False,
+                                 point_vertex=bverts, bedges=bedges)
     has = ec >= 0
-    vi, ec, t = bverts[has], ec[has], t[has]
-    # check-back: from v_p, the closest boundary edge of v's own face must be an edge at v
+    vi, ec, t, dist = bverts[has], ec[has], t[has], dist[has]
+    # check-back: from v_p, the closest boundary edge of v's own faces must be an edge at v
     vp = a[ec] + t[:, None] * (b[ec] - a[ec])
-    back, _, _ = _closest_edges(vp, vface[vi], a, b, efac, tree, radius, max(eps, 1e-300) * 2.0, same_face=True)
+    back, _, _ = _closest_edges(vp, vfaces[vi], a, b, efac, tree, radius, max(reach, 1e-300) * 2.0,
+                                same_face=True)
     ok_back = (back >= 0) & ((bedges[np.maximum(back, 0), 0] == vi) | (bedges[np.maximum(back, 0), 1] == vi))
     info["stitch_rejected_checkback"] = int(np.count_nonzero(~ok_back))
-    vi, ec, t = vi[ok_back], ec[ok_back], t[ok_back]
+    vi, ec, t, dist = vi[ok_back], ec[ok_back], t[ok_back], dist[ok_back]
     length = np.linalg.norm(b[ec] - a[ec], axis=1)
     near_a = t * length <= eps
     near_b = ((1.0 - t) * length <= eps) & ~near_a
+    if tolerance is not None:
+        # beyond eps only while the triangles that bend (split) or move (merge) keep their deviation
+        # bound within the tolerance: the gap between one face's chord and the other's points on the
+        # curved edge is up to the faces' own tolerance plus the model's gap
+        vdev = np.zeros(len(V))
+        np.maximum.at(vdev, T.ravel(), np.repeat(dev, 3))
+        end = np.where(near_a, bedges[ec, 0], bedges[ec, 1])
+        dm = np.linalg.norm(V[vi] - V[end], axis=1)
+        fits = np.where(near_a | near_b, np.maximum(vdev[vi], vdev[end]),
+                        np.maximum(vdev[vi], dev[btri[ec]])) + 0.5 * np.where(near_a | near_b, dm, dist) <= tolerance
+        ok = (dist <= eps) | fits
+        info["stitch_rejected_deviation"] = int(np.count_nonzero(~ok))
+        vi, ec, t, dist, near_a, near_b = vi[ok], ec[ok], t[ok], dist[ok], near_a[ok], near_b[ok]
     # merge v with the near end of e_c
     pairs = np.r_[np.column_stack([vi[near_a], bedges[ec[near_a], 0]]),
                   np.column_stack([vi[near_b], bedges[ec[near_b], 1]])]
     info["stitch_merged"] = int(len(pairs))
     moved = np.zeros(len(V))
-    if len(pairs):      # merged ends meet half-way: each face moves by half the distance
-        mid = 0.5 * (V[pairs[:, 0]] + V[pairs[:, 1]])
-        half = 0.5 * np.linalg.norm(V[pairs[:, 0]] - V[pairs[:, 1]], axis=1)
-        np.maximum.at(moved, pairs[:, 0], half)
-        np.maximum.at(moved, pairs[:, 1], half)
-        V[pairs[:, 0]] = mid
-        V[pairs[:, 1]] = mid
-    dev = dev + moved[T].max(axis=1)
-    # split e_c at v (the others)
+    label = None
+    if len(pairs):
+        # merged ends meet at the mean of their group (a pair: half-way, each face moves by half the
+        # distance); a vertex in several pairs joins one group, so every member ends at one point
+        n = len(V)
+        g = sparse.coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+        _, label = csgraph.connected_components(g, directed=False)
+        size = np.bincount(label)
+        grouped = size[label] > 1
+        mean = np.zeros((len(size), 3))
+        np.add.at(mean, label[grouped], V[grouped])
+        mean /= np.maximum(size, 1)[:, None]
+        newpos = mean[label[grouped]]
+        moved[grouped] = np.linalg.norm(newpos - V[grouped], axis=1)
+        V[grouped] = newpos
+    # split e_c at v (the others); a gap wider than eps is closed from both sides: v moves half-way
+    # to its foot on e_c (its triangles' bound rises by half the gap, so does that of e_c's triangle)
     split = ~(near_a | near_b)
     s_v, s_e, s_t = vi[split], ec[split], t[split]
+    wide = (dist[split] > eps) & (moved[s_v] == 0)
+    if np.any(wide):
+        w_v = s_v[wide]
+        foot = a[s_e[wide]] + s_t[wide, None] * (b[s_e[wide]] - a[s_e[wide]])
+        half = 0.5 * (foot - V[w_v])
+        moved[w_v] = np.linalg.norm(half, axis=1)
+        V[w_v] += half
+    dev = dev + moved[T].max(axis=1)
     s_d = np.linalg.norm(V[s_v] - (a[s_e] + s_t[:, None] * (b[s_e] - a[s_e])), axis=1)
     new_tris, new_dev, drop = [], [], np.zeros(len(T), dtype=bool)
     if len(s_v):
@@ -221,18 +275,16 @@ def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, return_origin: bool 
     else:
         T, fid, dev = T[keep], fid[keep], dev[keep]
     # merge vertex pairs (union of the "same vertex" graph); the kept vertex is the lowest index
-    n = len(V)
-    if len(pairs):
-        g = sparse.coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-        _, label = csgraph.connected_components(g, directed=False)
+    if label is not None:
+        n = len(V)
         rep = np.full(label.max() + 1, n, dtype=np.int64)
         np.minimum.at(rep, label, np.arange(n))
         T = rep[label][T]
     ok = (T[:, 0] != T[:, 1]) & (T[:, 1] != T[:, 2]) & (T[:, 0] != T[:, 2])
-    T, fid, dev = T[ok], fid[ok], dev[ok]
+    T, fid, dev, origin = T[ok], fid[ok], dev[ok], origin[ok]
     used, inv = np.unique(T, return_inverse=True)
     if return_origin:
-        return TriMesh(V[used], inv.reshape(-1, 3), face_id=fid), info, dev, origin[ok]
+        return TriMesh(V[used], inv.reshape(-1, 3), face_id=fid), info, dev, origin
     return TriMesh(V[used], inv.reshape(-1, 3), face_id=fid), info, dev
 
 
@@ -288,7 +340,8 @@ def merge_face_meshes(face_meshes: dict, *, tolerance: float, stitch: bool = Tru
     if stitch:
         for p in range(2):   # a second pass catches vertices whose closest edge was split in the first
             n_before = mesh.n_triangles
-            mesh, st, dev, origin = stitch_mesh(mesh, 0.5 * tolerance, dev, return_origin=True)
+            mesh, st, dev, origin = stitch_mesh(mesh, 0.5 * tolerance, dev, tolerance=tolerance,
+                                                return_origin=True)
             index = np.full(n_before, -1, dtype=np.int64)
             index[origin[origin >= 0]] = np.flatnonzero(origin >= 0)
             q = remap(q, n_before, index)
