@@ -2,25 +2,40 @@
 
 Where two faces meet along an edge that is an iso-parametric line of both
 (u or v constant on both p-curves, as between the patches of a car panel, a
-fillet and its neighbours, the faces of a box), the iso-lines that end on the
-edge are made to end at the same points from both sides: the two faces'
-transversal domain values are mapped to the edge's parameter t, merged (values
-of the two sides closer than a fraction of the spacing become one), and mapped
-back. Highlight lines then run on across the boundary instead of jumping
+fillet and its neighbours, the faces of a box or of a body of revolution), the
+iso-lines that end on the edge are made to end at the same points from both
+sides. Highlight lines then run on across the boundary instead of jumping
 (Fig. 12 b vs a), and the shared edge carries no pairs of nearly coincident
-iso points (which give needle triangles in conforming mode).
+iso points (which give needle triangles in conforming mode). Only
+tangent-continuous joints are linked: across a crease highlights break anyway.
+
+How: every face's transversal parameter direction ``(face, axis)`` is a node;
+a shared iso-parametric edge links two nodes by the exact map
+``x_b = p_b(t(x_a))[axis_b]`` through the edge parameter t (p-curves evaluated,
+not interpolated, so both faces' iso-lines hit the edge at the same t to
+rounding). Each connected class of nodes (a ring of box faces, all faces of a
+revolved part) gets ONE set of values: all nodes' values are mapped to the
+class's root node, merged into the coarsest subset of their union that is
+nowhere coarser than any node's own values (so each face keeps its own
+tolerance and grid-size criteria, and the class has about as many lines as its
+finest face, not the sum), and mapped back to every node. Values outside the
+part of a face that the edges cover stay the face's own.
 """
 
 from __future__ import annotations
+
+from collections import deque
 
 import numpy as np
 
 from ..model import Shell
 
-__all__ = ["common_parameterization", "iso_axis"]
+__all__ = ["common_parameterization", "iso_axis", "merge_finest"]
 
-_N = 65          # samples of a p-curve for the iso test and the t <-> parameter maps
-_MERGE = 0.35    # values of the two sides closer than this x the local spacing become one
+_N = 65          # samples of a p-curve for the iso test and the monotonicity check
+_CLUSTER = 0.3   # lines of different faces closer than this x the local spacing become one
+_SLACK = 1.1     # a merged step may exceed the finest face's local spacing by this factor
+_MAX_ANGLE = 10.0  # faces whose normals differ by more along the edge (a crease) are not linked
 
 
 def iso_axis(pcurve, surface, rel_tol: float = 1e-7) -> int | None:
@@ -38,58 +53,80 @@ def iso_axis(pcurve, surface, rel_tol: float = 1e-7) -> int | None:
     return None
 
 
-def _map(pcurve, axis: int):
-    """Monotone map t -> coordinate along `axis` on the p-curve's range (dense samples), or None."""
-    lo, hi = sorted((pcurve.t0, pcurve.t1))
-    t = np.linspace(lo, hi, 4 * _N)
-    x = pcurve.curve.evaluate(t)[:, axis]
-    d = np.diff(x)
-    if np.all(d > 0):
-        return t, x
-    if np.all(d < 0):
-        return t[::-1], x[::-1]
-    return None
+class _Side:
+    """One p-curve of an iso-parametric edge: x(t) = p(t)[axis], strictly monotone on [lo, hi]."""
+
+    def __init__(self, pcurve, axis: int):
+        self.p, self.axis = pcurve, axis
+        self.lo, self.hi = sorted((pcurve.t0, pcurve.t1))
+        self.t = np.linspace(self.lo, self.hi, 4 * _N)
+        self.x = self.coord(self.t)
+        d = np.diff(self.x)
+        self.ok = bool(np.all(d > 0) or np.all(d < 0))
+        self.xmin, self.xmax = float(self.x.min()), float(self.x.max())
+
+    def coord(self, t: np.ndarray) -> np.ndarray:
+        return self.p.curve.evaluate(np.asarray(t, dtype=np.float64))[:, self.axis]
+
+    def t_of(self, x: np.ndarray) -> np.ndarray:
+        """The edge parameter where the p-curve has coordinate x (regula falsi to rounding); NaN outside."""
+        x = np.asarray(x, dtype=np.float64)
+        out = np.full(len(x), np.nan)
+        inside = (x > self.xmin) & (x < self.xmax)
+        if not inside.any():
+            return out
+        xi = x[inside]
+        inc = self.x[-1] > self.x[0]
+        xs, ts = (self.x, self.t) if inc else (self.x[::-1], self.t[::-1])
+        k = np.clip(np.searchsorted(xs, xi), 1, len(xs) - 1)
+        a, b = ts[k - 1], ts[k]
+        fa, fb = xs[k - 1] - xi, xs[k] - xi
+        t = a.copy()
+        side = np.zeros(len(xi), dtype=np.int8)
+        for _ in range(60):
+            den = fb - fa
+            t = np.where(den != 0, a - fa * (b - a) / np.where(den != 0, den, 1.0), 0.5 * (a + b))
+            t = np.clip(t, np.minimum(a, b), np.maximum(a, b))
+            ft = self.coord(t) - xi
+            if np.all(np.abs(ft) <= 1e-14 * (self.xmax - self.xmin)):
+                break
+            left = np.sign(ft) == np.sign(fa)          # the root lies in [t, b]
+            a, fa = np.where(left, t, a), np.where(left, ft, fa)
+            b, fb = np.where(left, b, t), np.where(left, fb, ft)
+            # Illinois: halve the value of an end kept twice in a row
+            fb = np.where(left & (side == 1), 0.5 * fb, fb)
+            fa = np.where(~left & (side == -1), 0.5 * fa, fa)
+            side = np.where(left, 1, -1).astype(np.int8)
+        out[inside] = t
+        return out
 
 
-def _merge(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Union of two increasing sets of edge parameters; an a-b pair closer than _MERGE x spacing -> midpoint."""
-    allv = np.unique(np.r_[a, b])
-    if len(allv) < 3:
-        return allv
-    src = np.r_[np.zeros(len(a), dtype=bool), np.ones(len(b), dtype=bool)]
-    vals = np.r_[a, b]
-    order = np.argsort(vals, kind="stable")
-    vals, src = vals[order], src[order]
-    spacing = np.median(np.diff(np.unique(vals)))
-    out, k = [], 0
-    while k < len(vals):
-        if k + 1 < len(vals) and src[k] != src[k + 1] and vals[k + 1] - vals[k] < _MERGE * spacing:
-            out.append(0.5 * (vals[k] + vals[k + 1]))
-            k += 2
-        else:
-            out.append(vals[k])
-            k += 1
-    return np.unique(out)
+def _link_map(src: _Side, dst: _Side):
+    """x_src -> x_dst through the shared edge parameter (NaN outside the edge)."""
+    def f(x):
+        t = src.t_of(x)
+        out = np.full(len(t), np.nan)
+        ok = np.isfinite(t)
+        if ok.any():
+            out[ok] = dst.coord(t[ok])
+        return out
+    return f
 
 
-def common_parameterization(shell: Shell, faces: list, grids: dict) -> set:
-    """Merge the transversal domain values of faces along shared iso-parametric edges, in place.
+def _crease_deg(fa, pa, fb, pb) -> float:
+    """Largest angle between the two faces' oriented normals along the edge (sampled; NaN at poles ignored)."""
+    lo, hi = sorted((pa.t0, pa.t1))
+    t = np.linspace(lo, hi, 9)
+    na = fa.oriented_normals(pa.curve.evaluate(t))
+    nb = fb.oriented_normals(pb.curve.evaluate(t))
+    cos = np.einsum("ij,ij->i", na, nb)
+    cos = cos[np.isfinite(cos)]
+    return float(np.degrees(np.arccos(np.clip(cos.min(), -1.0, 1.0)))) if len(cos) else 180.0
 
-    Parameters
-    ----------
-    shell : Shell
-        With edges (`Edge.uses`).
-    faces : list of TrimmedFace
-        The (repaired) faces, index as in the shell.
-    grids : dict face index -> (us, vs)
-        The faces' domain values; updated.
 
-    Returns
-    -------
-    set of int
-        The faces whose domain values changed.
-    """
-    changed: set = set()
+def _links(shell: Shell, faces: list, grids: dict, max_angle_deg: float):
+    """Shared iso-parametric edges: (node_a, node_b, map a->b, map b->a), node = (face, axis)."""
+    out = []
     for edge in shell.edges:
         if len(edge.uses) != 2:
             continue
@@ -105,36 +142,200 @@ def common_parameterization(shell: Shell, faces: list, grids: dict) -> set:
         ax_b = iso_axis(pb, faces[fb].surface)
         if ax_a is None or ax_b is None:
             continue
-        ma, mb = _map(pa, ax_a), _map(pb, ax_b)
-        if ma is None or mb is None:
-            continue
-        ta, xa = ma
-        tb, xb = mb
-        ga = np.asarray(grids[fa][ax_a])
-        gb = np.asarray(grids[fb][ax_b])
-        # the face's values inside the edge's parameter range, as edge parameters t
-        ina = (ga > xa.min()) & (ga < xa.max())
-        inb = (gb > xb.min()) & (gb < xb.max())
-        if not ina.any() and not inb.any():
-            continue
-        t_a = np.interp(ga[ina], xa, ta) if xa[0] < xa[-1] else np.interp(ga[ina], xa[::-1], ta[::-1])
-        t_b = np.interp(gb[inb], xb, tb) if xb[0] < xb[-1] else np.interp(gb[inb], xb[::-1], tb[::-1])
-        # the same t ranges? (same parameter on both p-curves)
+        # the same edge parameter on both p-curves (the chunk discretization relies on it too)
         la_, ha_ = sorted((pa.t0, pa.t1))
         lb_, hb_ = sorted((pb.t0, pb.t1))
-        if not (np.isclose(la_, lb_, rtol=0, atol=1e-9 * (ha_ - la_)) and
-                np.isclose(ha_, hb_, rtol=0, atol=1e-9 * (ha_ - la_))):
+        if not (abs(la_ - lb_) <= 1e-9 * (ha_ - la_) and abs(ha_ - hb_) <= 1e-9 * (ha_ - la_)):
             continue
-        t = _merge(np.sort(t_a), np.sort(t_b))
-        order_a = np.argsort(ta)
-        order_b = np.argsort(tb)
-        new_a = np.interp(t, ta[order_a], xa[order_a])
-        new_b = np.interp(t, tb[order_b], xb[order_b])
-        ga2 = np.unique(np.r_[ga[~ina], new_a])
-        gb2 = np.unique(np.r_[gb[~inb], new_b])
-        ua, va = grids[fa]
-        grids[fa] = (ga2, va) if ax_a == 0 else (ua, ga2)
-        ub, vb = grids[fb]
-        grids[fb] = (gb2, vb) if ax_b == 0 else (ub, gb2)
-        changed.update((fa, fb))
+        if max_angle_deg < 180.0 and _crease_deg(faces[fa], pa, faces[fb], pb) > max_angle_deg:
+            continue            # a crease: reflection lines break there anyway
+        a, b = _Side(pa, ax_a), _Side(pb, ax_b)
+        if not (a.ok and b.ok):
+            continue
+        out.append(((fa, ax_a), (fb, ax_b), _link_map(a, b), _link_map(b, a)))
+    return out
+
+
+def merge_finest(sets: list, lo: float, hi: float, *, cluster: float = _CLUSTER, slack: float = _SLACK) -> np.ndarray:
+    """About the coarsest subset of the union of value sets that is nowhere coarser than any of them.
+
+    Each set covers [min, max] of its values; at a point x it asks for a spacing
+    no larger than its own interval around x. Values of different sets closer
+    than `cluster` x that spacing are one line (the first set's value, else
+    their mean), since two lines that close only make needle triangles. Walking
+    the rest from `lo`, the next value kept is the farthest one whose step stays
+    within `slack` x the smallest interval any set has along the step.
+
+    Parameters
+    ----------
+    sets : list of 1-D float arrays
+        The first set's values are preferred (the class root's own lines).
+    lo, hi : float
+        The ends (always kept).
+    cluster, slack : float
+
+    Examples
+    --------
+    >>> a = np.linspace(0, 1, 5)           # spacing 0.25
+    >>> b = np.linspace(0, 1, 9)[:5]       # spacing 0.125 on [0, 0.5]
+    >>> merge_finest([a, b], 0.0, 1.0).tolist()
+    [0.0, 0.125, 0.25, 0.375, 0.5, 0.75, 1.0]
+    >>> merge_finest([a, a + 0.01], 0.0, 1.0).tolist()    # nearly the same lines twice: kept once
+    [0.0, 0.25, 0.5, 0.75, 1.0]
+    """
+    sets = [np.unique(np.asarray(s, dtype=np.float64)) for s in sets]
+    first = sets[0] if sets else np.zeros(0)
+    u = np.unique(np.concatenate(sets + [np.array([lo, hi])]))
+    u = u[(u >= lo) & (u <= hi)]
+    if len(u) < 3:
+        return u
+
+    def need_at(x):
+        need = np.full(len(x), np.inf)
+        for s in sets:
+            if len(s) < 2:
+                continue
+            k = np.searchsorted(s, x)
+            cov = (k > 0) & (k < len(s))
+            kk = np.clip(k, 1, len(s) - 1)
+            need = np.where(cov, np.minimum(need, s[kk] - s[kk - 1]), need)
+        return np.where(np.isfinite(need), need, hi - lo)
+
+    # 1. clusters of nearly coincident lines -> one value; a line that close to an end -> the end
+    need = need_at(0.5 * (u[:-1] + u[1:]))
+    reps, k, n = [lo], 1, len(u)
+    while k < n - 1:
+        j = k
+        # the cluster's span against the spacing on both sides of it (a set's last line must not be
+        # pulled into another set's longer interval)
+        m = min(need[k - 1], need[k])
+        while j + 1 < n - 1 and u[j + 1] - u[k] <= cluster * min(m, need[j + 1]):
+            m = min(m, need[j + 1])
+            j += 1
+        group = u[k:j + 1]
+        own = group[np.isin(group, first)]
+        reps.append(float(own[0]) if len(own) else float(group.mean()))
+        k = j + 1
+    u = np.array(reps + [hi])
+    if len(u) > 2:
+        need = need_at(0.5 * (u[:-1] + u[1:]))
+        drop = np.zeros(len(u), dtype=bool)
+        drop[1] = u[1] - u[0] <= cluster * need[:2].min()
+        drop[-2] |= u[-1] - u[-2] <= cluster * need[-2:].min()
+        u = u[~drop]
+    # 2. greedy: the longest steps nowhere coarser than any set (with slack)
+    scale = slack * need_at(0.5 * (u[:-1] + u[1:]))
+    keep = [0]
+    a, n = 0, len(u)
+    while a < n - 1:
+        b = a + 1
+        m = scale[a]
+        while b < n - 1 and u[b + 1] - u[a] <= min(m, scale[b]):
+            m = min(m, scale[b])
+            b += 1
+        keep.append(b)
+        a = b
+    return u[keep]
+
+
+def common_parameterization(shell: Shell, faces: list, grids: dict, *, max_angle_deg: float = _MAX_ANGLE) -> set:
+    """One set of transversal domain values per class of faces linked by shared iso-parametric edges, in place.
+
+    Parameters
+    ----------
+    shell : Shell
+        With edges (`Edge.uses`).
+    faces : list of TrimmedFace
+        The (repaired) faces, index as in the shell.
+    grids : dict face index -> (us, vs)
+        The faces' domain values; updated.
+    max_angle_deg : float
+        Only edges along which the faces meet tangent-continuously (oriented
+        normals within this angle) link faces: across a crease reflection lines
+        break anyway, and linking there (all faces of a revolved part share one
+        angular parameter) only forces the finest face's lines onto all of them.
+        180: every shared iso-parametric edge.
+
+    Returns
+    -------
+    set of int
+        The faces whose domain values changed.
+    """
+    adj: dict = {}
+    for a, b, fab, fba in _links(shell, faces, grids, max_angle_deg):
+        adj.setdefault(a, []).append((b, fab))
+        adj.setdefault(b, []).append((a, fba))
+    changed: set = set()
+    seen: set = set()
+
+    def values(node):
+        return np.asarray(grids[node[0]][node[1]], dtype=np.float64)
+
+    for start in sorted(adj, key=lambda nd: (-len(values(nd)), nd)):
+        if start in seen:
+            continue
+        # BFS tree from the node with the most values: maps node -> root and root -> node
+        to_root = {start: lambda x: np.asarray(x, dtype=np.float64)}
+        from_root = {start: lambda x: np.asarray(x, dtype=np.float64)}
+        order = [start]
+        seen.add(start)
+        queue = deque([start])
+        while queue:
+            p = queue.popleft()
+            for c, f_pc in adj[p]:
+                if c in seen:
+                    continue
+                f_cp = next(f for q, f in adj[c] if q == p)
+                to_root[c] = (lambda x, g=to_root[p], h=f_cp: g(h(x)))
+                from_root[c] = (lambda x, g=from_root[p], h=f_pc: _nan_safe(h, g(x)))
+                seen.add(c)
+                order.append(c)
+                queue.append(c)
+        if len(order) < 2:
+            continue
+        root_vals = values(start)
+        lo, hi = float(root_vals[0]), float(root_vals[-1])
+        mapped = {}
+        for nd in order:
+            v = values(nd)
+            inner = v[1:-1]                      # the grid box ends stay the face's own
+            r = to_root[nd](inner)
+            mapped[nd] = (v, inner, r)
+        sets = [r[np.isfinite(r)] for _, _, r in mapped.values()]
+        sets[0] = root_vals
+        common = merge_finest(sets, lo, hi)
+        for nd in order:
+            v, inner, r = mapped[nd]
+            back = from_root[nd](common[1:-1])
+            new = back[np.isfinite(back)]
+            # values outside the part of the face the edges cover (no image at the root) stay its own
+            own = inner[~np.isfinite(r)] if nd != start else np.zeros(0)
+            vals = np.unique(np.r_[v[0], own, new, v[-1]])
+            vals = vals[(vals >= v[0]) & (vals <= v[-1])]
+            vals = _drop_near(vals, v[0], v[-1])
+            if len(vals) != len(v) or np.any(vals != v):
+                fi, ax = nd
+                us, vs = grids[fi]
+                grids[fi] = (vals, vs) if ax == 0 else (us, vals)
+                changed.add(fi)
     return changed
+
+
+def _nan_safe(f, x):
+    x = np.asarray(x, dtype=np.float64)
+    out = np.full(len(x), np.nan)
+    ok = np.isfinite(x)
+    if ok.any():
+        out[ok] = f(x[ok])
+    return out
+
+
+def _drop_near(vals: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """Values closer than 1e-9 of the range to their predecessor removed (the ends kept)."""
+    if len(vals) < 3:
+        return vals
+    eps = 1e-9 * (hi - lo)
+    keep = np.r_[True, np.diff(vals) > eps]
+    out = vals[keep]
+    out[-1] = vals[-1]                 # the upper end stays exactly (it replaces a value just below it)
+    return out
