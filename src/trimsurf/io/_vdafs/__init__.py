@@ -57,9 +57,15 @@ Defects of real data (the paper, section 4.1: CATIA exports trim loops that
 are not closed and omits CONS of zero 3D length) are reported, not repaired:
 a trim loop with a gap, a CONS whose segments do not meet and a SURF whose
 patches do not meet are read with a :class:`~trimsurf.errors.TrimsurfWarning`
-naming the entity and the gap. References to missing entities, malformed
-numbers, truncated statements and broken records raise
-:class:`~trimsurf.errors.VdafsReadError` naming the file, line and entity.
+naming the entity and the gap. Each SURF's surface is a ``PatchGridSurface``
+carrying the reader's ``PatchGrid`` (its breakpoints as read and the gap
+between the shared boundary control points of every pair of adjacent
+patches): a SURF whose patches do not meet (their boundary rows are averaged)
+or whose breakpoints do not increase strictly (replaced by 0, 1, 2, ...) is
+still read, and `trimsurf.tessellate.repair` rejects the faces that use the
+broken part by name, so the rest of the file is tessellated. References to
+missing entities, malformed numbers, truncated statements and broken records
+raise :class:`~trimsurf.errors.VdafsReadError` naming the file, line and entity.
 
 Exactness
 ---------
@@ -110,7 +116,7 @@ References
    quality on car bodies" (``tessellation-reflection-lines.txt``), section 4.1.
 """
 
-from ._reader import read
+from ._reader import PatchGrid, PatchGridSurface, read
 from ._writer import write
 
-__all__ = ["read", "write"]
+__all__ = ["read", "write", "PatchGrid", "PatchGridSurface"]
