@@ -156,10 +156,32 @@ def _equidistributed(evaluate: LineFamily, a: float, b: float, tolerance: float,
     length, dev = interval_criteria(evaluate, x, n_sub=3, weights=w)
     need = np.maximum(length / max_edge, np.sqrt(dev / tolerance))
     cum = np.r_[0.0, np.cumsum(need)]
-    n = max(1, int(np.ceil(cum[-1] - 1e-9)))
-    values = np.interp(np.linspace(0.0, cum[-1], n + 1), cum, x) if cum[-1] > 0 else np.array([a, b])
-    values[0], values[-1] = a, b
-    return np.unique(values)
+    if not cum[-1] > 0:
+        return np.array([a, b])
+
+    def place(n: int) -> np.ndarray:
+        v = np.interp(np.linspace(0.0, cum[-1], n + 1), cum, x)
+        v[0], v[-1] = a, b
+        return np.unique(v)
+
+    def ok(v: np.ndarray) -> bool:
+        w = None if weights_fn is None else weights_fn(v)
+        ln, dv = interval_criteria(evaluate, v, weights=w)
+        return bool(np.all(ln <= max_edge) and np.all(dv <= tolerance))
+
+    # the smallest n whose equal-increment placement meets both criteria on every interval: from
+    # ceil(integral) up in steps of ~4 % (a failing placement is then bisected by the caller only
+    # when none up to 1.5 x passes); one line fewer is tried too, the integral rounds up
+    n0 = max(1, int(np.ceil(cum[-1] - 1e-9)))
+    if n0 > 1 and ok(place(n0 - 1)):
+        return place(n0 - 1)
+    n = n0
+    while n <= 1.5 * n0 + 2:
+        v = place(n)
+        if ok(v):
+            return v
+        n += max(1, int(0.04 * n))
+    return place(n0)
 
 
 def _uniform(evaluate: LineFamily, a: float, b: float, tolerance: float, max_edge: float, weights_fn) -> np.ndarray:

@@ -107,35 +107,80 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
         o = 1 - axis
         knots_o = s.knots_v if axis == 0 else s.knots_u
         lines[axis] = np.unique(np.r_[np.linspace(lo[o], hi[o], n_lines), _knots_in(knots_o, lo[o], hi[o])])
-    out = []
-    for axis in (0, 1):
-        o = 1 - axis
-        other = lines[axis]
-        knots = s.knots_u if axis == 0 else s.knots_v
 
-        def evaluate(x, axis=axis, other=other):
-            uv = np.empty((len(x), len(other), 2))
-            uv[..., axis] = x[:, None]
-            uv[..., 1 - axis] = other[None, :]
-            return s.evaluate(uv.reshape(-1, 2)).reshape(len(x), len(other), 3)
+    def place(line_tol: float):
+        out = []
+        for axis in (0, 1):
+            other = lines[axis]
+            knots = s.knots_u if axis == 0 else s.knots_v
 
-        weights_fn = None
-        if polys is not None:
-            def weights_fn(x, axis=axis, other=other):
-                xm = np.r_[x, 0.5 * (x[:-1] + x[1:])]
-                uv = np.empty((len(xm), len(other), 2))
-                uv[..., axis] = xm[:, None]
+            def evaluate(x, axis=axis, other=other):
+                uv = np.empty((len(x), len(other), 2))
+                uv[..., axis] = x[:, None]
                 uv[..., 1 - axis] = other[None, :]
-                ins = raster(uv.reshape(-1, 2)).reshape(len(xm), len(other))
-                n = len(x)
-                return ins[:n - 1] | ins[1:n] | ins[n:]
-        init = np.unique(np.r_[np.linspace(lo[axis], hi[axis], 17), _knots_in(knots, lo[axis], hi[axis])])
-        # grid size max_edge / sqrt(2): the cell diagonals (triangle edges) stay within max_edge
-        out.append(adaptive_values(evaluate, lo[axis], hi[axis], tolerance=tolerance,
-                                   max_edge=max_edge / np.sqrt(2.0), strategy=strategy, init=init,
-                                   weights_fn=weights_fn))
-    us, vs = out
-    return refine_cells(face, us, vs, tolerance=tolerance, max_edge=max_edge)
+                return s.evaluate(uv.reshape(-1, 2)).reshape(len(x), len(other), 3)
+
+            weights_fn = None
+            if polys is not None:
+                def weights_fn(x, axis=axis, other=other):
+                    xm = np.r_[x, 0.5 * (x[:-1] + x[1:])]
+                    uv = np.empty((len(xm), len(other), 2))
+                    uv[..., axis] = xm[:, None]
+                    uv[..., 1 - axis] = other[None, :]
+                    ins = raster(uv.reshape(-1, 2)).reshape(len(xm), len(other))
+                    n = len(x)
+                    return ins[:n - 1] | ins[1:n] | ins[n:]
+            init = np.unique(np.r_[np.linspace(lo[axis], hi[axis], 17), _knots_in(knots, lo[axis], hi[axis])])
+            # grid size max_edge / sqrt(2): the cell diagonals (triangle edges) stay within max_edge
+            out.append(adaptive_values(evaluate, lo[axis], hi[axis], tolerance=line_tol,
+                                       max_edge=max_edge / np.sqrt(2.0), strategy=strategy, init=init,
+                                       weights_fn=weights_fn))
+        return out
+
+    us, vs = place(tolerance)
+    if strategy == "uniform":
+        return refine_cells(face, us, vs, tolerance=tolerance, max_edge=max_edge)
+    # iso-lines within the tolerance still leave cells whose triangles deviate more (curvature in both
+    # directions adds up at a triangle's centre, plus the twist). Mid-lines through the bad cells
+    # (refine_cells) halve every row and column they cross and overshoot 4x; lines placed for the
+    # tolerance divided by the worst cell ratio r (about sqrt(r) x the lines) land near the tolerance.
+    # The grid with fewer cells wins.
+    best = refine_cells(face, us, vs, tolerance=tolerance, max_edge=max_edge)
+    r = _worst_cell_ratio(face, us, vs, tolerance, polys)
+    if r > 1.0:
+        alt = place(tolerance / (1.05 * r))
+        alt = refine_cells(face, alt[0], alt[1], tolerance=tolerance, max_edge=max_edge)
+        if (len(alt[0]) - 1) * (len(alt[1]) - 1) < (len(best[0]) - 1) * (len(best[1]) - 1):
+            best = alt
+    return best
+
+
+def _near_trim(us, vs, polys):
+    """Cells whose centre is inside the trim, dilated by one cell (those crossed by it count too),
+    and the cells of the interior (inside with all four neighbours)."""
+    ci = 0.5 * (us[:-1] + us[1:])
+    cj = 0.5 * (vs[:-1] + vs[1:])
+    cu, cv = np.meshgrid(ci, cj, indexing="ij")
+    ins = points_in_polygons(np.column_stack([cu.ravel(), cv.ravel()]), polys).reshape(len(ci), len(cj))
+    near = ins.copy()
+    near[1:] |= ins[:-1]
+    near[:-1] |= ins[1:]
+    near[:, 1:] |= ins[:, :-1]
+    near[:, :-1] |= ins[:, 1:]
+    interior = ins.copy()
+    interior[1:] &= ins[:-1]
+    interior[:-1] &= ins[1:]
+    interior[:, 1:] &= ins[:, :-1]
+    interior[:, :-1] &= ins[:, 1:]
+    return near, interior
+
+
+def _worst_cell_ratio(face: TrimmedFace, us, vs, tolerance: float, polys) -> float:
+    """Largest deviation / tolerance of the split cells at (or near) the trimmed region."""
+    dev = _cell_deviation(face.surface, us, vs, tolerance)[0]
+    if polys is not None:
+        dev = np.where(_near_trim(us, vs, polys)[0], dev, 0.0)
+    return float(dev.max(initial=0.0)) / tolerance
 
 
 def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance: float,
@@ -147,27 +192,14 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
     # the twist of the cells: split along the better diagonal, refine rows/columns where it fails;
     # the same for a diagonal longer than max_edge (split across its longer side)
     for _ in range(6):
-        dev, diag, diag_max, side_u, side_v, dev_max = _cell_deviation(s, us, vs, tolerance)
+        dev, diag, diag_max, side_u, side_v, _ = _cell_deviation(s, us, vs, tolerance)
         if polys is not None:
-            ci = 0.5 * (us[:-1] + us[1:])
-            cj = 0.5 * (vs[:-1] + vs[1:])
-            cu, cv = np.meshgrid(ci, cj, indexing="ij")
-            ins = points_in_polygons(np.column_stack([cu.ravel(), cv.ravel()]), polys).reshape(dev.shape)
-            # cells crossed by the trim count too: dilate by one cell
-            near = ins.copy()
-            near[1:] |= ins[:-1]
-            near[:-1] |= ins[1:]
-            near[:, 1:] |= ins[:, :-1]
-            near[:, :-1] |= ins[:, 1:]
+            # cells crossed by the trim count too (one cell dilation); in the band along the trim
+            # the CDT may use either diagonal: both must be short enough (its triangles that leave
+            # the tolerance get an interior point in mesh_face_from_chunks)
+            near, interior = _near_trim(us, vs, polys)
             dev = np.where(near, dev, 0.0)
-            # in the band along the trim the CDT may use either diagonal: both must be short enough
-            interior = ins.copy()
-            interior[1:] &= ins[:-1]
-            interior[:-1] &= ins[1:]
-            interior[:, 1:] &= ins[:, :-1]
-            interior[:, :-1] &= ins[:, 1:]
             diag = np.where(near & ~interior, diag_max, np.where(near, diag, 0.0))
-            # dev = np.where(near & ~interior, dev_max, dev)
         bad = dev > tolerance
         long = (diag > max_edge) & ~bad
         if not bad.any() and not long.any():
@@ -408,6 +440,7 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
 
     def split(ki, kj):
         return _cell_split(s, us, vs, ki, kj, tol, prefer, full=False)[0]
+
 
     trim_xyz = np.concatenate(xyzs)
 

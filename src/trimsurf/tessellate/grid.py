@@ -134,7 +134,7 @@ class DomainTriangulation:
 
 
 def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=None,
-                       extra=None) -> DomainTriangulation:
+                       extra=None, metric=None) -> DomainTriangulation:
     """Triangulate the region bounded by `polygons` on the grid us x vs (paper Sec. 4.3, 5.1).
 
     Parameters
@@ -153,6 +153,11 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
         triangle of a crossed cell left the tolerance); only those strictly inside a
         crossed cell and off the trim polygons' points are used. They follow the grid
         nodes in `uv` (``grid_node`` -1).
+    metric : (2,) float64 or None
+        3D length per unit of u and of v (e.g. mean |S_u|, |S_v|): the crossed cells'
+        Delaunay triangulation is computed in (u * metric[0], v * metric[1]), so that
+        it maximises the smallest angles nearly as in 3D; None: each axis scaled to the
+        box of the vertices.
 
     Returns
     -------
@@ -276,6 +281,11 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
         local[used] = np.arange(len(used))
         scale_lo = uv[used].min(axis=0)
         scale = np.maximum(uv[used].max(axis=0) - scale_lo, 1e-300)
+        if metric is not None:
+            m = np.asarray(metric, dtype=np.float64)
+            if np.all(np.isfinite(m)) and np.all(m > 0):
+                ext = scale * m
+                scale = scale * ext.max() / np.maximum(ext, 1e-300 * ext.max())
         res = tr.triangulate({"vertices": (uv[used] - scale_lo) / scale, "segments": local[seg]}, "pQ")
         out_v = res["vertices"] * scale + scale_lo
         out_t = res["triangles"].astype(np.int64)
