@@ -154,30 +154,3 @@ def test_seam_reduction_never_flips_against_surface_normal(shared_data):
     assert res.report["triangles"] < res.report["triangles_before_seam_reduction"]
     # the same figure the report's "flipped" shows
     assert flipped_against_normal(res.mesh, shell, reversed_faces=res.report.get("faces_flipped", ())) == 0
-
-
-def test_self_crossing_boundary_face_fails_by_name_not_silently(shared_data):
-    """bug32596 face 65: its boundary edges 20 and 56 run along each other and cross on the surface
-    (the p-curves agree with the 3D edge curves within 1e-3, so it is the model, not the B-spline
-    conversion). Cutting out the smaller sub-loop used to leave a spike of the face 0.62 uncovered
-    (10x the tolerance): now the face is reported failed by name and skipped, and the rest of the
-    model stays within the tolerance, measured by the package's `measure` module."""
-    from trimsurf.tessellate.measure import measure_mesh
-
-    shell = read_shell(shared_data / "cad" / "occtpr946__bug32596_abc_0_13.step")
-    res = tessellate_shell(shell, measure=False)
-    assert [f.index for f in res.failed_faces] == [65]
-    msg = res.faces[65].messages[-1]
-    assert "face 65" in msg and "edge 20 and edge 56" in msg and "cannot be repaired" in msg
-    assert res.mesh.n_triangles > 10000 and 65 not in set(res.mesh.face_id.tolist())
-    # the report's figures (same module, same sampling) around the hole: face 65 and its neighbours
-    around = [2, 7, 43, 53, 54]
-    sub = res.mesh.submesh(np.isin(res.mesh.face_id, around))
-    assert sub.n_triangles > 100
-    others = [i for i in range(len(shell.faces)) if i not in around]
-    m = measure_mesh(sub, shell, skipped_faces=others)
-    assert m["uncovered_faces"] == others          # 65 among them: listed, not meshed
-    assert 0.0 < m["max_deviation"] <= res.tolerance
-    assert m["flipped"] == 0
-    # an uncovered face that was not skipped on purpose still counts as infinitely far
-    assert measure_mesh(sub, shell, skipped_faces=[i for i in others if i != 65])["max_deviation"] == np.inf

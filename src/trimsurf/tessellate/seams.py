@@ -10,6 +10,14 @@ is collapsed into the seam neighbour u at the shorter seam edge when
 * the link condition holds (u and v share exactly the two opposite vertices), so the mesh stays 2-manifold.
 
 Shortest edges first; a vertex next to a collapse waits for the next round.
+Each round picks collapses whose stars do not overlap and tests them all at
+once (one surface evaluation per face), so the checks are batched numpy.
+
+A last pass removes triangles still flipped against the surface normal (e.g.
+the tip of a face narrower than the tolerance, between two nearly coincident
+trims, where the trims' own chords turn the corner's triangle over) by
+collapsing one of their seam edges under the same checks, with the chord
+bound relaxed to the tolerance.
 """
 
 from __future__ import annotations
@@ -26,11 +34,6 @@ _COS_FLIP = 0.5   # a triangle whose normal turns by more than 60 degrees counts
 _BARY = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.5]])
 
 
-def _triangle_dev(surface, uv3: np.ndarray, x3: np.ndarray) -> float:
-    """max |S(uv(b)) - x(b)| over the centroid and edge midpoints of one triangle."""
-    return float(np.linalg.norm(surface.evaluate(_BARY @ uv3) - _BARY @ x3, axis=1).max())
-
-
 def _uv_area(q):
     """Signed doubled area of (m, 3, 2) triangles in the (u, v) domain."""
     return ((q[:, 1, 0] - q[:, 0, 0]) * (q[:, 2, 1] - q[:, 0, 1])
@@ -39,53 +42,6 @@ def _uv_area(q):
 
 # sample points of a triangle for the orientation test: centroid and the three corners
 _ORIENT_BARY = np.array([[1 / 3, 1 / 3, 1 / 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
-
-
-def _moved_uv_dev(cuv, T, fid, moved, gone, newt, u, v, V, surfaces):
-    """(u, v) corners and surface deviation of the triangles `moved` after collapsing v into u.
-
-    Vertex v takes u's (u, v) from the collapsed triangle of the same face. Returns
-    (None, None) when a moved triangle has no collapsed triangle on its face or v's
-    (u, v) differs between them (a periodic seam). Evaluated per face, vectorized.
-    """
-    moved = np.asarray(moved, dtype=np.int64)
-    gone = np.asarray(gone, dtype=np.int64)
-    match = fid[gone][None, :] == fid[moved][:, None]
-    if not match.any(axis=1).all():
-        return None, None
-    src = gone[match.argmax(axis=1)]
-    ts, tm = T[src], T[moved]
-    if not (np.allclose(cuv[src][ts == v], cuv[moved][tm == v])):
-        return None, None
-    new_uv = cuv[moved].copy()
-    new_uv[tm == v] = cuv[src][ts == u]
-    new_dev = np.empty(len(moved))
-    xs = V[newt]
-    for f in np.unique(fid[moved]):
-        r = np.flatnonzero(fid[moved] == f)
-        pts = np.einsum("bj,rjk->rbk", _BARY, new_uv[r]).reshape(-1, 2)
-        ref = np.einsum("bj,rjk->rbk", _BARY, xs[r]).reshape(-1, 3)
-        d = np.linalg.norm(surfaces[int(f)].evaluate(pts) - ref, axis=1).reshape(len(r), -1)
-        new_dev[r] = d.max(axis=1)
-    return new_uv, new_dev
-
-
-def _faces_normal_ok(faces, face_of, uv3, tri_normals) -> bool:
-    """True when no triangle's 3D normal points against its face's oriented surface normal.
-
-    Tested at the (u, v) centroid and the three corners of every triangle (points
-    where the surface normal is undefined, e.g. a pole, are skipped), per face, vectorized.
-    """
-    for f in np.unique(face_of):
-        r = np.flatnonzero(face_of == f)
-        pts = np.einsum("bj,rjk->rbk", _ORIENT_BARY, uv3[r]).reshape(-1, 2)
-        with np.errstate(all="ignore"):
-            ns = np.asarray(faces[int(f)].oriented_normals(pts), dtype=np.float64).reshape(len(r), -1, 3)
-            dot = np.einsum("rbk,rk->rb", ns, tri_normals[r])
-            valid = np.isfinite(dot) & (np.linalg.norm(ns, axis=2) > 0.5)
-        if np.any(valid & ~(dot > 0)):
-            return False
-    return True
 
 
 def _normals(V, T):
@@ -107,8 +63,196 @@ def _seam_graph(mesh: TriMesh):
     return edges[seam]
 
 
+def _per_face_dev(surfaces, face_of, uv3, x3):
+    """max |S(uv(b)) - x(b)| over the centroid and edge midpoints of each triangle: one evaluation per face."""
+    out = np.empty(len(face_of))
+    for f in np.unique(face_of):
+        r = np.flatnonzero(face_of == f)
+        pts = np.einsum("bj,rjk->rbk", _BARY, uv3[r]).reshape(-1, 2)
+        ref = np.einsum("bj,rjk->rbk", _BARY, x3[r]).reshape(-1, 3)
+        out[r] = np.linalg.norm(surfaces[int(f)].evaluate(pts) - ref, axis=1).reshape(len(r), -1).max(axis=1)
+    return out
+
+
+def _against_normal(faces, face_of, uv3, tri_normals, bary=_ORIENT_BARY):
+    """Per triangle: its 3D normal points against its face's oriented surface normal at a sample point.
+
+    Sample points (`bary`): by default the (u, v) centroid and the three corners;
+    points where the surface normal is undefined (a pole) are skipped. One
+    evaluation per face.
+    """
+    bad = np.zeros(len(face_of), dtype=bool)
+    for f in np.unique(face_of):
+        r = np.flatnonzero(face_of == f)
+        pts = np.einsum("bj,rjk->rbk", bary, uv3[r]).reshape(-1, 2)
+        with np.errstate(all="ignore"):
+            ns = np.asarray(faces[int(f)].oriented_normals(pts), dtype=np.float64).reshape(len(r), -1, 3)
+            dot = np.einsum("rbk,rk->rb", ns, tri_normals[r])
+            valid = np.isfinite(dot) & (np.linalg.norm(ns, axis=2) > 0.5)
+        bad[r] = np.any(valid & ~(dot > 0), axis=1)
+    return bad
+
+
+class _State:
+    """The mesh being reduced: triangles (with ``alive``), deviation bounds and corner (u, v)."""
+
+    def __init__(self, mesh, tolerance, tri_dev, max_edge, corner_uv, surfaces, faces):
+        self.V = mesh.vertices
+        self.T = mesh.triangles.copy()
+        self.fid = mesh.face_id.copy()
+        self.dev = np.zeros(len(self.T)) if tri_dev is None else np.asarray(tri_dev, dtype=np.float64).copy()
+        self.cuv = (None if corner_uv is None or surfaces is None
+                    else np.asarray(corner_uv, dtype=np.float64).copy())
+        self.surfaces, self.faces = surfaces, faces
+        self.alive = np.ones(len(self.T), dtype=bool)
+        self.tolerance, self.max_edge = float(tolerance), max_edge
+
+    def seam(self):
+        """Seam edges (k, 2) of the alive triangles."""
+        a = self.alive
+        return _seam_graph(TriMesh(self.V, self.T[a], face_id=self.fid[a]))
+
+    def round(self, seam, cands, chord_tol, skip, uv_check: bool = True) -> int:
+        """Try the directed collapses `cands` (v into u, in order) whose stars do not overlap; apply the good.
+
+        Collapses that fail a check are added to `skip` (never tried again).
+        ``uv_check=False`` drops the (u, v) orientation test (the 3D one stays): where
+        two trims of a face are closer than the tolerance their chords in (u, v) and in
+        3D can disagree on a corner's orientation. Returns the number of collapses done.
+        """
+        V, T, fid, alive = self.V, self.T, self.fid, self.alive
+        nv = len(V)
+        deg = np.bincount(seam.ravel(), minlength=nv)
+        # the two seam neighbours of every degree-2 seam vertex
+        both = np.r_[seam, seam[:, ::-1]]
+        both = both[np.argsort(both[:, 0], kind="stable")]
+        first = np.searchsorted(both[:, 0], np.arange(nv))
+        # vertex -> alive triangles (CSR)
+        ia = np.flatnonzero(alive)
+        flat = T[ia].ravel()
+        order = np.argsort(flat, kind="stable")
+        vstart = np.searchsorted(flat[order], np.arange(nv + 1))
+        vtri = ia[order // 3]
+        Tl = T.tolist()
+        locked = np.zeros(nv, dtype=bool)
+        sel = []        # (v, u, moved, gone)
+        for v, u in cands:
+            if (v, u) in skip or deg[v] != 2 or locked[v] or locked[u]:
+                continue
+            n0, n1 = int(both[first[v], 1]), int(both[first[v] + 1, 1])
+            if u not in (n0, n1):
+                continue
+            w = n1 if u == n0 else n0
+            tv = vtri[vstart[v]:vstart[v + 1]].tolist()
+            star = {x for k in tv for x in Tl[k]}
+            if any(locked[x] for x in star):
+                continue
+            if len({int(fid[k]) for k in tv}) != 2:
+                skip.add((v, u))
+                continue
+            # deviation: v within chord_tol of the new seam chord (u, w)
+            pu, pw, pv = V[u], V[w], V[v]
+            d = pw - pu
+            den = float(d @ d)
+            s = 0.0 if den <= 0 else min(max(float((pv - pu) @ d) / den, 0.0), 1.0)
+            if float(np.linalg.norm(pv - (pu + s * d))) > chord_tol:
+                skip.add((v, u))
+                continue
+            # link condition: u and v share exactly two neighbours (the two opposite vertices)
+            tu = vtri[vstart[u]:vstart[u + 1]].tolist()
+            nu = {x for k in tu for x in Tl[k]} - {u}
+            if len((star - {v}) & nu) != 2:
+                skip.add((v, u))
+                continue
+            gone = [k for k in tv if u in Tl[k]]
+            moved = [k for k in tv if u not in Tl[k]]
+            if len(gone) != 2:
+                skip.add((v, u))
+                continue
+            sel.append((v, u, moved, gone))
+            locked[list(star)] = True
+        if not sel:
+            return 0
+        ok = self._check(sel, uv_check)
+        for (v, u, _, _), good in zip(sel, ok):
+            if not good:
+                skip.add((v, u))
+        return int(np.count_nonzero(ok))
+
+    def _check(self, sel, uv_check: bool = True) -> np.ndarray:
+        """Batched tests of the selected collapses; applies the ones that pass. Returns (s,) bool."""
+        V, T, fid = self.V, self.T, self.fid
+        ns = len(sel)
+        cv = np.array([x[0] for x in sel], dtype=np.int64)
+        cu = np.array([x[1] for x in sel], dtype=np.int64)
+        mi = np.array([k for x in sel for k in x[2]], dtype=np.int64)
+        ci = np.repeat(np.arange(ns), [len(x[2]) for x in sel])
+        gone = np.array([x[3] for x in sel], dtype=np.int64)          # (s, 2)
+        bad = np.zeros(ns, dtype=bool)
+        oldt = T[mi]
+        newt = np.where(oldt == cv[ci, None], cu[ci, None], oldt)
+        old = _normals(V, oldt)
+        new = _normals(V, newt)
+        ln_old = np.linalg.norm(old, axis=1)
+        ln_new = np.linalg.norm(new, axis=1)
+        ref = np.zeros(ns)
+        np.maximum.at(ref, ci, ln_old)
+        fail = ln_new <= 1e-12 * np.maximum(ref[ci], 1e-300)
+        cos = np.einsum("ij,ij->i", old, new) / np.maximum(ln_old * ln_new, 1e-300)
+        fail |= cos < _COS_FLIP
+        if self.max_edge < np.inf:
+            pn = V[newt]
+            fail |= np.linalg.norm(pn - np.roll(pn, 1, axis=1), axis=2).max(axis=1) > self.max_edge
+        if self.cuv is None:
+            shift = np.linalg.norm(V[cu] - V[cv], axis=1)
+            new_dev = self.dev[mi] + shift[ci]
+            new_uv = None
+        else:
+            cuv = self.cuv
+            # v takes u's (u, v) from the collapsed triangle of the same face
+            g0, g1 = gone[ci, 0], gone[ci, 1]
+            src = np.where(fid[g0] == fid[mi], g0, np.where(fid[g1] == fid[mi], g1, -1))
+            nosrc = src < 0
+            src = np.where(nosrc, g0, src)
+            ts = T[src]
+            at_v_src = ts == cv[ci, None]
+            at_u_src = ts == cu[ci, None]
+            at_v = oldt == cv[ci, None]
+            uv_v_src = np.einsum("mc,mck->mk", at_v_src.astype(float), cuv[src])
+            uv_u_src = np.einsum("mc,mck->mk", at_u_src.astype(float), cuv[src])
+            uv_v = np.einsum("mc,mck->mk", at_v.astype(float), cuv[mi])
+            # v's (u, v) must agree between the triangles (else a periodic seam)
+            nosrc |= ~np.all(np.abs(uv_v_src - uv_v) <= 1e-8 + 1e-5 * np.abs(uv_v), axis=1)
+            fail |= nosrc
+            new_uv = np.where(at_v[..., None], uv_u_src[:, None, :], cuv[mi])
+            new_dev = _per_face_dev(self.surfaces, fid[mi], new_uv, V[newt])
+            # no triangle may turn over in its face's (u, v) domain ...
+            if uv_check:
+                fail |= np.sign(_uv_area(new_uv)) != np.sign(_uv_area(cuv[mi]))
+            # ... nor against the oriented surface normal in 3D (what `measure` counts as flipped)
+            if self.faces is not None:
+                fail |= _against_normal(self.faces, fid[mi], new_uv, new)
+        fail |= ~(new_dev <= self.tolerance)
+        bad[ci[fail]] = True
+        ok = ~bad
+        apply = ok[ci]
+        T[mi[apply]] = newt[apply]
+        self.dev[mi[apply]] = new_dev[apply]
+        if new_uv is not None:
+            self.cuv[mi[apply]] = new_uv[apply]
+        self.alive[gone[ok].ravel()] = False
+        return ok
+
+    def flipped(self) -> np.ndarray:
+        """Alive triangles whose normal points against their face's oriented normal at the (u, v) centroid."""
+        idx = np.flatnonzero(self.alive)
+        bad = _against_normal(self.faces, self.fid[idx], self.cuv[idx], _normals(self.V, self.T[idx]),
+                              bary=_ORIENT_BARY[:1])
+        return idx[bad]
+
+
 def reduce_seams(mesh: TriMesh, tolerance: float, *, tri_dev=None, max_edge: float = np.inf,
-                 corner_uv=None, surfaces=None, faces=None, max_rounds: int = 4, short: float = 0.5,
+                 corner_uv=None, surfaces=None, faces=None, max_rounds: int = 6, short: float = 0.5,
                  return_kept: bool = False):
     """Collapse short seam edges within `tolerance`; returns the reduced mesh and the number of collapses.
 
@@ -133,120 +277,54 @@ def reduce_seams(mesh: TriMesh, tolerance: float, *, tri_dev=None, max_edge: flo
         One per face id, with `corner_uv`: a collapse is accepted only if every
         triangle around the collapsed edge keeps its 3D normal on the side of
         its face's oriented surface normal (the `measure` module's flip test),
-        besides keeping its orientation in (u, v).
+        besides keeping its orientation in (u, v); and triangles flipped
+        against the normal are removed by collapsing a seam edge of theirs.
     short : float
         Only seam edges shorter than `short` times the median seam edge are collapsed.
     """
     if mesh.face_id is None or not mesh.n_triangles:
         return (mesh, 0, np.ones(mesh.n_triangles, dtype=bool)) if return_kept else (mesh, 0)
-    V, T, fid = mesh.vertices, mesh.triangles.copy(), mesh.face_id.copy()
-    dev = np.zeros(len(T)) if tri_dev is None else np.asarray(tri_dev, dtype=np.float64).copy()
-    cuv = None if corner_uv is None or surfaces is None else np.asarray(corner_uv, dtype=np.float64).copy()
-    alive = np.ones(len(T), dtype=bool)
+    st = _State(mesh, tolerance, tri_dev, max_edge, corner_uv, surfaces, faces)
+    V = st.V
     total = 0
+    skip: set = set()
     for _ in range(max_rounds):
-        m = TriMesh(V, T[alive], face_id=fid[alive])
-        seam = _seam_graph(m)
+        seam = st.seam()
         if not len(seam):
             break
-        # seam neighbours per vertex
-        deg = np.bincount(seam.ravel(), minlength=len(V))
         length = np.linalg.norm(V[seam[:, 0]] - V[seam[:, 1]], axis=1)
         limit = short * float(np.median(length))
-        cand = np.argsort(length)
-        cand = cand[length[cand] < limit]
-        if not len(cand):
+        e = np.argsort(length)
+        e = e[length[e] < limit]
+        if not len(e):
             break
-        nbr: dict = {}
-        for a, b in seam.tolist():
-            nbr.setdefault(a, []).append(b)
-            nbr.setdefault(b, []).append(a)
-        # vertex -> triangles, only for the triangles at a seam vertex (the only ones a collapse touches)
-        on_seam = np.zeros(len(V), dtype=bool)
-        on_seam[seam.ravel()] = True
-        idx = np.flatnonzero(alive & on_seam[T].any(axis=1))
-        near = np.zeros(len(V), dtype=bool)
-        near[T[idx].ravel()] = True
-        idx = np.flatnonzero(alive & near[T].any(axis=1))
-        vt: dict = {}
-        for k, t in zip(idx.tolist(), T[idx].tolist()):
-            for x in t:
-                vt.setdefault(x, []).append(k)
-        locked = set()
-        n_round = 0
-        for e in cand.tolist():
-            for v, u in ((int(seam[e, 0]), int(seam[e, 1])), (int(seam[e, 1]), int(seam[e, 0]))):
-                if v in locked or u in locked or deg[v] != 2:
-                    continue
-                w = [x for x in nbr[v] if x != u]
-                if len(w) != 1:
-                    continue
-                w = w[0]
-                tv = [k for k in vt.get(v, []) if alive[k]]
-                if len({int(fid[k]) for k in tv}) != 2:
-                    continue
-                # deviation: v within tolerance of the new seam chord (u, w)
-                pu, pw, pv = V[u], V[w], V[v]
-                d = pw - pu
-                den = float(d @ d)
-                s = 0.0 if den <= 0 else min(max(float((pv - pu) @ d) / den, 0.0), 1.0)
-                if np.linalg.norm(pv - (pu + s * d)) > 0.25 * tolerance:
-                    continue
-                # link condition: u and v share exactly two neighbours (the two opposite vertices)
-                tu = [k for k in vt.get(u, []) if alive[k]]
-                nv = {x for k in tv for x in T[k]} - {v}
-                nu = {x for k in tu for x in T[k]} - {u}
-                if len(nv & nu) != 2:
-                    continue
-                gone = [k for k in tv if u in T[k]]
-                moved = [k for k in tv if u not in T[k]]
-                if len(gone) != 2:
-                    continue
-                old = _normals(V, T[moved])
-                newt = T[moved].copy()
-                newt[newt == v] = u
-                new = _normals(V, newt)
-                ln_old = np.linalg.norm(old, axis=1)
-                ln_new = np.linalg.norm(new, axis=1)
-                if np.any(ln_new <= 1e-12 * max(float(ln_old.max(initial=0.0)), 1e-300)):
-                    continue
-                cos = np.einsum("ij,ij->i", old, new) / np.maximum(ln_old * ln_new, 1e-300)
-                if np.any(cos < _COS_FLIP):
-                    continue
-                if max_edge < np.inf:
-                    pn = V[newt]
-                    if np.linalg.norm(pn - np.roll(pn, 1, axis=1), axis=2).max() > max_edge:
-                        continue
-                if cuv is None:
-                    shift = float(np.linalg.norm(V[u] - V[v]))
-                    new_dev = dev[moved] + shift
-                else:
-                    new_uv, new_dev = _moved_uv_dev(cuv, T, fid, moved, gone, newt, u, v, V, surfaces)
-                    if new_uv is None:
-                        continue
-                    # no triangle may turn over in its face's (u, v) domain ...
-                    if np.any(np.sign(_uv_area(new_uv)) != np.sign(_uv_area(cuv[moved]))):
-                        continue
-                    # ... nor against the oriented surface normal in 3D (what `measure` counts as flipped)
-                    if faces is not None and not _faces_normal_ok(faces, fid[moved], new_uv, new):
-                        continue
-                if new_dev.max(initial=0.0) > tolerance:
-                    continue
-                dev[moved] = new_dev
-                if cuv is not None:
-                    cuv[moved] = new_uv
-                # collapse
-                T[moved] = newt
-                alive[gone] = False
-                for k in moved:
-                    vt.setdefault(u, []).append(k)
-                locked.update({u, v, w})
-                n_round += 1
-                break
+        pairs = np.stack([seam[e], seam[e, ::-1]], axis=1).reshape(-1, 2).tolist()
+        n_round = st.round(seam, [(a, b) for a, b in pairs], 0.25 * tolerance, skip)
         total += n_round
         if not n_round:
             break
-    T, fid = T[alive], fid[alive]
+    if st.cuv is not None and faces is not None:
+        skip = set()
+        for _ in range(3):
+            bad = st.flipped()
+            if not len(bad):
+                break
+            seam = st.seam()
+            if not len(seam):
+                break
+            key = seam[:, 0] * len(V) + seam[:, 1]
+            cands = []
+            for t in st.T[bad].tolist():
+                for c in range(3):
+                    a, b = t[c], t[(c + 1) % 3]
+                    k = min(a, b) * len(V) + max(a, b)
+                    if np.any(key == k):
+                        cands += [(a, b), (b, a)]
+            n_round = st.round(seam, cands, tolerance, skip, uv_check=False) if cands else 0
+            total += n_round
+            if not n_round:
+                break
+    T, fid, alive = st.T[st.alive], st.fid[st.alive], st.alive
     used, inv = np.unique(T, return_inverse=True)
     out = TriMesh(V[used], inv.reshape(-1, 3), face_id=fid)
     return (out, total, alive) if return_kept else (out, total)

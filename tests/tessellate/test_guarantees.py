@@ -1,0 +1,81 @@
+"""The issue's guarantees measured on real data: no triangle flipped against the surface normal, within
+tolerance, 2-manifold; seam reduction never trades one of them for fewer triangles."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from trimsurf.io import read_shell
+from trimsurf.model import Shell
+from trimsurf.tessellate import default_parameters, tessellate_shell
+from trimsurf.tessellate.measure import flipped_against_normal, measure_mesh
+
+BUG32596 = "occtpr946__bug32596_abc_0_13.step"
+
+
+def _sub_shell(shell: Shell, keep) -> Shell:
+    """The faces `keep` of `shell` with their shared edges (edge indices kept: loops refer to them)."""
+    keep = sorted(keep)
+    new = {f: i for i, f in enumerate(keep)}
+    edges = [replace(e, uses=tuple((new[f], li, si) for f, li, si in e.uses if f in new)) for e in shell.edges]
+    return Shell(tuple(shell.faces[i] for i in keep), tuple(edges), shell.vertices, name=shell.name)
+
+
+@pytest.fixture(scope="module")
+def bug32596(shared_data):
+    return read_shell(shared_data / "cad" / BUG32596)
+
+
+@pytest.fixture(scope="module")
+def thin_tips(bug32596):
+    """bug32596 faces 3, 4, 13 and 65 (0.009 wide in u) end in tips where their two trims are closer
+    than the tolerance; with their neighbours, at the whole model's tolerance and grid size."""
+    tips = [3, 4, 13, 65]
+    adj = bug32596.adjacency()
+    keep = set(tips).union(*(adj[f] for f in tips))
+    sub = _sub_shell(bug32596, keep)
+    tol, h = default_parameters(bug32596)
+    res = tessellate_shell(sub, tolerance=tol, max_edge=h, measure=False)
+    return sub, res, [sorted(keep).index(f) for f in tips]
+
+
+def test_thin_face_tips_not_flipped(thin_tips):
+    """At each tip the triangle between the last trim points had its 3D normal against the surface's
+    (the two trims' chords cross over in 3D while they do not in (u, v)); no triangulation with those
+    boundary edges avoids it, so seam reduction collapses a seam edge of it (4 -> 0 flipped)."""
+    sub, res, tips = thin_tips
+    assert res.mode == "conforming" and res.ok
+    fid = res.mesh.face_id
+    assert all(np.count_nonzero(fid == f) > 10 for f in tips)         # the tip faces are tessellated
+    assert flipped_against_normal(res.mesh, sub) == 0
+    m = measure_mesh(res.mesh, sub)
+    assert m["flipped"] == 0
+    assert m["max_deviation"] <= res.tolerance
+    assert m["nonmanifold_edges"] == 0 and m["orientation_consistent"]
+
+
+def test_tips_stay_flipped_without_seam_reduction(thin_tips):
+    """Without seam reduction the tips stay flipped: its repair pass is what removes them."""
+    sub, res, _ = thin_tips
+    plain = tessellate_shell(sub, tolerance=res.tolerance, max_edge=res.max_edge, reduce_seams=False,
+                             measure=False)
+    assert flipped_against_normal(plain.mesh, sub) > 0
+
+
+def test_bug32596_whole_model(bug32596):
+    """Closed model: watertight, 2-manifold, oriented, within tolerance, no flips; face 65 (edges 20
+    and 56 cross on the surface) meshed, not skipped; face 11 (normals jump 141 degrees across a patch
+    boundary) flagged by name."""
+    res = tessellate_shell(bug32596)
+    r = res.report
+    assert res.ok and r["faces_failed"] == 0
+    assert 65 in set(res.mesh.face_id.tolist())
+    assert [f.index for f in res.faces if f.status == "flagged"] == [11]
+    assert "not G1" in res.faces[11].messages[-1]
+    assert r["boundary_edges"] == 0 and r["nonmanifold_edges"] == 0 and r["orientation_consistent"]
+    assert r["flipped"] == 0
+    assert r["uncovered_faces"] == []
+    assert r["max_deviation"] <= res.tolerance
