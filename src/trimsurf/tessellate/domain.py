@@ -39,7 +39,7 @@ STRATEGIES = ("equidistributed", "bisection", "uniform")
 
 LineFamily = Callable[[np.ndarray], np.ndarray]
 
-_N_SUB = 6          # sub-samples per interval when an interval is checked
+_N_SUB = 7          # sub-samples per interval when an interval is checked (odd: the midpoint too)
 _MAX_ROUNDS = 12    # checking / bisection rounds
 
 

@@ -230,15 +230,22 @@ def _cell_split(surface, us, vs, ki, kj, tolerance: float | None = None, prefer_
     uv = np.stack([np.column_stack([u0, v0]), np.column_stack([u1, v0]), np.column_stack([u1, v1]),
                    np.column_stack([u0, v1]), np.column_stack([0.5 * (u0 + u1), 0.5 * (v0 + v1)])], axis=1)
     p = surface.evaluate(uv.reshape(-1, 2)).reshape(-1, 5, 3)
-    c = p[:, 4]
-    d_main = np.linalg.norm(0.5 * (p[:, 0] + p[:, 2]) - c, axis=1)
-    d_anti = np.linalg.norm(0.5 * (p[:, 1] + p[:, 3]) - c, axis=1)
+    # distance of each diagonal's midpoint from the surface (to the foot point, not to S(centre):
+    # the tangential offset of a non-uniform parameterization is no misfit)
+    cuv = np.repeat(uv[:, 4], 2, axis=0)
+    mids = np.stack([0.5 * (p[:, 0] + p[:, 2]), 0.5 * (p[:, 1] + p[:, 3])], axis=1).reshape(-1, 3)
+    d = surface_distance(surface, cuv, mids, steps=1).reshape(-1, 2)
+    d_main, d_anti = d[:, 0], d[:, 1]
     if tolerance is None:
         main = d_main <= d_anti
     else:
         pref = bool(d_main.sum() <= d_anti.sum()) if prefer_main is None else bool(prefer_main)
         d_pref, d_other = (d_main, d_anti) if pref else (d_anti, d_main)
-        switch = (d_pref > 0.5 * tolerance) & (d_other < d_pref)
+        # switch only by a clear margin (where both fit alike, e.g. on a cylinder, a near tie must not
+        # flip the direction from cell to cell: the reflection lines would wander), or to keep the
+        # tolerance
+        switch = (((d_pref > 0.5 * tolerance) & (d_other < 0.8 * d_pref))
+                  | ((d_pref > 0.9 * tolerance) & (d_other < 0.98 * d_pref)))
         main = np.where(switch, not pref, pref)
     if not full:
         return (main,)
@@ -267,9 +274,10 @@ def _prefer_main(surface, us, vs) -> bool:
     uv = np.stack([np.column_stack([u0, v0]), np.column_stack([u1, v0]), np.column_stack([u1, v1]),
                    np.column_stack([u0, v1]), np.column_stack([0.5 * (u0 + u1), 0.5 * (v0 + v1)])], axis=1)
     p = surface.evaluate(uv.reshape(-1, 2)).reshape(-1, 5, 3)
-    d_main = np.linalg.norm(0.5 * (p[:, 0] + p[:, 2]) - p[:, 4], axis=1).sum()
-    d_anti = np.linalg.norm(0.5 * (p[:, 1] + p[:, 3]) - p[:, 4], axis=1).sum()
-    return bool(d_main <= d_anti)
+    cuv = np.repeat(uv[:, 4], 2, axis=0)
+    mids = np.stack([0.5 * (p[:, 0] + p[:, 2]), 0.5 * (p[:, 1] + p[:, 3])], axis=1).reshape(-1, 3)
+    d = surface_distance(surface, cuv, mids, steps=1).reshape(-1, 2).sum(axis=0)
+    return bool(d[0] <= d[1])
 
 
 def _cell_deviation(surface, us, vs, tolerance=None):
@@ -451,7 +459,7 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
             xyz[dt.n_trim:] = s.evaluate(dt.uv[dt.n_trim:])
         return xyz
 
-    dt = triangulate_domain(us, vs, polys, split=split)
+    dt = triangulate_domain(us, vs, polys, split=split, tie_main=prefer)
     xyz = lift(dt)
     if tol is not None:
         # the CDT of a crossed cell cuts it other than the cell splits refine_cells checked: where one
@@ -465,7 +473,7 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
                 break
             extra = np.concatenate([extra, dt.uv[dt.triangles[bad]].mean(axis=1)])
             n_before = len(dt.uv)
-            dt = triangulate_domain(us, vs, polys, split=split, extra=extra)
+            dt = triangulate_domain(us, vs, polys, split=split, extra=extra, tie_main=prefer)
             xyz = lift(dt)
             if len(dt.uv) == n_before:
                 break

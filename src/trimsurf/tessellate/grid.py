@@ -134,7 +134,7 @@ class DomainTriangulation:
 
 
 def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=None,
-                       extra=None, metric=None) -> DomainTriangulation:
+                       extra=None, metric=None, tie_main: bool | None = None) -> DomainTriangulation:
     """Triangulate the region bounded by `polygons` on the grid us x vs (paper Sec. 4.3, 5.1).
 
     Parameters
@@ -153,6 +153,12 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
         triangle of a crossed cell left the tolerance); only those strictly inside a
         crossed cell and off the trim polygons' points are used. They follow the grid
         nodes in `uv` (``grid_node`` -1).
+    tie_main : bool or None
+        How the Delaunay triangulation of the crossed cells breaks ties (four
+        cocircular points, as every rectangular cell's corners are): True toward the
+        diagonal (i,j)-(i+1,j+1), False toward the other, None: Triangle's choice.
+        A consistent direction keeps reflection lines from wandering where the
+        trims run along grid lines (a strip of crossed cells).
     metric : (2,) float64 or None
         3D length per unit of u and of v (e.g. mean |S_u|, |S_v|): the crossed cells'
         Delaunay triangulation is computed in (u * metric[0], v * metric[1]), so that
@@ -286,8 +292,17 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
             if np.all(np.isfinite(m)) and np.all(m > 0):
                 ext = scale * m
                 scale = scale * ext.max() / np.maximum(ext, 1e-300 * ext.max())
-        res = tr.triangulate({"vertices": (uv[used] - scale_lo) / scale, "segments": local[seg]}, "pQ")
-        out_v = res["vertices"] * scale + scale_lo
+        n_q = len(used)
+        q = (uv[used] - scale_lo) / scale
+        shear = 0.0 if tie_main is None else (-1e-3 if tie_main else 1e-3)
+        if shear:       # u += shear * v: every rectangle turns into a parallelogram, its shorter diagonal wins
+            q = np.column_stack([q[:, 0] + shear * q[:, 1], q[:, 1]])
+        res = tr.triangulate({"vertices": q, "segments": local[seg]}, "pQ")
+        out_v = res["vertices"]
+        if shear:
+            out_v = np.column_stack([out_v[:, 0] - shear * out_v[:, 1], out_v[:, 1]])
+        out_v = out_v * scale + scale_lo
+        out_v[:n_q] = uv[used]          # the input points exactly as given
         out_t = res["triangles"].astype(np.int64)
         n_in = len(used)
         glob = np.r_[used, len(uv) + np.arange(len(out_v) - n_in)]

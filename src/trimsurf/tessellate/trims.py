@@ -18,7 +18,10 @@ import numpy as np
 from ..model import NurbsSurface, PCurve
 from .domain import adaptive_values, interval_criteria
 
-__all__ = ["ChunkUse", "Chunk", "discretize_chunk", "iso_crossings"]
+__all__ = ["ChunkUse", "Chunk", "discretize_chunk", "iso_crossings", "SHARED_CHORD"]
+
+#: chord tolerance of a shared edge, times the tolerance (the rest is the seam reduction's)
+SHARED_CHORD = 0.75
 
 
 @dataclass(eq=False)
@@ -159,6 +162,9 @@ def discretize_chunk(uses: list, *, tolerance: float, max_edge: float, strategy:
     Chunk
     """
     evaluate = _evaluator(uses)
+    # a shared edge (two uses) keeps a quarter of the tolerance for the seam reduction, which may
+    # collapse a vertex lying within 0.25 x tolerance of its neighbours' chord (`seams.reduce_seams`)
+    chord_tol = tolerance if len(uses) < 2 else SHARED_CHORD * tolerance
     knots = uses[0].pcurve.curve.knots
     lo, hi = sorted((uses[0].pcurve.t0, uses[0].pcurve.t1))
     kn = (np.unique(knots[(knots > lo) & (knots < hi)]) - lo) / (hi - lo)
@@ -170,7 +176,7 @@ def discretize_chunk(uses: list, *, tolerance: float, max_edge: float, strategy:
     if degenerate:
         s = np.array([0.0, 1.0])
     else:
-        s = adaptive_values(evaluate, 0.0, 1.0, tolerance=0.75 * tolerance, max_edge=max_edge, strategy=strategy,
+        s = adaptive_values(evaluate, 0.0, 1.0, tolerance=chord_tol, max_edge=max_edge, strategy=strategy,
                             init=init)
     # insert the iso-values of every use (the crossings of its u and v grid lines); repeat on the new
     # points, since a curve that dips across a line and back inside one interval shows up only then
@@ -240,7 +246,7 @@ def discretize_chunk(uses: list, *, tolerance: float, max_edge: float, strategy:
             s_all, iso = s_all[keep], iso[keep]
             uvs = [uv[keep] for uv in uvs]
     if reduce and not degenerate and len(s_all) > 2:
-        s_all, uvs, iso = _reduce(evaluate, s_all, uvs, iso, 0.75 * tolerance, max_edge, uses)
+        s_all, uvs, iso = _reduce(evaluate, s_all, uvs, iso, chord_tol, max_edge, uses)
     xyz = np.mean([u.surface.evaluate(uv) for u, uv in zip(uses, uvs)], axis=0)
     if degenerate:
         xyz[:] = xyz.mean(axis=0)

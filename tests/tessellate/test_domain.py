@@ -1,0 +1,125 @@
+"""Domain values and cell splits (paper Sec. 4.2, 5.1): both criteria on every interval, no more
+values than needed, deviations measured to the surface, one diagonal direction where both fit alike."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from trimsurf.model import NurbsSurface, TrimmedFace
+from trimsurf.samples import build_sample
+from trimsurf.tessellate.domain import adaptive_values, interval_criteria
+from trimsurf.tessellate.face import (_rectangle_face, face_domain_values, loose_chunks, mesh_face_from_chunks,
+                                      surface_distance, triangle_deviation)
+
+
+def _ellipse(t):
+    """An ellipse with semi-axes 3 and 1 (curvature varies 27-fold along it), one line."""
+    return np.stack([3.0 * np.cos(t), np.sin(t), 0.0 * t], axis=-1)[:, None, :]
+
+
+def _half_cylinder(radius: float = 10.0, height: float = 40.0) -> NurbsSurface:
+    """Half cylinder of rational quadratic arcs (u: the arc, two spans, non-uniform speed), v: axis."""
+    w = np.sqrt(0.5)
+    arc = np.array([[1, 0], [1, 1], [0, 1], [-1, 1], [-1, 0]], dtype=np.float64) * radius
+    cp = np.array([[[x, y, 0.0], [x, y, height]] for x, y in arc])
+    weights = np.array([[1.0, 1.0], [w, w], [1.0, 1.0], [w, w], [1.0, 1.0]])
+    return NurbsSurface(2, 1, [0, 0, 0, 0.5, 0.5, 1, 1, 1], [0, 0, 1, 1], cp, weights)
+
+
+@pytest.mark.parametrize("tol", [1e-2, 1e-3])
+def test_equidistributed_meets_both_criteria_with_fewest_values(tol):
+    """Every interval meets both criteria; the equidistributed values are no more than the paper's
+    bisection gives, and (on a curve of varying curvature) fewer than the uniform baseline's."""
+    h = 0.5
+    x = adaptive_values(_ellipse, 0.0, np.pi, tolerance=tol, max_edge=h)
+    length, dev = interval_criteria(_ellipse, x, n_sub=24)
+    assert length.max() <= h and dev.max() <= tol * 1.01     # 24 sub-samples: the 6 of the check, and between
+    xb = adaptive_values(_ellipse, 0.0, np.pi, tolerance=tol, max_edge=h, strategy="bisection")
+    xu = adaptive_values(_ellipse, 0.0, np.pi, tolerance=tol, max_edge=h, strategy="uniform")
+    assert len(x) <= len(xb)
+    assert len(x) < len(xu)
+
+
+def test_circle_needs_exactly_the_sagitta_count():
+    """On a circle (constant curvature) the fewest equal chords within the tolerance is known in
+    closed form: n = ceil(pi / (2 acos(1 - tol / R))) over a half turn; equidistribution finds it."""
+    r, tol = 5.0, 1e-3
+
+    def circle(t):
+        return np.stack([r * np.cos(t), r * np.sin(t), 0.0 * t], axis=-1)[:, None, :]
+
+    x = adaptive_values(circle, 0.0, np.pi, tolerance=tol, max_edge=100.0)
+    n_min = int(np.ceil(np.pi / (2.0 * np.arccos(1.0 - tol / r))))
+    assert len(x) - 1 == n_min
+
+
+def _skewed_quarter_cylinder(radius: float = 10.0, height: float = 40.0, c: float = 3.0) -> NurbsSurface:
+    """A quarter cylinder whose rational arc is reparameterized (weights 1, c w, c^2): the same
+    surface, the speed along u varying several-fold (u = 0.5 lies at 68 degrees, not 45)."""
+    w = np.sqrt(0.5)
+    arc = np.array([[1, 0], [1, 1], [0, 1]], dtype=np.float64) * radius
+    cp = np.array([[[x, y, 0.0], [x, y, height]] for x, y in arc])
+    weights = np.array([[1.0, 1.0], [c * w, c * w], [c * c, c * c]])
+    return NurbsSurface(2, 1, [0, 0, 0, 1, 1, 1], [0, 0, 1, 1], cp, weights)
+
+
+@pytest.mark.parametrize("u0, u1", [(0.2, 0.4), (0.4, 0.6), (0.6, 0.9)])
+def test_triangle_deviation_is_distance_to_surface_not_parameter_offset(u0, u1):
+    """S(uv) at a triangle's interpolated uv is not the closest surface point where the speed varies:
+    the deviation bound is the distance to the foot point, so for a cell of a cylinder split along a
+    diagonal it is the chord's sagitta R (1 - cos(theta / 2)), not up to 2.7x that."""
+    r = 10.0
+    s = _skewed_quarter_cylinder(r)
+    uv = np.array([[u0, 0.2], [u1, 0.2], [u1, 0.8], [u0, 0.8]])
+    xyz = s.evaluate(uv)
+    tris = np.array([[0, 1, 2], [0, 2, 3]])
+    ang = np.arctan2(xyz[1, 1], xyz[1, 0]) - np.arctan2(xyz[0, 1], xyz[0, 0])
+    sagitta = r * (1.0 - np.cos(0.5 * ang))
+    dev = triangle_deviation(s, uv, xyz, tris)
+    assert np.all(dev <= sagitta * (1 + 1e-6))
+    assert dev.max() >= 0.99 * sagitta               # the edge midpoints are sampled
+    # the plain parameter offset |S(uv) - x| at the chord's midpoint: what the bound no longer counts
+    mid = 0.5 * (uv[0] + uv[1])
+    x_mid = 0.5 * (xyz[0] + xyz[1])
+    assert np.linalg.norm(s.evaluate(mid[None])[0] - x_mid) > 1.3 * sagitta
+    assert surface_distance(s, mid[None], x_mid[None])[0] <= sagitta * (1 + 1e-6)
+
+
+def test_cylinder_cells_take_one_diagonal_direction():
+    """Both diagonals of a cylinder cell fit the surface exactly alike; a near tie must not flip the
+    direction from cell to cell (the reflection lines would wander): every grid cell, untouched or
+    triangulated with the trims, is cut along the same diagonal direction."""
+    s = _half_cylinder()
+    face = _rectangle_face(TrimmedFace(s))
+    tol, h = 0.02, 100.0
+    us, vs = face_domain_values(face, tolerance=tol, max_edge=h)
+    assert len(us) > 8
+    fm = mesh_face_from_chunks(face, us, vs, loose_chunks(face, 0, us, vs, tolerance=tol, max_edge=h,
+                                                          strategy="equidistributed"),
+                               tolerance=tol, max_edge=h, slivers=False)
+    e = np.concatenate([fm.triangles[:, [0, 1]], fm.triangles[:, [1, 2]], fm.triangles[:, [2, 0]]])
+    a, b = fm.uv[e[:, 0]], fm.uv[e[:, 1]]
+    iu_a, iu_b = np.searchsorted(us, a[:, 0]), np.searchsorted(us, b[:, 0])
+    jv_a, jv_b = np.searchsorted(vs, a[:, 1]), np.searchsorted(vs, b[:, 1])
+    node = (np.isin(a[:, 0], us) & np.isin(a[:, 1], vs) & np.isin(b[:, 0], us) & np.isin(b[:, 1], vs))
+    diag = node & (np.abs(iu_a - iu_b) == 1) & (np.abs(jv_a - jv_b) == 1)
+    assert diag.sum() >= (len(us) - 1) * (len(vs) - 1)        # every cell's diagonal (each edge twice)
+    direction = np.sign((iu_b - iu_a) * (jv_b - jv_a))[diag]
+    assert np.all(direction == direction[0])
+    assert np.all(fm.tri_dev <= tol)
+
+
+@pytest.mark.parametrize("name", ["fender", "hood"])
+def test_every_triangle_within_tolerance_at_its_samples(name):
+    """The per-face guarantee the assembly builds on: every triangle's deviation bound, crossed cells
+    included (a CDT triangle that left it gets an interior point), is within the tolerance."""
+    shell = build_sample(name)
+    face = shell.faces[0]
+    tol, h = 1e-3 * shell.diagonal(), shell.diagonal()
+    us, vs = face_domain_values(face, tolerance=tol, max_edge=h)
+    fm = mesh_face_from_chunks(face, us, vs, loose_chunks(face, 0, us, vs, tolerance=tol, max_edge=h,
+                                                          strategy="equidistributed"),
+                               tolerance=tol, max_edge=h)
+    assert len(fm.triangles) > 50
+    assert fm.tri_dev.max() <= tol
