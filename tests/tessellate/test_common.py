@@ -153,3 +153,61 @@ def test_patch_grid_highlight_lines_run_on(tmp_path):
     (bad0, tot0), (bad1, tot1) = out[False], out[True]
     assert bad0 > 0.5 * tot0
     assert bad1 <= 0.05 * tot1
+
+
+def test_loose_patches_lines_meet_in_3d(tmp_path):
+    """A VDA-FS model has no shared edges: iso-parametric loop segments of different faces that run
+    along each other within the tolerance are linked through closest points, so the lines of the
+    fender's 18 patches end at the same 3D points (within the half tolerance stitching bridges)."""
+    s = build_sample("fender").faces[0].surface
+    bp = bezier_extract_surface(s.degree_u, s.degree_v, s.knots_u, s.knots_v, s.control_points, s.weights)
+    du, dv = s.degree_u, s.degree_v
+    faces = []
+    for i in range(bp.control_points.shape[0]):
+        for j in range(bp.control_points.shape[1]):
+            ku = np.r_[[bp.u_breaks[i]] * (du + 1), [bp.u_breaks[i + 1]] * (du + 1)]
+            kv = np.r_[[bp.v_breaks[j]] * (dv + 1), [bp.v_breaks[j + 1]] * (dv + 1)]
+            faces.append(TrimmedFace(NurbsSurface(du, dv, ku, kv, bp.control_points[i, j]), name=f"P{i}{j}"))
+    path = tmp_path / "fender.vda"
+    write_shell(Shell.from_faces(faces), path)
+    shell = read_shell(path)
+    assert not shell.edges
+    from trimsurf.tessellate.face import _rectangle_face
+
+    faces = [_rectangle_face(f) for f in shell.faces]
+    d = shell.diagonal()
+    tol, h = 0.5e-3 * d, 3e-2 * d
+
+    def ends(grids):
+        """3D ends of the interior grid lines on the patches' inner sides, per face."""
+        out = []
+        for i, f in enumerate(faces):
+            us, vs = grids[i]
+            pts = []
+            for axis, vals, sides in ((0, us[1:-1], vs[[0, -1]]), (1, vs[1:-1], us[[0, -1]])):
+                for c in sides:
+                    if c in (0.0, 1.0):                       # the outer boundary of the fender
+                        continue
+                    uv = np.column_stack([vals, np.full(len(vals), c)] if axis == 0 else [np.full(len(vals), c), vals])
+                    pts.append(f.surface.evaluate(uv))
+            out.append(np.concatenate(pts))
+        return out
+
+    def unmatched(grids):
+        e = ends(grids)
+        bad = tot = 0
+        for i, p in enumerate(e):
+            other = np.concatenate([q for k, q in enumerate(e) if k != i])
+            dist = np.linalg.norm(p[:, None] - other[None], axis=-1).min(axis=1)
+            bad += int((dist > tol).sum())
+            tot += len(p)
+        return bad, tot
+
+    grids = {i: face_domain_values(f, tolerance=tol, max_edge=h) for i, f in enumerate(faces)}
+    bad0, tot0 = unmatched(grids)
+    # without a tolerance (no topology) nothing is linked
+    assert common_parameterization(shell, faces, dict(grids)) == set()
+    changed = common_parameterization(shell, faces, grids, tolerance=tol)
+    assert len(changed) == len(faces)
+    bad1, tot1 = unmatched(grids)
+    assert bad0 > 0.1 * tot0 and bad1 == 0

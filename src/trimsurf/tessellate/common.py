@@ -156,6 +156,103 @@ def _links(shell: Shell, faces: list, grids: dict, max_angle_deg: float):
     return out
 
 
+class _LooseSide(_Side):
+    """An iso-parametric loop segment of a face without topology, with its 3D samples."""
+
+    def __init__(self, face_index: int, face, pcurve, axis: int):
+        super().__init__(pcurve, axis)
+        self.face_index, self.face = face_index, face
+        self.xyz = face.surface.evaluate(pcurve.curve.evaluate(self.t))
+
+    def project(self, pts: np.ndarray, tol: float) -> np.ndarray:
+        """Edge parameters t of the closest points of the segment (in 3D) to `pts`; NaN farther than `tol`."""
+        d = np.linalg.norm(pts[:, None, :] - self.xyz[None, :, :], axis=-1)
+        k = d.argmin(axis=1)
+        a = self.t[np.clip(k - 1, 0, len(self.t) - 1)]
+        b = self.t[np.clip(k + 1, 0, len(self.t) - 1)]
+        surf, curve = self.face.surface, self.p.curve
+
+        def dist(t):
+            return np.linalg.norm(surf.evaluate(curve.evaluate(t)) - pts, axis=1)
+        g = 0.5 * (np.sqrt(5.0) - 1.0)          # golden section on the bracket around the nearest sample
+        c, e = b - g * (b - a), a + g * (b - a)
+        fc, fe = dist(c), dist(e)
+        for _ in range(40):
+            left = fc < fe
+            b = np.where(left, e, b)
+            a = np.where(left, a, c)
+            c2 = b - g * (b - a)
+            e2 = a + g * (b - a)
+            c, e = c2, e2
+            fc, fe = dist(c), dist(e)
+        t = 0.5 * (a + b)
+        return np.where(dist(t) <= tol, t, np.nan)
+
+
+def _loose_map(src: _LooseSide, dst: _LooseSide, tol: float):
+    """x_src -> x_dst through the 3D point (closest point on dst's segment); NaN where the segments part."""
+    def f(x):
+        t = src.t_of(x)
+        out = np.full(len(t), np.nan)
+        ok = np.isfinite(t)
+        if ok.any():
+            pts = src.face.surface.evaluate(src.p.curve.evaluate(t[ok]))
+            tb = dst.project(pts, tol)
+            good = np.isfinite(tb)
+            vals = np.full(len(tb), np.nan)
+            if good.any():
+                vals[good] = dst.coord(tb[good])
+            out[ok] = vals
+        return out
+    return f
+
+
+def _loose_links(faces: list, grids: dict, tolerance: float, max_angle_deg: float):
+    """Iso-parametric loop segments of different faces that run along each other in 3D (no topology)."""
+    sides = []
+    for fi in sorted(grids):
+        face = faces[fi]
+        for loop in face.loops:
+            for seg in loop.segments:
+                ax = iso_axis(seg, face.surface)
+                if ax is None:
+                    continue
+                sd = _LooseSide(fi, face, seg, ax)
+                if sd.ok and np.linalg.norm(sd.xyz[-1] - sd.xyz[0]) > tolerance:
+                    sides.append(sd)
+    if len(sides) < 2:
+        return []
+    lo = np.array([sd.xyz.min(axis=0) for sd in sides]) - tolerance
+    hi = np.array([sd.xyz.max(axis=0) for sd in sides]) + tolerance
+    over = np.all((lo[:, None] <= hi[None]) & (lo[None] <= hi[:, None]), axis=-1)
+    out = []
+    for i, j in zip(*np.nonzero(np.triu(over, 1))):
+        a, b = sides[i], sides[j]
+        if a.face_index == b.face_index:
+            continue
+        # a stretch of both segments within the tolerance of the other (every 4th sample checked)
+        da = np.linalg.norm(a.xyz[::4, None] - b.xyz[None], axis=-1).min(axis=1)
+        db = np.linalg.norm(b.xyz[::4, None] - a.xyz[None], axis=-1).min(axis=1)
+        if (da <= tolerance).sum() < 3 or (db <= tolerance).sum() < 3:
+            continue
+        if max_angle_deg < 180.0:
+            ka = np.flatnonzero(da <= tolerance) * 4
+            tb = b.project(a.xyz[ka], tolerance)
+            good = np.isfinite(tb)
+            if not good.any():
+                continue
+            na = a.face.oriented_normals(a.p.curve.evaluate(a.t[ka[good]]))
+            nb = b.face.oriented_normals(b.p.curve.evaluate(tb[good]))
+            cos = np.einsum("ij,ij->i", na, nb)
+            cos = cos[np.isfinite(cos)]
+            # faces of a loose model may come in either sense: a fold (normals opposite) is as smooth
+            if not len(cos) or np.degrees(np.arccos(np.clip(np.abs(cos).min(), -1, 1))) > max_angle_deg:
+                continue
+        out.append(((a.face_index, a.axis), (b.face_index, b.axis),
+                    _loose_map(a, b, tolerance), _loose_map(b, a, tolerance)))
+    return out
+
+
 def merge_finest(sets: list, lo: float, hi: float, *, cluster: float = _CLUSTER, slack: float = _SLACK) -> np.ndarray:
     """About the coarsest subset of the union of value sets that is nowhere coarser than any of them.
 
@@ -238,7 +335,8 @@ def merge_finest(sets: list, lo: float, hi: float, *, cluster: float = _CLUSTER,
     return u[keep]
 
 
-def common_parameterization(shell: Shell, faces: list, grids: dict, *, max_angle_deg: float = _MAX_ANGLE) -> set:
+def common_parameterization(shell: Shell, faces: list, grids: dict, *, max_angle_deg: float = _MAX_ANGLE,
+                            tolerance: float | None = None) -> set:
     """One set of transversal domain values per class of faces linked by shared iso-parametric edges, in place.
 
     Parameters
@@ -255,6 +353,10 @@ def common_parameterization(shell: Shell, faces: list, grids: dict, *, max_angle
         break anyway, and linking there (all faces of a revolved part share one
         angular parameter) only forces the finest face's lines onto all of them.
         180: every shared iso-parametric edge.
+    tolerance : float or None
+        A shell without shared edges (VDA-FS, loose IGES): iso-parametric loop
+        segments of different faces that run within `tolerance` of each other in
+        3D are linked (through closest points); None: shared edges only.
 
     Returns
     -------
@@ -262,7 +364,10 @@ def common_parameterization(shell: Shell, faces: list, grids: dict, *, max_angle
         The faces whose domain values changed.
     """
     adj: dict = {}
-    for a, b, fab, fba in _links(shell, faces, grids, max_angle_deg):
+    links = _links(shell, faces, grids, max_angle_deg)
+    if not any(len(e.uses) == 2 for e in shell.edges) and tolerance is not None:
+        links = _loose_links(faces, grids, tolerance, max_angle_deg)
+    for a, b, fab, fba in links:
         adj.setdefault(a, []).append((b, fab))
         adj.setdefault(b, []).append((a, fba))
     changed: set = set()
