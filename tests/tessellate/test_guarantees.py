@@ -79,3 +79,31 @@ def test_bug32596_whole_model(bug32596):
     assert r["flipped"] == 0
     assert r["uncovered_faces"] == []
     assert r["max_deviation"] <= res.tolerance
+
+
+@pytest.mark.parametrize("fname", ["gmsh__t20_data.step"])
+def test_sliver_collapse_keeps_the_guarantees_on_every_face(shared_data, fname):
+    """Boundary sliver collapse (batched rounds) on every face of a real part: fewer thin triangles at
+    the trims, and every face still counter-clockwise in (u, v), not flipped, within the tolerance."""
+    from trimsurf.model import TriMesh
+    from trimsurf.quality import triangle_angles
+    from trimsurf.tessellate import tessellate_face
+
+    shell = read_shell(shared_data / "cad" / fname)
+    tol, h = default_parameters(shell)
+    thin_with = thin_without = 0
+    for i, face in enumerate(shell.faces):
+        with_s = tessellate_face(face, tolerance=tol, max_edge=h)
+        without = tessellate_face(face, tolerance=tol, max_edge=h, slivers=False)
+        assert with_s.n_triangles <= without.n_triangles
+        thin_with += int(np.count_nonzero(triangle_angles(with_s).min(axis=1) < 12.0))
+        thin_without += int(np.count_nonzero(triangle_angles(without).min(axis=1) < 12.0))
+        p = with_s.uv[with_s.triangles]
+        area = ((p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1])
+                - (p[:, 2, 0] - p[:, 0, 0]) * (p[:, 1, 1] - p[:, 0, 1]))
+        assert np.all(area > 0) or np.all(area < 0)
+        one = Shell.from_faces([face])
+        m = measure_mesh(TriMesh(with_s.vertices, with_s.triangles, face_id=np.zeros(with_s.n_triangles, int)), one)
+        assert m["flipped"] == 0, f"face {i}"
+        assert m["max_deviation"] <= tol, f"face {i}"
+    assert thin_with < thin_without                          # the reduction ran and removed slivers

@@ -5,7 +5,8 @@ thin triangles between the trim and the grid. Such a node is collapsed into
 the trim vertex at the short edge when the result keeps every triangle
 counter-clockwise in (u, v), its 3D normal on the side of the surface normal, within the tolerance of the surface (evaluated
 at centroids and edge midpoints) and within max_edge. Trim vertices never
-move, so shared edges stay conforming.
+move, so shared edges stay conforming. Each round picks collapses whose stars
+do not overlap and tests them all at once (one surface evaluation per round).
 """
 
 from __future__ import annotations
@@ -19,8 +20,8 @@ _BARY = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5,
 _ORIENT_BARY = np.array([[1 / 3, 1 / 3, 1 / 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
 
 
-def _turned_in_3d(surface, uv3: np.ndarray, x3: np.ndarray, sgn: float) -> bool:
-    """Whether a triangle's 3D normal points against the surface normal (sgn: the faces' (u, v) sense).
+def _turned_in_3d(surface, uv3: np.ndarray, x3: np.ndarray, sgn: float) -> np.ndarray:
+    """Per triangle: its 3D normal points against the surface normal (sgn: the face's (u, v) sense).
 
     Tested at the (u, v) centroid and the corners of every triangle, vectorized; points
     where the surface normal is undefined (a pole) are skipped.
@@ -31,7 +32,7 @@ def _turned_in_3d(surface, uv3: np.ndarray, x3: np.ndarray, sgn: float) -> bool:
         ns = np.asarray(surface.normals(pts), dtype=np.float64).reshape(len(uv3), -1, 3)
         dot = sgn * np.einsum("mbk,mk->mb", ns, n)
         valid = np.isfinite(dot) & (np.linalg.norm(ns, axis=2) > 0.5)
-    return bool(np.any(valid & ~(dot > 0)))
+    return np.any(valid & ~(dot > 0), axis=1)
 
 
 def _min_angles_deg(P: np.ndarray) -> np.ndarray:
@@ -80,75 +81,67 @@ def collapse_boundary_slivers(surface, uv: np.ndarray, xyz: np.ndarray, triangle
     changed = np.zeros(len(T), dtype=bool)
     sign0 = np.sign(_uv_area(uv, T))
     sgn = 1.0 if np.sum(sign0) >= 0 else -1.0
+    nv = len(uv)
     for _ in range(rounds):
         idx = np.flatnonzero(alive)
         if not len(idx):
             break
         P = xyz[T[idx]]
-        thin = idx[_min_angles_deg(P) < min_angle_deg]
-        thin = thin[is_trim[T[thin]].any(axis=1) & ~is_trim[T[thin]].all(axis=1)]
+        ang = _min_angles_deg(P)
+        thin_m = ang < min_angle_deg
+        tt = is_trim[T[idx]]
+        thin_m &= tt.any(axis=1) & ~tt.all(axis=1)
+        thin, thin_ang = idx[thin_m], ang[thin_m]
         if not len(thin):
             break
-        vt: dict = {}
-        for k in idx.tolist():
-            for x in T[k].tolist():
-                vt.setdefault(x, []).append(k)
-        locked: set = set()
-        n_done = 0
-        for k in thin.tolist():
-            if not alive[k]:
+        # per thin triangle the shortest edge from an inner vertex to a trim vertex
+        Tt = T[thin]
+        ea, eb = Tt, np.roll(Tt, -1, axis=1)
+        mixed = is_trim[ea] != is_trim[eb]
+        elen = np.where(mixed, np.linalg.norm(xyz[ea] - xyz[eb], axis=2), np.inf)
+        c = elen.argmin(axis=1)
+        r = np.arange(len(thin))
+        a_, b_ = ea[r, c], eb[r, c]
+        inner = np.where(is_trim[a_], b_, a_)
+        trim = np.where(is_trim[a_], a_, b_)
+        # vertex -> alive triangles (CSR)
+        flat = T[idx].ravel()
+        order = np.argsort(flat, kind="stable")
+        vstart = np.searchsorted(flat[order], np.arange(nv + 1))
+        vtri = idx[order // 3]
+        Tl = T.tolist()
+        locked = np.zeros(nv, dtype=bool)
+        sel = []        # (v, u, moved, gone, min angle of the thin triangle)
+        for k, v, u, a0 in zip(thin.tolist(), inner.tolist(), trim.tolist(), thin_ang.tolist()):
+            if locked[v] or locked[u]:
                 continue
-            t = T[k]
-            # the shortest edge from an inner vertex to a trim vertex
-            best = None
-            for c in range(3):
-                a, b = int(t[c]), int(t[(c + 1) % 3])
-                if is_trim[a] == is_trim[b]:
-                    continue
-                inner, trim = (a, b) if not is_trim[a] else (b, a)
-                d = float(np.linalg.norm(xyz[a] - xyz[b]))
-                if best is None or d < best[0]:
-                    best = (d, inner, trim)
-            if best is None:
-                continue
-            _, v, u = best
-            if v in locked or u in locked:
-                continue
-            tv = [j for j in vt.get(v, []) if alive[j]]
-            gone = [j for j in tv if u in T[j]]
-            moved = [j for j in tv if u not in T[j]]
+            tv = vtri[vstart[v]:vstart[v + 1]].tolist()
+            gone = [j for j in tv if u in Tl[j]]
             if not gone or len(gone) > 2:
                 continue
-            nv = {x for j in tv for x in T[j].tolist()} - {v}
-            nu = {x for j in vt.get(u, []) if alive[j] for x in T[j].tolist()} - {u}
-            if len(nv & nu) != len(gone):
+            star = {x for j in tv for x in Tl[j]}
+            if any(locked[x] for x in star):
                 continue
-            newt = T[moved].copy()
-            newt[newt == v] = u
-            if len(moved):
-                area = _uv_area(uv, newt) * sgn
-                if np.any(area <= 0):
-                    continue
-                pn = xyz[newt]
-                if np.linalg.norm(pn - np.roll(pn, 1, axis=1), axis=2).max() > max_edge:
-                    continue
-                tuv = np.einsum("bk,mkd->mbd", _BARY, uv[newt])
-                txyz = np.einsum("bk,mkd->mbd", _BARY, xyz[newt])
-                dev = np.linalg.norm(surface.evaluate(tuv.reshape(-1, 2)).reshape(txyz.shape) - txyz, axis=2)
-                if dev.max() > tolerance:
-                    continue
-                # no moved triangle may turn against the surface normal in 3D (a flip the (u, v) test misses)
-                if _turned_in_3d(surface, uv[newt], pn, sgn):
-                    continue
-                # the collapse must not make a thinner triangle than the one it removes
-                if _min_angles_deg(pn).min() < _min_angles_deg(xyz[T[[k]]])[0]:
-                    continue
-            T[moved] = newt
-            changed[moved] = True
+            nvs = star - {v}
+            nu = {x for j in vtri[vstart[u]:vstart[u + 1]].tolist() for x in Tl[j]} - {u}
+            if len(nvs & nu) != len(gone):
+                continue
+            moved = [j for j in tv if u not in Tl[j]]
+            sel.append((v, u, moved, gone, a0))
+            locked[list(star | {u})] = True
+        if not sel:
+            break
+        ok = _check(surface, uv, xyz, T, sel, sgn, tolerance, max_edge)
+        n_done = 0
+        for (v, u, moved, gone, _), good in zip(sel, ok.tolist()):
+            if not good:
+                continue
+            if moved:
+                tm = T[moved]
+                tm[tm == v] = u
+                T[moved] = tm
+                changed[moved] = True
             alive[gone] = False
-            for j in moved:
-                vt.setdefault(u, []).append(j)
-            locked.update(nv | {u, v})
             n_done += 1
         if not n_done:
             break
@@ -156,3 +149,33 @@ def collapse_boundary_slivers(surface, uv: np.ndarray, xyz: np.ndarray, triangle
     kept[alive] = np.arange(int(alive.sum()))
     kept[changed] = -1
     return T[alive], kept
+
+
+def _check(surface, uv, xyz, T, sel, sgn, tolerance, max_edge) -> np.ndarray:
+    """Batched tests of the selected collapses (v into u): (s,) bool, True where every moved triangle
+    stays counter-clockwise (in the face's sense) in (u, v), within max_edge and the tolerance, not turned
+    against the surface normal in 3D, and no thinner than the thin triangle the collapse removes."""
+    ns = len(sel)
+    mi = np.array([j for x in sel for j in x[2]], dtype=np.int64)
+    if not len(mi):
+        return np.ones(ns, dtype=bool)
+    ci = np.repeat(np.arange(ns), [len(x[2]) for x in sel])
+    cv = np.array([x[0] for x in sel], dtype=np.int64)
+    cu = np.array([x[1] for x in sel], dtype=np.int64)
+    a0 = np.array([x[4] for x in sel])
+    oldt = T[mi]
+    newt = np.where(oldt == cv[ci, None], cu[ci, None], oldt)
+    fail = _uv_area(uv, newt) * sgn <= 0
+    pn = xyz[newt]
+    fail |= np.linalg.norm(pn - np.roll(pn, 1, axis=1), axis=2).max(axis=1) > max_edge
+    tuv = np.einsum("bk,mkd->mbd", _BARY, uv[newt])
+    txyz = np.einsum("bk,mkd->mbd", _BARY, pn)
+    dev = np.linalg.norm(surface.evaluate(tuv.reshape(-1, 2)).reshape(txyz.shape) - txyz, axis=2)
+    fail |= ~(dev.max(axis=1) <= tolerance)
+    # no moved triangle may turn against the surface normal in 3D (a flip the (u, v) test misses)
+    fail |= _turned_in_3d(surface, uv[newt], pn, sgn)
+    # the collapse must not make a thinner triangle than the one it removes
+    fail |= _min_angles_deg(pn) < a0[ci]
+    bad = np.zeros(ns, dtype=bool)
+    bad[ci[fail]] = True
+    return ~bad
