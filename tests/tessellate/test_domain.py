@@ -9,7 +9,7 @@ import pytest
 from trimsurf.model import NurbsSurface, TrimmedFace
 from trimsurf.samples import build_sample
 from trimsurf.tessellate.domain import adaptive_values, interval_criteria
-from trimsurf.tessellate.face import (_rectangle_face, face_domain_values, loose_chunks, mesh_face_from_chunks,
+from trimsurf.tessellate.face import (ASPECT, _rectangle_face, face_domain_values, loose_chunks, mesh_face_from_chunks,
                                       surface_distance, triangle_deviation)
 
 
@@ -122,4 +122,31 @@ def test_every_triangle_within_tolerance_at_its_samples(name):
                                                           strategy="equidistributed"),
                                tolerance=tol, max_edge=h)
     assert len(fm.triangles) > 50
+    assert fm.tri_dev.max() <= tol
+
+
+def test_tolerance_only_cylinder_cells_keep_their_aspect():
+    """With only the deviation criterion a cylinder's straight direction needs no line at all: one
+    cell would span its whole length and its triangles' smallest angle would be atan(chord / length)
+    (under 2 degrees here). Cells are halved across their long side down to the aspect ASPECT, so
+    the grid triangles' smallest angle is at least about atan(1 / ASPECT)."""
+    s = _half_cylinder(radius=10.0, height=400.0)
+    face = _rectangle_face(TrimmedFace(s))
+    tol, h = 0.05, 1e4
+    us, vs = face_domain_values(face, tolerance=tol, max_edge=h)
+    uu, vv = np.meshgrid(us, vs, indexing="ij")
+    p = s.evaluate(np.column_stack([uu.ravel(), vv.ravel()])).reshape(len(us), len(vs), 3)
+    side_u = np.linalg.norm(np.diff(p, axis=0), axis=2)[:, :-1]
+    side_v = np.linalg.norm(np.diff(p, axis=1), axis=2)[:-1, :]
+    ratio = np.maximum(side_u, side_v) / np.minimum(side_u, side_v)
+    assert len(vs) > 2 and ratio.max() <= ASPECT
+    fm = mesh_face_from_chunks(face, us, vs, loose_chunks(face, 0, us, vs, tolerance=tol, max_edge=h,
+                                                          strategy="equidistributed"),
+                               tolerance=tol, max_edge=h)
+    q = fm.xyz[fm.triangles]
+    e = np.linalg.norm(q - np.roll(q, 1, axis=1), axis=2)
+    # smallest angle from the sides: opposite the shortest side, law of cosines
+    a, b, c = np.sort(e, axis=1).T
+    ang = np.degrees(np.arccos(np.clip((b * b + c * c - a * a) / (2 * b * c), -1, 1)))
+    assert np.percentile(ang, 5) >= 0.9 * np.degrees(np.arctan(1.0 / ASPECT))
     assert fm.tri_dev.max() <= tol

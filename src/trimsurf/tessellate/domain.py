@@ -157,7 +157,7 @@ def _equidistributed(evaluate: LineFamily, a: float, b: float, tolerance: float,
     need = np.maximum(length / max_edge, np.sqrt(dev / tolerance))
     cum = np.r_[0.0, np.cumsum(need)]
     if not cum[-1] > 0:
-        return np.array([a, b])
+        return np.array([a, b]), False
 
     def place(n: int) -> np.ndarray:
         v = np.interp(np.linspace(0.0, cum[-1], n + 1), cum, x)
@@ -173,15 +173,15 @@ def _equidistributed(evaluate: LineFamily, a: float, b: float, tolerance: float,
     # ceil(integral) up in steps of ~4 % (a failing placement is then bisected by the caller only
     # when none up to 1.5 x passes); one line fewer is tried too, the integral rounds up
     n0 = max(1, int(np.ceil(cum[-1] - 1e-9)))
-    if n0 > 1 and ok(place(n0 - 1)):
-        return place(n0 - 1)
+    if n0 > 1 and cum[-1] - (n0 - 1) < 0.1 and ok(place(n0 - 1)):
+        return place(n0 - 1), True
     n = n0
     while n <= 1.5 * n0 + 2:
         v = place(n)
         if ok(v):
-            return v
+            return v, True
         n += max(1, int(0.04 * n))
-    return place(n0)
+    return place(n0), False
 
 
 def _uniform(evaluate: LineFamily, a: float, b: float, tolerance: float, max_edge: float, weights_fn) -> np.ndarray:
@@ -250,7 +250,9 @@ def adaptive_values(evaluate: LineFamily, a: float, b: float, *, tolerance: floa
         x = _uniform(evaluate, a, b, tolerance, max_edge, weights_fn)
         return x
     else:
-        x = _equidistributed(evaluate, a, b, tolerance, max_edge, init, weights_fn)
+        x, checked = _equidistributed(evaluate, a, b, tolerance, max_edge, init, weights_fn)
+        if checked:     # every interval already met both criteria
+            return x
     # check every interval against both criteria; bisect where one fails
     for _ in range(_MAX_ROUNDS):
         w = None if weights_fn is None else weights_fn(x)

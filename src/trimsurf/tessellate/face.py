@@ -19,6 +19,10 @@ __all__ = ["tessellate_face", "face_domain_values", "grid_box", "FaceMesh", "mes
            "check_parameters"]
 
 _N_LINES = 24   # transversal lines per direction when the domain values are chosen (plus knot lines)
+#: largest side ratio of a grid cell at or in the trimmed region (3D sides): its two triangles' smallest
+#: angle is about atan(1 / ASPECT); a tolerance-only grid on a cylinder would otherwise span the whole
+#: straight direction with one cell (screw p5 angle 0.4 deg -> 1.4 deg, linkrods 1.7 -> 4.9)
+ASPECT = 6.0
 #: barycentric points where a triangle's deviation is sampled: centroid, edge midpoints, and the
 #: centroids of the three corner sub-triangles
 _BARY = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.5],
@@ -184,15 +188,16 @@ def _worst_cell_ratio(face: TrimmedFace, us, vs, tolerance: float, polys) -> flo
 
 
 def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance: float,
-                 max_edge: float) -> tuple[np.ndarray, np.ndarray]:
-    """Mid-lines through the grid cells (near the trim) whose split leaves the tolerance or whose
-    diagonal is longer than max_edge; returns the refined (us, vs)."""
+                 max_edge: float, aspect: float | None = ASPECT) -> tuple[np.ndarray, np.ndarray]:
+    """Mid-lines through the grid cells (near the trim) whose split leaves the tolerance, whose
+    diagonal is longer than max_edge or whose sides differ by more than `aspect` (None: no limit);
+    returns the refined (us, vs)."""
     s = face.surface
     polys = _loop_polys(face) if face.loops else None
     # the twist of the cells: split along the better diagonal, refine rows/columns where it fails;
     # the same for a diagonal longer than max_edge (split across its longer side)
     for _ in range(6):
-        dev, diag, diag_max, side_u, side_v, _ = _cell_deviation(s, us, vs, tolerance)
+        dev, diag, diag_max, side_u, side_v = _cell_deviation(s, us, vs, tolerance)
         if polys is not None:
             # cells crossed by the trim count too (one cell dilation); in the band along the trim
             # the CDT may use either diagonal: both must be short enough (its triangles that leave
@@ -202,6 +207,15 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
             diag = np.where(near & ~interior, diag_max, np.where(near, diag, 0.0))
         bad = dev > tolerance
         long = (diag > max_edge) & ~bad
+        if aspect:
+            # cells much longer one way than the other: their two triangles' smallest angle is
+            # about atan(1 / aspect); halve them across the long side
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ratio = np.maximum(side_u, side_v) / np.minimum(side_u, side_v)
+            thin = np.isfinite(ratio) & (ratio > aspect) & ~bad
+            if polys is not None:
+                thin &= near
+            long |= thin
         if not bad.any() and not long.any():
             break
         bi, bj = np.nonzero(bad)
@@ -216,8 +230,7 @@ def _cell_split(surface, us, vs, ki, kj, tolerance: float | None = None, prefer_
                 full: bool = True):
     """Diagonal of cells (ki, kj) (True: (i,j)-(i+1,j+1)), the deviation bound and the cell's lengths.
 
-    Returns (main, dev, diag, diag_max, side_u, side_v, dev_max), dev_max the deviation of the worse
-    of the two splits (the CDT of a crossed cell may cut either way); only (main,) with ``full=False``.
+    Returns (main, dev, diag, diag_max, side_u, side_v); only (main,) with ``full=False``.
 
     With `tolerance` None, each cell takes the diagonal that best fits the surface
     (the paper). Otherwise every cell takes the face's preferred diagonal
@@ -249,21 +262,19 @@ def _cell_split(surface, us, vs, ki, kj, tolerance: float | None = None, prefer_
         main = np.where(switch, not pref, pref)
     if not full:
         return (main,)
-    # deviation at the sample points of both splits: (i,j)-(i+1,j+1) and the other diagonal
-    t = np.array([[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]])
-    tuv = np.einsum("bk,nskd->nsbd", _BARY, uv[:, t])         # (k, 4, b, 2)
-    tx = np.einsum("bk,nskd->nsbd", _BARY, p[:, t])           # (k, 4, b, 3)
-    dt = surface_distance(surface, tuv.reshape(-1, 2), tx.reshape(-1, 3)).reshape(tx.shape[:3]).max(axis=2)
-    dev_m, dev_a = dt[:, :2].max(axis=1), dt[:, 2:].max(axis=1)
-    dev = np.where(main, dev_m, dev_a)
-    dev_max = np.maximum(dev_m, dev_a)
+    # deviation at the sample points of the chosen split's two triangles
+    t = np.where(main[:, None, None], np.array([[0, 1, 2], [0, 2, 3]])[None], np.array([[0, 1, 3], [1, 2, 3]])[None])
+    rows = np.arange(len(ki))[:, None, None]
+    tuv = np.einsum("bk,nskd->nsbd", _BARY, uv[rows, t])      # (k, 2, b, 2)
+    tx = np.einsum("bk,nskd->nsbd", _BARY, p[rows, t])        # (k, 2, b, 3)
+    dev = surface_distance(surface, tuv.reshape(-1, 2), tx.reshape(-1, 3)).reshape(len(ki), -1).max(axis=1)
     d02 = np.linalg.norm(p[:, 2] - p[:, 0], axis=1)
     d13 = np.linalg.norm(p[:, 3] - p[:, 1], axis=1)
     diag = np.where(main, d02, d13)
     diag_max = np.maximum(d02, d13)
     side_u = np.maximum(np.linalg.norm(p[:, 1] - p[:, 0], axis=1), np.linalg.norm(p[:, 2] - p[:, 3], axis=1))
     side_v = np.maximum(np.linalg.norm(p[:, 3] - p[:, 0], axis=1), np.linalg.norm(p[:, 2] - p[:, 1], axis=1))
-    return main, dev, diag, diag_max, side_u, side_v, dev_max
+    return main, dev, diag, diag_max, side_u, side_v
 
 
 def _prefer_main(surface, us, vs) -> bool:
