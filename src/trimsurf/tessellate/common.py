@@ -368,8 +368,9 @@ def common_parameterization(shell: Shell, faces: list, grids: dict, *, max_angle
     if not any(len(e.uses) == 2 for e in shell.edges) and tolerance is not None:
         links = _loose_links(faces, grids, tolerance, max_angle_deg)
     for a, b, fab, fba in links:
-        adj.setdefault(a, []).append((b, fab))
-        adj.setdefault(b, []).append((a, fba))
+        # node -> [(neighbour, map node -> neighbour, map neighbour -> node)], one entry per shared edge
+        adj.setdefault(a, []).append((b, fab, fba))
+        adj.setdefault(b, []).append((a, fba, fab))
     changed: set = set()
     seen: set = set()
 
@@ -379,43 +380,46 @@ def common_parameterization(shell: Shell, faces: list, grids: dict, *, max_angle
     for start in sorted(adj, key=lambda nd: (-len(values(nd)), nd)):
         if start in seen:
             continue
-        # BFS tree from the node with the most values: maps node -> root and root -> node
-        to_root = {start: lambda x: np.asarray(x, dtype=np.float64)}
-        from_root = {start: lambda x: np.asarray(x, dtype=np.float64)}
+        # BFS tree from the node with the most values; a node maps to the root through every edge it
+        # shares with its parent (two faces may meet along several edges, each covering part of a range)
+        parent = {start: None}
         order = [start]
         seen.add(start)
         queue = deque([start])
         while queue:
             p = queue.popleft()
-            for c, f_pc in adj[p]:
-                if c in seen:
-                    continue
-                f_cp = next(f for q, f in adj[c] if q == p)
-                to_root[c] = (lambda x, g=to_root[p], h=f_cp: g(h(x)))
-                from_root[c] = (lambda x, g=from_root[p], h=f_pc: _nan_safe(h, g(x)))
-                seen.add(c)
-                order.append(c)
-                queue.append(c)
+            for c, _, _ in adj[p]:
+                if c not in seen:
+                    seen.add(c)
+                    parent[c] = p
+                    order.append(c)
+                    queue.append(c)
         if len(order) < 2:
             continue
+        to_root = {start: lambda x: np.asarray(x, dtype=np.float64)}
+        for c in order[1:]:
+            ups = [f_cp for q, f_cp, _ in adj[c] if q == parent[c]]
+            to_root[c] = (lambda x, g=to_root[parent[c]], hs=tuple(ups): _nan_safe(g, _first(hs, x)))
         root_vals = values(start)
         lo, hi = float(root_vals[0]), float(root_vals[-1])
         mapped = {}
         for nd in order:
             v = values(nd)
             inner = v[1:-1]                      # the grid box ends stay the face's own
-            r = to_root[nd](inner)
-            mapped[nd] = (v, inner, r)
+            mapped[nd] = (v, inner, to_root[nd](inner))
         sets = [r[np.isfinite(r)] for _, _, r in mapped.values()]
         sets[0] = root_vals
         common = merge_finest(sets, lo, hi)
+        back = {start: common[1:-1]}
+        for c in order[1:]:
+            downs = [f_pc for q, _, f_pc in adj[c] if q == parent[c]]
+            img = [f(back[parent[c]]) for f in downs] if len(back[parent[c]]) else []
+            back[c] = np.concatenate([x[np.isfinite(x)] for x in img]) if img else np.zeros(0)
         for nd in order:
             v, inner, r = mapped[nd]
-            back = from_root[nd](common[1:-1])
-            new = back[np.isfinite(back)]
             # values outside the part of the face the edges cover (no image at the root) stay its own
             own = inner[~np.isfinite(r)] if nd != start else np.zeros(0)
-            vals = np.unique(np.r_[v[0], own, new, v[-1]])
+            vals = np.unique(np.r_[v[0], own, back[nd], v[-1]])
             vals = vals[(vals >= v[0]) & (vals <= v[-1])]
             vals = _drop_near(vals, v[0], v[-1])
             if len(vals) != len(v) or np.any(vals != v):
@@ -424,6 +428,18 @@ def common_parameterization(shell: Shell, faces: list, grids: dict, *, max_angle
                 grids[fi] = (vals, vs) if ax == 0 else (us, vals)
                 changed.add(fi)
     return changed
+
+
+def _first(maps, x) -> np.ndarray:
+    """Per value, the first finite image among several partial maps (NaN where none covers it)."""
+    x = np.asarray(x, dtype=np.float64)
+    out = np.full(len(x), np.nan)
+    for f in maps:
+        todo = ~np.isfinite(out) & np.isfinite(x)
+        if not todo.any():
+            break
+        out[todo] = f(x[todo])
+    return out
 
 
 def _nan_safe(f, x):
