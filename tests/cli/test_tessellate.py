@@ -40,6 +40,22 @@ def test_one_file_with_report(screw, tmp_path, capsys):
     assert "occt__screw.step" in capsys.readouterr().out
 
 
+def test_common_parameterization_flag(shared_data, tmp_path):
+    """--common links faces that meet smoothly along iso-parametric edges and stays watertight."""
+    src = shared_data / "cad" / "occt__linkrods.step"
+    reports = {}
+    for flag in ([], ["--common"]):
+        rep = tmp_path / f"r{len(flag)}.json"
+        assert main(["tessellate", str(src), "-o", str(tmp_path / f"m{len(flag)}.ply"), "--report", str(rep)]
+                    + flag) == 0
+        reports[bool(flag)] = json.loads(rep.read_text())["inputs"][0]
+    plain, common = reports[False], reports[True]
+    assert plain["faces_common_parameterization"] == 0
+    assert common["faces_common_parameterization"] > 0
+    assert common["boundary_edges"] == 0 and common["nonmanifold_edges"] == 0 and common["flipped"] == 0
+    assert common["max_deviation"] <= common["tolerance"]
+
+
 def test_folder_in_folder_out_with_parameters(shared_data, tmp_path):
     src = tmp_path / "cad"
     src.mkdir()
