@@ -23,6 +23,9 @@ _N_LINES = 24   # transversal lines per direction when the domain values are cho
 #: angle is about atan(1 / ASPECT); a tolerance-only grid on a cylinder would otherwise span the whole
 #: straight direction with one cell (screw p5 angle 0.4 deg -> 1.4 deg, linkrods 1.7 -> 4.9)
 ASPECT = 6.0
+#: cells whose split deviates at most this many times the tolerance, few in their row and column, get an
+#: interior point in the triangulation instead of a grid line through the whole row or column
+LOCAL_FIX = 1.5
 #: barycentric points where a triangle's deviation is sampled: centroid, edge midpoints, and the
 #: centroids of the three corner sub-triangles
 _BARY = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.5],
@@ -219,11 +222,46 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
         if not bad.any() and not long.any():
             break
         bi, bj = np.nonzero(bad)
+        if len(bi):
+            # a bad cell is halved across the direction(s) whose sides bulge most (both where they are
+            # alike, e.g. the twist): a mid-line in both directions through every bad cell overshoots
+            su, sv = _side_bulge(s, us, vs, bi, bj)
+            cu = su >= 0.5 * sv
+            cv = sv >= 0.5 * su
+            # a line through a column (row) where only a few cells leave the tolerance by a little
+            # costs the whole column; those cells get an interior point instead (mesh_face_from_chunks)
+            few = dev[bi, bj] <= LOCAL_FIX * tolerance
+            n_col = (near if polys is not None else np.ones_like(bad)).sum(axis=1)
+            n_row = (near if polys is not None else np.ones_like(bad)).sum(axis=0)
+            col_bad = np.bincount(bi[cu], minlength=bad.shape[0])
+            row_bad = np.bincount(bj[cv], minlength=bad.shape[1])
+            cu &= ~few | (col_bad[bi] >= np.maximum(2, 0.25 * n_col[bi]))
+            cv &= ~few | (row_bad[bj] >= np.maximum(2, 0.25 * n_row[bj]))
+            bi_u, bj_v = bi[cu], bj[cv]
+            if not len(bi_u) and not len(bj_v) and not long.any():
+                break
+        else:
+            bi_u, bj_v = bi, bj
         li, lj = np.nonzero(long & (side_u >= side_v))
         mi, mj = np.nonzero(long & (side_u < side_v))
-        us = np.unique(np.r_[us, 0.5 * (us[bi] + us[bi + 1]), 0.5 * (us[li] + us[li + 1])])
-        vs = np.unique(np.r_[vs, 0.5 * (vs[bj] + vs[bj + 1]), 0.5 * (vs[mj] + vs[mj + 1])])
+        us = np.unique(np.r_[us, 0.5 * (us[bi_u] + us[bi_u + 1]), 0.5 * (us[li] + us[li + 1])])
+        vs = np.unique(np.r_[vs, 0.5 * (vs[bj_v] + vs[bj_v + 1]), 0.5 * (vs[mj] + vs[mj + 1])])
     return us, vs
+
+
+def _side_bulge(surface, us, vs, ki, kj) -> tuple[np.ndarray, np.ndarray]:
+    """Per cell (ki, kj): how far its u sides and its v sides bulge from their chords (the larger of
+    the two opposite sides, at the side's parameter midpoint)."""
+    u0, u1, v0, v1 = us[ki], us[ki + 1], vs[kj], vs[kj + 1]
+    um, vm = 0.5 * (u0 + u1), 0.5 * (v0 + v1)
+    uv = np.stack([np.column_stack([u0, v0]), np.column_stack([u1, v0]), np.column_stack([u1, v1]),
+                   np.column_stack([u0, v1]), np.column_stack([um, v0]), np.column_stack([um, v1]),
+                   np.column_stack([u0, vm]), np.column_stack([u1, vm])], axis=1)
+    p = surface.evaluate(uv.reshape(-1, 2)).reshape(-1, 8, 3)
+    mids = np.stack([0.5 * (p[:, 0] + p[:, 1]), 0.5 * (p[:, 3] + p[:, 2]), 0.5 * (p[:, 0] + p[:, 3]),
+                     0.5 * (p[:, 1] + p[:, 2])], axis=1)
+    d = surface_distance(surface, uv[:, 4:].reshape(-1, 2), mids.reshape(-1, 3), steps=1).reshape(-1, 4)
+    return np.maximum(d[:, 0], d[:, 1]), np.maximum(d[:, 2], d[:, 3])
 
 
 def _cell_split(surface, us, vs, ki, kj, tolerance: float | None = None, prefer_main: bool | None = None,
@@ -477,7 +515,7 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
         # of its triangles leaves the tolerance, its centroid joins the CDT (an interior point, so the
         # trim polygons, shared with the neighbours, stay as they are)
         extra = np.zeros((0, 2))
-        for _ in range(3):
+        for _ in range(4):
             dev = triangle_deviation(s, dt.uv, xyz, dt.triangles)
             bad = dev > tol
             if not bad.any():

@@ -150,9 +150,9 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
         diagonal from (i, j) to (i+1, j+1), False along the other one; None: the former.
     extra : (k, 2) float64 or None
         Interior points added to the constrained Delaunay triangulation (e.g. where a
-        triangle of a crossed cell left the tolerance); only those strictly inside a
-        crossed cell and off the trim polygons' points are used. They follow the grid
-        nodes in `uv` (``grid_node`` -1).
+        triangle left the tolerance); a cell holding one is triangulated like a crossed
+        cell (its sides stay edges); points on a grid line are ignored. They follow the
+        grid nodes in `uv` (``grid_node`` -1).
     tie_main : bool or None
         How the Delaunay triangulation of the crossed cells breaks ties (four
         cocircular points, as every rectangular cell's corners are): True toward the
@@ -189,6 +189,13 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
     hits = cohen_sutherland_cells(pts[seg_a], pts[seg_b], us, vs)
     crossed = np.zeros((nu - 1, nv - 1), dtype=bool)
     crossed[hits[:, 1], hits[:, 2]] = True
+    if extra is not None and len(extra):
+        # a cell with an extra point is triangulated like a crossed one (its sides stay edges)
+        e = np.asarray(extra, dtype=np.float64).reshape(-1, 2)
+        ei = np.searchsorted(us, e[:, 0]) - 1
+        ej = np.searchsorted(vs, e[:, 1]) - 1
+        ok = (ei >= 0) & (ei < nu - 1) & (ej >= 0) & (ej < nv - 1) & ~np.isin(e[:, 0], us) & ~np.isin(e[:, 1], vs)
+        crossed[ei[ok], ej[ok]] = True
     # 2. untouched cells inside the trim: centre inside
     ci, cj = np.meshgrid(np.arange(nu - 1), np.arange(nv - 1), indexing="ij")
     centre = np.column_stack([0.5 * (us[ci.ravel()] + us[ci.ravel() + 1]), 0.5 * (vs[cj.ravel()] + vs[cj.ravel() + 1])])
