@@ -357,7 +357,9 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
         from .stitch import merge_face_meshes
 
         mesh, stitch_info = merge_face_meshes(face_meshes, tolerance=tolerance, stitch=stitch,
-                                              reduce_seams=reduce_seams, max_edge=max_edge)
+                                              reduce_seams=reduce_seams, max_edge=max_edge,
+                                              faces=[faces[i] if i in face_meshes else None
+                                                     for i in range(n)])
         quads = stitch_info.pop("quads")
         mesh, flipped_faces = orient_meshes(mesh)
         stitch_info["faces_flipped"] = flipped_faces

@@ -32,24 +32,44 @@ def _point_segment(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndar
     return np.linalg.norm(p - q, axis=1), t
 
 
+def _sequential_fans(poly: list, corners: list) -> list:
+    """Triangles filling the triangle `corners` with the points of `poly` on its edges, edge by edge.
+
+    Each split edge (i, j) is fanned from the vertex opposite it in the
+    triangle that holds it at that moment: always a complete triangulation
+    (every inserted point and sub-edge present), whatever the shapes.
+    """
+    n = len(poly)
+    tris = [tuple(corners)]
+    for c in range(3):
+        i, j = corners[c], corners[(c + 1) % 3]
+        ki, kj = poly.index(i), poly.index(j)
+        chain = [poly[(ki + m) % n] for m in range((kj - ki) % n + 1)]
+        if len(chain) <= 2:
+            continue
+        for k, t in enumerate(tris):
+            if any(t[m] == i and t[(m + 1) % 3] == j for m in range(3)):
+                m = [t[x] for x in range(3)].index(i)
+                opp = t[(m + 2) % 3]
+                tris[k:k + 1] = [(p, q, opp) for p, q in zip(chain[:-1], chain[1:])]
+                break
+    return tris
+
+
 def _triangulate_polygon(V: np.ndarray, poly: list, corners: list) -> list:
     """Triangles filling a triangle whose edges carry inserted points (`poly`, in its orientation).
 
-    One split edge: a fan from the opposite corner. Several: a constrained
-    Delaunay triangulation of the polygon in the triangle's plane (Triangle).
+    A constrained Delaunay triangulation of the polygon in the triangle's plane
+    (Triangle); where Triangle would add points or fails, fans edge by edge
+    (`_sequential_fans`), so no inserted point is ever dropped.
     """
     poly = [p for k, p in enumerate(poly) if p != poly[k - 1]]
     n_extra = len(poly) - 3
     if n_extra <= 0:
         return [tuple(corners)]
-    on_edge = [c for c in range(3) if poly.index(corners[(c + 1) % 3]) - poly.index(corners[c]) not in (1, -2)]
-    if len(on_edge) == 1:
-        c = on_edge[0]
-        opp = corners[(c + 2) % 3]
-        k0 = poly.index(corners[c])
-        chain = [poly[(k0 + m) % len(poly)] for m in range(len(poly))]
-        chain = chain[:chain.index(corners[(c + 1) % 3]) + 1]
-        return [(p, q, opp) for p, q in zip(chain[:-1], chain[1:]) if p != opp and q != opp]
+    m = len(poly)
+    if len(set(poly)) != m:
+        return [tuple(corners)]
     import triangle as tr
 
     P = V[poly]
@@ -60,18 +80,17 @@ def _triangulate_polygon(V: np.ndarray, poly: list, corners: list) -> list:
     e1 /= max(np.linalg.norm(e1), 1e-300)
     e2 = np.cross(nrm, e1)
     xy = np.column_stack([(P - o) @ e1, (P - o) @ e2])
-    m = len(poly)
-    # Triangle crashes (segmentation fault) on repeated vertices: fall back to the plain triangle
+    # Triangle crashes (segmentation fault) on repeated vertices: fans instead
     scale = float(np.ptp(xy, axis=0).max()) if m else 0.0
-    if len(set(poly)) != m or scale <= 0 or len(np.unique(np.round(xy / scale, 12), axis=0)) != m:
-        return [tuple(corners)]
+    if scale <= 0 or len(np.unique(np.round(xy / scale, 12), axis=0)) != m:
+        return _sequential_fans(poly, corners)
     seg = np.column_stack([np.arange(m), (np.arange(m) + 1) % m])
     try:
         res = tr.triangulate({"vertices": xy, "segments": seg}, "pQ")
-    except Exception:   # noqa: BLE001 - a degenerate polygon: keep the fan of the first split
-        return [tuple(corners)]
+    except Exception:   # noqa: BLE001 - a degenerate polygon: fans
+        return _sequential_fans(poly, corners)
     if len(res["vertices"]) != m or "triangles" not in res:
-        return [tuple(corners)]
+        return _sequential_fans(poly, corners)
     out = []
     for t in res["triangles"].tolist():
         a, b, c = (poly[i] for i in t)
@@ -94,7 +113,7 @@ def _closest_edges(points, vfaces, edges_a, edges_b, edge_face, tree, radius, ep
 
     Parameters
     ----------
-    vfaces : (p, 2) int64
+    vfaces : (p, k) int64
         The faces each point belongs to (the faces of the boundary edges at a
         boundary vertex: two after an earlier stitch pass merged faces there).
     point_vertex : (p,) int64 or None
@@ -110,7 +129,7 @@ def _closest_edges(points, vfaces, edges_a, edges_b, edge_face, tree, radius, ep
         return np.full(len(points), -1), np.full(len(points), np.inf), np.zeros(len(points))
     pi = np.repeat(np.arange(len(points)), cnt)
     ei = np.fromiter((j for x in lists for j in x), dtype=np.int64, count=int(cnt.sum()))
-    own = (edge_face[ei] == vfaces[pi, 0]) | (edge_face[ei] == vfaces[pi, 1])
+    own = (edge_face[ei][:, None] == vfaces[pi]).any(axis=1)
     keep = own if same_face else ~own
     if not same_face and point_vertex is not None:
         keep &= (bedges[ei, 0] != point_vertex[pi]) & (bedges[ei, 1] != point_vertex[pi])
@@ -132,7 +151,7 @@ def _closest_edges(points, vfaces, edges_a, edges_b, edge_face, tree, radius, ep
 
 
 def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, tolerance: float | None = None,
-                return_origin: bool = False):
+                return_origin: bool = False, corner_uv=None):
     """Stitch the face boundaries of a mesh with ``face_id`` within distance `eps` (paper Sec. 5.2).
 
     Parameters
@@ -146,6 +165,10 @@ def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, tolerance: float | N
     tolerance : float or None
         Also bridge gaps wider than `eps` (up to `tolerance`) where the deviation bounds of the
         triangles that bend or move stay within `tolerance`.
+    corner_uv : (m, 3, 2) float64 or None
+        The (u, v) of every triangle corner on its face, carried through: a point inserted on
+        an edge gets the (u, v) at its parameter along the edge. Given, the result is
+        ``(mesh, info, dev, origin, corner_uv)``.
 
     Returns
     -------
@@ -155,12 +178,15 @@ def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, tolerance: float | N
         (with ``return_origin``, also the input index of every output triangle, -1 for new ones).
     """
     dev = np.zeros(mesh.n_triangles) if tri_dev is None else np.asarray(tri_dev, dtype=np.float64).copy()
+    cuv = None if corner_uv is None else np.asarray(corner_uv, dtype=np.float64)
     V = mesh.vertices.copy()
     T = mesh.triangles.copy()
     fid = mesh.face_id
     bedges, btri = _boundary(mesh)
     info = {"stitch_merged": 0, "stitch_split": 0, "stitch_rejected_checkback": 0}
     if not len(bedges):
+        if cuv is not None:
+            return mesh, info, dev, np.arange(mesh.n_triangles), cuv
         if return_origin:
             return mesh, info, dev, np.arange(mesh.n_triangles)
         return mesh, info, dev
@@ -186,6 +212,15 @@ def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, tolerance: float | N
     back, _, _ = _closest_edges(vp, vfaces[vi], a, b, efac, tree, radius, max(reach, 1e-300) * 2.0,
                                 same_face=True)
     ok_back = (back >= 0) & ((bedges[np.maximum(back, 0), 0] == vi) | (bedges[np.maximum(back, 0), 1] == vi))
+    # ... and for a split, no third face's boundary may come closer to v_p than v: a face narrower
+    # than eps lies between v and e_c (its two sides are v's and e_c's true partners). Merges at the
+    # ends of e_c are exempt: near a corner the third face's corner is close by and joins the group.
+    length = np.linalg.norm(b[ec] - a[ec], axis=1)
+    inner = (t * length > eps) & ((1.0 - t) * length > eps)
+    excl = np.column_stack([vfaces[vi], efac[ec]])
+    _, d3, _ = _closest_edges(vp, excl, a, b, efac, tree, radius, reach, same_face=False,
+                              point_vertex=vi, bedges=bedges)
+    ok_back &= ~(inner & (d3 < dist))
     info["stitch_rejected_checkback"] = int(np.count_nonzero(~ok_back))
     vi, ec, t, dist = vi[ok_back], ec[ok_back], t[ok_back], dist[ok_back]
     length = np.linalg.norm(b[ec] - a[ec], axis=1)
@@ -237,7 +272,7 @@ def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, tolerance: float | N
         V[w_v] += half
     dev = dev + moved[T].max(axis=1)
     s_d = np.linalg.norm(V[s_v] - (a[s_e] + s_t[:, None] * (b[s_e] - a[s_e])), axis=1)
-    new_tris, new_dev, drop = [], [], np.zeros(len(T), dtype=bool)
+    new_tris, new_dev, new_uv, drop = [], [], [], np.zeros(len(T), dtype=bool)
     if len(s_v):
         # the points inserted on each boundary edge, in order, grouped by triangle
         order = np.lexsort((s_t, s_e))
@@ -248,12 +283,18 @@ def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, tolerance: float | N
             e = int(s_e[starts[k]])
             per_tri.setdefault(int(btri[e]), []).append(
                 (int(bedges[e, 0]), int(bedges[e, 1]), s_v[starts[k]:starts[k + 1]].tolist(),
-                 float(s_d[starts[k]:starts[k + 1]].max())))
+                 float(s_d[starts[k]:starts[k + 1]].max()), s_t[starts[k]:starts[k + 1]].tolist()))
         for tri, splits in per_tri.items():
             drop[tri] = True
             corners = T[tri].tolist()
-            inserted = {(i, j): pts for i, j, pts, _ in splits}
-            bend = max(b for *_, b in splits)
+            inserted = {(i, j): pts for i, j, pts, _, _ in splits}
+            bend = max(sp[3] for sp in splits)
+            if cuv is not None:
+                # (u, v) on this face: the corners' own, an inserted point's along its edge
+                uv_of = {x: cuv[tri, c] for c, x in enumerate(corners)}
+                for i, j, pts, _, ts in splits:
+                    for x, tx in zip(pts, ts):
+                        uv_of[x] = uv_of[i] + tx * (uv_of[j] - uv_of[i])
             # the triangle's boundary polygon with the inserted points, in its own orientation
             poly = []
             for c in range(3):
@@ -263,6 +304,8 @@ def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, tolerance: float | N
             for t in _triangulate_polygon(V, poly, corners):
                 new_tris.append((*t, tri))
                 new_dev.append(dev[tri] + bend)
+                if cuv is not None:
+                    new_uv.append([uv_of[x] for x in t])
         info["stitch_split"] = int(len(s_v))
     keep = ~drop
     origin = np.flatnonzero(keep)
@@ -272,8 +315,12 @@ def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, tolerance: float | N
         fid = np.concatenate([fid[keep], fid[nt[:, 3]]])
         dev = np.concatenate([dev[keep], np.asarray(new_dev)])
         origin = np.r_[origin, np.full(len(nt), -1, dtype=np.int64)]
+        if cuv is not None:
+            cuv = np.concatenate([cuv[keep], np.asarray(new_uv, dtype=np.float64).reshape(-1, 3, 2)])
     else:
         T, fid, dev = T[keep], fid[keep], dev[keep]
+        if cuv is not None:
+            cuv = cuv[keep]
     # merge vertex pairs (union of the "same vertex" graph); the kept vertex is the lowest index
     if label is not None:
         n = len(V)
@@ -283,13 +330,15 @@ def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, tolerance: float | N
     ok = (T[:, 0] != T[:, 1]) & (T[:, 1] != T[:, 2]) & (T[:, 0] != T[:, 2])
     T, fid, dev, origin = T[ok], fid[ok], dev[ok], origin[ok]
     used, inv = np.unique(T, return_inverse=True)
+    if cuv is not None:
+        return TriMesh(V[used], inv.reshape(-1, 3), face_id=fid), info, dev, origin, cuv[ok]
     if return_origin:
         return TriMesh(V[used], inv.reshape(-1, 3), face_id=fid), info, dev, origin
     return TriMesh(V[used], inv.reshape(-1, 3), face_id=fid), info, dev
 
 
 def merge_face_meshes(face_meshes: dict, *, tolerance: float, stitch: bool = True, reduce_seams: bool = True,
-                      max_edge: float = np.inf) -> tuple[TriMesh, dict]:
+                      max_edge: float = np.inf, faces=None) -> tuple[TriMesh, dict]:
     """Concatenate face meshes (with face_id), stitch their boundaries, reduce the seams.
 
     Parameters
@@ -299,6 +348,11 @@ def merge_face_meshes(face_meshes: dict, *, tolerance: float, stitch: bool = Tru
     tolerance : float
         Stitching bridges gaps up to ``tolerance / 2`` and keeps every triangle's
         deviation bound within `tolerance`.
+    faces : sequence of TrimmedFace or None
+        Indexed by face id. Given, every triangle corner's (u, v) on its face is carried
+        through stitching, and seam reduction evaluates the collapsed triangles on the
+        surfaces and removes triangles flipped against the surface normal
+        (`seams.reduce_seams`); else it bounds deviations by the corner shifts.
 
     Returns
     -------
@@ -308,7 +362,7 @@ def merge_face_meshes(face_meshes: dict, *, tolerance: float, stitch: bool = Tru
     """
     from ..quality.topology import weld_vertices
 
-    verts, tris, fids, devs, quads = [], [], [], [], []
+    verts, tris, fids, devs, quads, cuvs = [], [], [], [], [], []
     off = toff = 0
     for i in sorted(face_meshes):
         fm = face_meshes[i]
@@ -316,6 +370,7 @@ def merge_face_meshes(face_meshes: dict, *, tolerance: float, stitch: bool = Tru
         tris.append(fm.triangles + off)
         fids.append(np.full(len(fm.triangles), i, dtype=np.int64))
         devs.append(fm.tri_dev)
+        cuvs.append(fm.uv[fm.triangles])
         if len(fm.quads):
             quads.append(fm.quads + toff)
         off += len(fm.xyz)
@@ -330,6 +385,7 @@ def merge_face_meshes(face_meshes: dict, *, tolerance: float, stitch: bool = Tru
         return q[(q >= 0).all(axis=1)]
     mesh = TriMesh(np.concatenate(verts), np.concatenate(tris), face_id=np.concatenate(fids))
     dev = np.concatenate(devs)
+    cuv = np.concatenate(cuvs) if faces is not None else None
     info: dict = {"triangles_unstitched": mesh.n_triangles}
     # vertices that coincide exactly (a face's own seam, poles) are one vertex
     w = weld_vertices(mesh, 1e-9 * tolerance)
@@ -337,11 +393,16 @@ def merge_face_meshes(face_meshes: dict, *, tolerance: float, stitch: bool = Tru
     keep[w.dropped_triangles] = False
     q = remap(q, mesh.n_triangles, np.where(keep, np.cumsum(keep) - 1, -1))
     mesh, dev = w.mesh, dev[keep]
+    if cuv is not None:
+        cuv = cuv[keep]
     if stitch:
         for p in range(2):   # a second pass catches vertices whose closest edge was split in the first
             n_before = mesh.n_triangles
-            mesh, st, dev, origin = stitch_mesh(mesh, 0.5 * tolerance, dev, tolerance=tolerance,
-                                                return_origin=True)
+            out = stitch_mesh(mesh, 0.5 * tolerance, dev, tolerance=tolerance, return_origin=True,
+                              corner_uv=cuv)
+            mesh, st, dev, origin = out[:4]
+            if cuv is not None:
+                cuv = out[4]
             index = np.full(n_before, -1, dtype=np.int64)
             index[origin[origin >= 0]] = np.flatnonzero(origin >= 0)
             q = remap(q, n_before, index)
@@ -352,7 +413,9 @@ def merge_face_meshes(face_meshes: dict, *, tolerance: float, stitch: bool = Tru
         from .seams import reduce_seams as _reduce
 
         n_before = mesh.n_triangles
-        mesh, n, alive = _reduce(mesh, tolerance, tri_dev=dev, max_edge=max_edge, return_kept=True)
+        kw = {} if cuv is None else {"corner_uv": cuv, "faces": faces,
+                                     "surfaces": [None if f is None else f.surface for f in faces]}
+        mesh, n, alive = _reduce(mesh, tolerance, tri_dev=dev, max_edge=max_edge, return_kept=True, **kw)
         q = remap(q, n_before, np.where(alive, np.cumsum(alive) - 1, -1))
         info["seam_collapses"] = n
     info["quads"] = q
