@@ -132,35 +132,41 @@ class _State:
         flat = T[ia].ravel()
         order = np.argsort(flat, kind="stable")
         vstart = np.searchsorted(flat[order], np.arange(nv + 1))
-        vtri = ia[order // 3]
+        vtri = ia[order // 3].tolist()
+        vstart = vstart.tolist()
         Tl = T.tolist()
-        locked = np.zeros(nv, dtype=bool)
+        fl = fid.tolist()
+        # the cheap tests of every candidate at once: v on the seam between two neighbours, u one of
+        # them, v within chord_tol of the new seam chord (u, w)
+        c = np.asarray([x for x in cands if x not in skip], dtype=np.int64).reshape(-1, 2)
+        cv, cu = c[:, 0], c[:, 1]
+        ok = deg[cv] == 2
+        f = np.where(ok, first[cv], 0)
+        n0 = both[np.minimum(f, len(both) - 1), 1]
+        n1 = both[np.minimum(f + 1, len(both) - 1), 1]
+        ok &= (cu == n0) | (cu == n1)
+        cw = np.where(cu == n0, n1, n0)
+        pu, pw, pv = V[cu], V[cw], V[cv]
+        d = pw - pu
+        den = np.einsum("ij,ij->i", d, d)
+        sp = np.clip(np.einsum("ij,ij->i", pv - pu, d) / np.where(den > 0, den, 1.0), 0.0, 1.0)
+        far = np.linalg.norm(pv - (pu + sp[:, None] * d), axis=1) > chord_tol
+        skip.update(map(tuple, c[ok & far].tolist()))
+        ok &= ~far
+        locked = bytearray(nv)
         sel = []        # (v, u, moved, gone)
-        for v, u in cands:
-            if (v, u) in skip or deg[v] != 2 or locked[v] or locked[u]:
+        for v, u in c[ok].tolist():
+            if locked[v] or locked[u]:
                 continue
-            n0, n1 = int(both[first[v], 1]), int(both[first[v] + 1, 1])
-            if u not in (n0, n1):
-                continue
-            w = n1 if u == n0 else n0
-            tv = vtri[vstart[v]:vstart[v + 1]].tolist()
+            tv = vtri[vstart[v]:vstart[v + 1]]
             star = {x for k in tv for x in Tl[k]}
             if any(locked[x] for x in star):
                 continue
-            if len({int(fid[k]) for k in tv}) != 2:
-                skip.add((v, u))
-                continue
-            # deviation: v within chord_tol of the new seam chord (u, w)
-            pu, pw, pv = V[u], V[w], V[v]
-            d = pw - pu
-            den = float(d @ d)
-            s = 0.0 if den <= 0 else min(max(float((pv - pu) @ d) / den, 0.0), 1.0)
-            if float(np.linalg.norm(pv - (pu + s * d))) > chord_tol:
+            if len({fl[k] for k in tv}) != 2:
                 skip.add((v, u))
                 continue
             # link condition: u and v share exactly two neighbours (the two opposite vertices)
-            tu = vtri[vstart[u]:vstart[u + 1]].tolist()
-            nu = {x for k in tu for x in Tl[k]} - {u}
+            nu = {x for k in vtri[vstart[u]:vstart[u + 1]] for x in Tl[k]} - {u}
             if len((star - {v}) & nu) != 2:
                 skip.add((v, u))
                 continue
@@ -170,7 +176,8 @@ class _State:
                 skip.add((v, u))
                 continue
             sel.append((v, u, moved, gone))
-            locked[list(star)] = True
+            for x in star:
+                locked[x] = 1
         if not sel:
             return 0
         ok = self._check(sel, uv_check)
