@@ -26,6 +26,8 @@ ASPECT = 6.0
 #: cells whose split deviates at most this many times the tolerance, few in their row and column, get an
 #: interior point in the triangulation instead of a grid line through the whole row or column
 LOCAL_FIX = 1.5
+#: the aspect limit applies where the short side's direction has at least this many cells
+MIN_ACROSS = 2
 #: barycentric points where a triangle's deviation is sampled: centroid, edge midpoints, and the
 #: centroids of the three corner sub-triangles
 _BARY = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.5],
@@ -216,6 +218,11 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
             with np.errstate(divide="ignore", invalid="ignore"):
                 ratio = np.maximum(side_u, side_v) / np.minimum(side_u, side_v)
             thin = np.isfinite(ratio) & (ratio > aspect) & ~bad
+            # only where the short side is set by the deviation (several cells across), not by the
+            # width of a narrow face (a fillet): lines along its length would end on its neighbours'
+            # edges as extra trim points, fans of thin triangles there
+            across = np.where(side_u < side_v, len(us) - 1, len(vs) - 1)
+            thin &= across >= MIN_ACROSS
             if polys is not None:
                 thin &= near
             long |= thin
@@ -515,9 +522,14 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
         # of its triangles leaves the tolerance, its centroid joins the CDT (an interior point, so the
         # trim polygons, shared with the neighbours, stay as they are)
         extra = np.zeros((0, 2))
+        # a trim point off the surface (the mean of two faces' curves, a gap in the model) makes its
+        # triangles deviate by its own offset, which no interior point can remove
+        trim_off = np.linalg.norm(s.evaluate(dt.uv[:dt.n_trim]) - trim_xyz, axis=1)
         for _ in range(4):
             dev = triangle_deviation(s, dt.uv, xyz, dt.triangles)
-            bad = dev > tol
+            off = np.zeros(len(dt.uv))
+            off[:dt.n_trim] = trim_off
+            bad = (dev > tol) & (dev > off[dt.triangles].max(axis=1) + 0.05 * tol)
             if not bad.any():
                 break
             extra = np.concatenate([extra, dt.uv[dt.triangles[bad]].mean(axis=1)])
