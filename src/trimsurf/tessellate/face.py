@@ -99,9 +99,14 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
 
     For the u values, the lines are v = const for `n_lines` values across the
     trimmed region (and the interior knots); only intervals that touch the
-    trimmed region count. Afterwards every grid cell inside the trim is split
-    along its better diagonal and cells whose triangles leave the tolerance
-    (the twist the iso-lines do not see) get a mid-line in both directions.
+    trimmed region count. Afterwards every grid cell at the trimmed region is
+    split along its diagonal and checked (`refine_cells`): lines within the
+    tolerance still leave cells whose triangles deviate more (curvature in
+    both directions adds up at a triangle's centre, and the twist the
+    iso-lines do not see); the lines are placed again for the tolerance
+    divided by the worst cell's ratio when that gives fewer cells than
+    mid-lines through the bad cells, and a few cells just over the tolerance
+    get an interior point when the face is triangulated instead of a line.
 
     Returns
     -------
