@@ -94,7 +94,9 @@ def test_thin_face_between_two_faces_is_not_stitched_across(shared_data):
     """t20 face 1 is a strip 0.0065 wide (a tenth of the tolerance) between faces 0 and 2: a vertex
     of face 0 lay nearer to face 2's chord across the strip than to face 1's own edge, was inserted
     there, and face 1 later took it as well: 2 non-manifold edges per strip end. A split is now
-    refused when a third face's boundary comes closer to the foot point than the vertex itself."""
+    refused when a face narrower than eps (two of its sides running back along each other within eps
+    of the foot point, one nearer than the vertex) lies between, and when it would give an edge two
+    triangles already share."""
     shell = read_shell(shared_data / "cad" / "gmsh__t20_data.step")
     from trimsurf.model import Shell
     from trimsurf.tessellate import default_parameters

@@ -212,15 +212,43 @@ def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, tolerance: float | N
     back, _, _ = _closest_edges(vp, vfaces[vi], a, b, efac, tree, radius, max(reach, 1e-300) * 2.0,
                                 same_face=True)
     ok_back = (back >= 0) & ((bedges[np.maximum(back, 0), 0] == vi) | (bedges[np.maximum(back, 0), 1] == vi))
-    # ... and for a split, no third face's boundary may come closer to v_p than v: a face narrower
-    # than eps lies between v and e_c (its two sides are v's and e_c's true partners). Merges at the
-    # ends of e_c are exempt: near a corner the third face's corner is close by and joins the group.
+    # ... and for a split, no face narrower than eps may lie between v and e_c, nearer to v_p than v
+    # (its two sides are v's and e_c's true partners): a third face with one edge nearer to v_p than v
+    # and another running back along it within eps of v_p. Merges at the ends of e_c are exempt.
     length = np.linalg.norm(b[ec] - a[ec], axis=1)
     inner = (t * length > eps) & ((1.0 - t) * length > eps)
     excl = np.column_stack([vfaces[vi], efac[ec]])
-    _, d3, _ = _closest_edges(vp, excl, a, b, efac, tree, radius, reach, same_face=False,
-                              point_vertex=vi, bedges=bedges)
-    ok_back &= ~(inner & (d3 < dist))
+    e3, d3, _ = _closest_edges(vp, excl, a, b, efac, tree, radius, reach, same_face=False,
+                               point_vertex=vi, bedges=bedges)
+    cand = np.flatnonzero(inner & (e3 >= 0) & (d3 < dist))
+    if len(cand):
+        thin = np.zeros(len(cand), dtype=bool)
+        lists = tree.query_ball_point(vp[cand], radius)
+        for r, (k, js) in enumerate(zip(cand.tolist(), lists)):
+            j3 = int(e3[k])
+            js = np.asarray(js, dtype=np.int64)
+            js = js[(efac[js] == efac[j3]) & (js != j3)]
+            if len(js):
+                # the face's other side: running back (antiparallel within 30 degrees) within eps
+                d3v = (b[j3] - a[j3]) / max(float(np.linalg.norm(b[j3] - a[j3])), 1e-300)
+                dj = (b[js] - a[js]) / np.maximum(np.linalg.norm(b[js] - a[js], axis=1), 1e-300)[:, None]
+                js = js[dj @ d3v < -0.866]
+            if len(js):
+                dd, _ = _point_segment(np.repeat(vp[[k]], len(js), axis=0), a[js], b[js])
+                thin[r] = dd.min() <= eps
+        ok_back[cand[thin]] = False
+    # ... and a split must not make an edge the mesh already has between two triangles (v shared by
+    # two faces after a first pass, inserted into a third face's edge: a non-manifold edge)
+    inner_edges = mesh.edges()[mesh.edge_triangle_counts() >= 2]
+    nv1 = len(V) + 1
+    ikeys = np.sort(inner_edges[:, 0] * nv1 + inner_edges[:, 1])
+
+    def _exists(x, y):
+        k = np.minimum(x, y) * nv1 + np.maximum(x, y)
+        pos = np.minimum(np.searchsorted(ikeys, k), max(len(ikeys) - 1, 0))
+        return (ikeys[pos] == k) if len(ikeys) else np.zeros(len(k), dtype=bool)
+    twice = _exists(vi, bedges[ec, 0]) | _exists(vi, bedges[ec, 1])
+    ok_back &= ~(inner & twice)
     info["stitch_rejected_checkback"] = int(np.count_nonzero(~ok_back))
     vi, ec, t, dist = vi[ok_back], ec[ok_back], t[ok_back], dist[ok_back]
     length = np.linalg.norm(b[ec] - a[ec], axis=1)
