@@ -139,3 +139,20 @@ def test_sequential_fans_keep_every_inserted_point():
     assert all(e in directed for e in ring)           # the boundary, in the triangle's orientation
     inner = [e for e in directed if e not in ring]
     assert all((b, a) in directed for a, b in inner)  # interior edges twice, opposite: a manifold fan
+
+
+def test_face_smaller_than_the_stitching_distance_is_reported_and_measured(shared_data):
+    """Crankshaft face 48 (a plane patch 0.29 x 0.17, the tolerance 0.33) has one triangle; stitched
+    loose its corners all merge with the neighbours' and the face is gone from the mesh. That is said in
+    its entry, and the deviation is measured from the face's own samples to the whole mesh (it used to
+    make the report's max deviation infinite)."""
+    shell = read_shell(shared_data / "cad" / "gmsh__SampleCrankshaft4A.stp")
+    res = tessellate_shell(shell, mode="loose")
+    r = res.report
+    assert 48 in r["faces_collapsed"] and 48 not in set(res.mesh.face_id.tolist())
+    assert "merged into its neighbours" in res.faces[48].messages[-1]
+    assert res.faces[48].status != "failed"
+    d48 = r["collapsed_faces"]["48"]
+    assert 0.0 < d48 <= res.tolerance
+    assert np.isfinite(r["max_deviation"]) and r["max_deviation"] <= res.tolerance
+    assert r["boundary_edges"] == 0 and r["nonmanifold_edges"] == 0

@@ -32,6 +32,29 @@ def flipped_against_normal(mesh: TriMesh, shell: Shell, *, reversed_faces=(), to
     return int(n)
 
 
+def _collapsed_faces(mesh: TriMesh, shell: Shell, faces, n_domain: int) -> dict:
+    """Faces left without triangles (not skipped): their largest distance to the whole mesh.
+
+    A face smaller than the stitching distance can merge into its neighbours'
+    triangles; whether that stays within the tolerance is measured from the
+    face's own samples to the mesh (one-sided: it has no triangles of its own),
+    never assumed. A face that would not close (no samples) gives inf.
+    """
+    from ..quality.closest_point import closest_points_on_mesh
+    from ..quality.sampling import sample_face_domain
+
+    out = {}
+    for i in sorted(int(f) for f in faces):
+        face = shell.faces[i]
+        uv = sample_face_domain(face, n=n_domain)
+        if not len(uv) or not mesh.n_triangles:
+            out[i] = float("inf")
+            continue
+        pts = face.surface.evaluate(uv)
+        out[i] = float(closest_points_on_mesh(pts, mesh).distance.max())
+    return out
+
+
 def measure_mesh(mesh: TriMesh, shell: Shell, *, density: int = 3, n_domain: int = 32, reversed_faces=(),
                  skipped_faces=()) -> dict:
     """The issue's report fields for one mesh with ``face_id`` tessellating `shell`.
@@ -46,16 +69,21 @@ def measure_mesh(mesh: TriMesh, shell: Shell, *, density: int = 3, n_domain: int
         orientation_consistent, watertight, seconds_measure.
         Faces in `skipped_faces` (reported as failed and left out of the mesh)
         are listed in ``uncovered_faces`` but do not enter the deviation
-        figures; any other uncovered face makes them infinite.
+        figures; any other uncovered face (collapsed into its neighbours by
+        stitching) enters with its measured distance to the whole mesh,
+        listed in ``collapsed_faces``.
     """
     t0 = time.perf_counter()
     dev = shell_deviation(mesh, shell, density=density, n_domain=n_domain)
     dev_max = (float(dev.max_two_sided), float(dev.max_mesh_to_target), float(dev.max_target_to_mesh))
     skipped = {int(i) for i in skipped_faces}
-    if len(dev.uncovered_faces) and set(dev.uncovered_faces.tolist()) <= skipped:
+    collapsed = _collapsed_faces(mesh, shell, set(dev.uncovered_faces.tolist()) - skipped, n_domain)
+    if len(dev.uncovered_faces) and set(dev.uncovered_faces.tolist()) <= skipped | set(collapsed):
         covered = [d for d in dev.faces if d is not None]
         dev_max = tuple(max((float(getattr(d, k)) for d in covered), default=0.0)
                         for k in ("max_two_sided", "max_mesh_to_target", "max_target_to_mesh"))
+        far = max(collapsed.values(), default=0.0)
+        dev_max = (max(dev_max[0], far), dev_max[1], max(dev_max[2], far))
     e = mesh.edges()
     lengths = np.linalg.norm(mesh.vertices[e[:, 0]] - mesh.vertices[e[:, 1]], axis=1)
     tq = triangle_quality(mesh)
@@ -68,6 +96,7 @@ def measure_mesh(mesh: TriMesh, shell: Shell, *, density: int = 3, n_domain: int
         "max_deviation_mesh_to_faces": dev_max[1],
         "max_deviation_faces_to_mesh": dev_max[2],
         "uncovered_faces": [int(i) for i in dev.uncovered_faces],
+        "collapsed_faces": {str(i): d for i, d in sorted(collapsed.items())},
         "max_edge": float(lengths.max()),
         "min_angle_deg": float(tq.min_angle_deg),
         "p5_angle_deg": float(tq.p5_min_angle_deg),

@@ -363,6 +363,16 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
         quads = stitch_info.pop("quads")
         mesh, flipped_faces = orient_meshes(mesh)
         stitch_info["faces_flipped"] = flipped_faces
+        # a face smaller than the stitching distance can merge into its neighbours' triangles: said
+        # so in its entry (the measure module measures its distance to the mesh)
+        present = set(np.unique(mesh.face_id).tolist()) if mesh.n_triangles else set()
+        collapsed = [i for i in sorted(face_meshes) if i not in present]
+        for i in collapsed:
+            st = statuses[i]
+            statuses[i] = FaceStatus(i, st.name, st.status, st.messages + (
+                f"{st.name}: smaller than the stitching distance; merged into its neighbours' triangles",),
+                0, st.crossed_cells, st.grid)
+        stitch_info["faces_collapsed"] = collapsed
     fm_out = tuple(face_meshes[i].to_trimesh() if i in face_meshes else None for i in range(n))
     faces_t = tuple(statuses[i] for i in range(n))
     report = {
