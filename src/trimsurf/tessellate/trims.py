@@ -250,7 +250,18 @@ def discretize_chunk(uses: list, *, tolerance: float, max_edge: float, strategy:
             s_all, iso = s_all[keep], iso[keep]
             uvs = [uv[keep] for uv in uvs]
     if reduce and not degenerate and len(s_all) > 2:
-        s_all, uvs, iso = _reduce(evaluate, s_all, uvs, iso, chord_tol, max_edge, uses)
+        # the points to keep are the grid-line crossings; on a shared edge, a point inside a run along a
+        # grid line (an edge on a face's box side or along an iso-curve) is none: its neighbours' chord
+        # runs along the line as well, and the crossings' points are then spaced evenly. A single-use
+        # trim keeps both as they were: its chords at the full tolerance, measured on the samples only,
+        # reached 1.02 x tolerance on the hood sample's box sides, and loose mode's stitching matches
+        # the two faces' own points (even spacing left 3 boundary edges off the bearing's free edges).
+        shared = len(uses) >= 2
+        must = _crossing_points(uses, uvs) if shared else iso.copy()
+        must[[0, -1]] = True
+        s_all, uvs, iso = _reduce(evaluate, s_all, uvs, must, chord_tol, max_edge, uses, flags=iso)
+        if shared:
+            s_all, uvs, iso = _even_spacing(evaluate, s_all, uvs, iso, chord_tol, max_edge, uses)
     xyz = np.mean([u.surface.evaluate(uv) for u, uv in zip(uses, uvs)], axis=0)
     if degenerate:
         xyz[:] = xyz.mean(axis=0)
@@ -268,9 +279,22 @@ def _same_cell(uses, uvs, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return ok
 
 
-def _reduce(evaluate, s, uvs, iso, tolerance, max_edge, uses):
+def _crossing_points(uses, uvs) -> np.ndarray:
+    """Points that lie on a grid line of some use which the polygon does not run along on both sides."""
+    must = np.zeros(len(uvs[0]), dtype=bool)
+    for use, uv in zip(uses, uvs):
+        for axis, grid in ((0, use.us), (1, use.vs)):
+            c = uv[:, axis]
+            on = np.isin(c, grid)
+            along = np.zeros(len(c), dtype=bool)
+            along[1:-1] = (c[:-2] == c[1:-1]) & (c[2:] == c[1:-1])
+            must |= on & ~along
+    return must
+
+
+def _reduce(evaluate, s, uvs, iso, tolerance, max_edge, uses, flags=None):
     """Remove points that are no iso-line point while the chord of their neighbours meets both criteria
-    and crosses no iso-line of any use."""
+    and crosses no iso-line of any use. With `flags`, returns those of the kept points instead of iso."""
     keep = np.ones(len(s), dtype=bool)
     for parity in (0, 1, 0, 1):
         idx = np.flatnonzero(keep)
@@ -286,4 +310,82 @@ def _reduce(evaluate, s, uvs, iso, tolerance, max_edge, uses):
         length, dev = length[::2], dev[::2]
         ok = (length <= max_edge) & (dev <= tolerance) & _same_cell(uses, uvs, idx[cand - 1], idx[cand + 1])
         keep[idx[cand[ok]]] = False
-    return s[keep], [uv[keep] for uv in uvs], iso[keep]
+    return s[keep], [uv[keep] for uv in uvs], (iso if flags is None else flags)[keep]
+
+
+def _in_one_cell(uses, uv_a: list, uv_b: list) -> np.ndarray:
+    """Whether the points uv_a[i] and uv_b[i] (per use, (n, 2)) lie in one closed grid cell of every use."""
+    ok = np.ones(len(uv_a[0]), dtype=bool)
+    for use, a, b in zip(uses, uv_a, uv_b):
+        for axis, grid in ((0, use.us), (1, use.vs)):
+            lo = np.minimum(a[:, axis], b[:, axis])
+            hi = np.maximum(a[:, axis], b[:, axis])
+            ok &= np.searchsorted(grid, lo, side="right") >= np.searchsorted(grid, hi, side="left")
+    return ok
+
+
+def _even_spacing(evaluate, s, uvs, iso, tolerance, max_edge, uses):
+    """Between consecutive grid-line crossings, the fewest equally spaced points (in s) that meet both
+    criteria, where they are no more than the reduction kept there.
+
+    The 3D samples are placed along the whole curve, before the crossings are known: one that meets the
+    chord tolerance a little short of a crossing stays next to it (a pair of nearly coincident points, a
+    thin triangle fan in the cells of the face that has no line there). Evenly spaced points between the
+    crossings keep the count and the criteria and space the polygon evenly. An interval whose even
+    points would leave one grid cell (a curve that dips towards a line) keeps the reduction's points.
+    """
+    must = _crossing_points(uses, uvs)
+    must[[0, -1]] = True
+    mi = np.flatnonzero(must)
+    m_old = np.diff(mi) - 1
+    cand = np.flatnonzero(m_old > 0)
+    if not len(cand):
+        return s, uvs, iso
+    a, b, m = s[mi[cand]], s[mi[cand + 1]], m_old[cand]
+    ends_a = [uv[mi[cand]] for uv in uvs]
+    ends_b = [uv[mi[cand + 1]] for uv in uvs]
+    best = np.zeros(len(cand), dtype=np.int64)          # sub-intervals chosen, 0: keep the old points
+    for n in range(1, int(m.max()) + 2):
+        sel = np.flatnonzero((best == 0) & (n <= m + 1))
+        if not len(sel):
+            break
+        f = np.arange(n + 1) / n
+        grid_s = a[sel, None] + (b - a)[sel, None] * f[None, :]          # (k, n + 1)
+        pairs = np.column_stack([grid_s[:, :-1].ravel(), grid_s[:, 1:].ravel()]).ravel()
+        length, dev = interval_criteria(evaluate, pairs)
+        ok = ((length[::2] <= max_edge) & (dev[::2] <= tolerance)).reshape(-1, n).all(axis=1)
+        # (u, v) of the sequence end, interior points, end; every chord in one closed cell of every use
+        seq = []
+        for ui, use in enumerate(uses):
+            uvq = np.empty((len(sel), n + 1, 2))
+            uvq[:, 0], uvq[:, -1] = ends_a[ui][sel], ends_b[ui][sel]
+            if n > 1:
+                inner = use.uv(grid_s[:, 1:-1].ravel())
+                for axis, g in ((0, use.us), (1, use.vs)):
+                    inner[:, axis] = _snap(inner[:, axis], g, use.param_tol)[0]
+                uvq[:, 1:-1] = inner.reshape(len(sel), n - 1, 2)
+            seq.append(uvq)
+        cell = _in_one_cell(uses, [q[:, :-1].reshape(-1, 2) for q in seq],
+                            [q[:, 1:].reshape(-1, 2) for q in seq]).reshape(-1, n).all(axis=1)
+        best[sel[ok & cell]] = n
+    done = np.flatnonzero(best > 0)
+    if not len(done):
+        return s, uvs, iso
+    drop = np.zeros(len(s), dtype=bool)
+    new_s = []
+    for k in done:
+        drop[mi[cand[k]] + 1:mi[cand[k] + 1]] = True
+        n = best[k]
+        if n > 1:
+            new_s.append(a[k] + (b[k] - a[k]) * np.arange(1, n) / n)
+    new_s = np.concatenate(new_s) if new_s else np.zeros(0)
+    s_out = np.r_[s[~drop], new_s]
+    order = np.argsort(s_out, kind="stable")
+    uvs_out, iso_new = [], np.zeros(len(new_s), dtype=bool)
+    for use, uv in zip(uses, uvs):
+        inner = use.uv(new_s)
+        for axis, g in ((0, use.us), (1, use.vs)):
+            inner[:, axis], hit = _snap(inner[:, axis], g, use.param_tol)
+            iso_new |= hit
+        uvs_out.append(np.r_[uv[~drop], inner][order])
+    return s_out[order], uvs_out, np.r_[iso[~drop], iso_new][order]
