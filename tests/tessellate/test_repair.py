@@ -250,3 +250,13 @@ def test_suitcase_corner_is_filled():
     # the same gap on a surface whose edge v = 1 has length: not fillable, rejected
     rep = repair_face(TrimmedFace(_plane(), (three,), name="plane"), tolerance=1e-3)
     assert rep.status == "failed" and "plane: trim loop 0 is open after segment 1" in rep.messages[0]
+
+
+def test_pole_of_a_surface_of_revolution_is_not_a_g1_defect(shared_data):
+    """bug32596 face 11: its knot lines end at the axis (|Su x Sv| = 0), where the one-sided normals
+    jump by up to 141 deg; everywhere else the surface is G1 (jump < 1e-3 deg)."""
+    from trimsurf.io import read_shell
+    from trimsurf.tessellate.repair import g1_defects
+
+    face = read_shell(shared_data / "cad" / "occtpr946__bug32596_abc_0_13.step").faces[11]
+    assert g1_defects(face) < 1e-3

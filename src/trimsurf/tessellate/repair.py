@@ -60,8 +60,15 @@ def _line(a, b) -> NurbsCurve:
     return NurbsCurve(1, [0.0, 0.0, 1.0, 1.0], np.array([a, b], dtype=np.float64))
 
 
+_POLE_REL = 1e-6     # |Su x Sv| below this x its largest value along the knot line: a pole, skipped
+
+
 def g1_defects(face: TrimmedFace, *, n: int = 33) -> float:
-    """Largest angle (degrees) between the normals on both sides of an internal C0 knot line, inside the trim."""
+    """Largest angle (degrees) between the normals on both sides of an internal C0 knot line, inside the trim.
+
+    Points where the parameterization is singular (a pole: |Su x Sv| = 0) are left out: the normal
+    there is not defined by the derivatives, and the jump of the one-sided limits is no G1 defect.
+    """
     from ..quality.sampling import inside_face
 
     s = face.surface
@@ -87,7 +94,13 @@ def g1_defects(face: TrimmedFace, *, n: int = 33) -> float:
                 continue
             nl, nr = s.normals(uv_l[ins]), s.normals(uv_r[ins])
             cos = np.clip(np.einsum("ij,ij->i", nl, nr), -1.0, 1.0)
-            ang = np.degrees(np.arccos(cos[np.isfinite(cos)]))
+            # a pole (|Su x Sv| = 0, e.g. the axis of a surface of revolution) has no normal to compare
+            regular = np.ones(len(cos), dtype=bool)
+            for uv in (uv_l[ins], uv_r[ins]):
+                d = s.derivatives(uv, 1)
+                area = np.linalg.norm(np.cross(d[1, 0], d[0, 1]), axis=-1)
+                regular &= area > _POLE_REL * max(float(area.max(initial=0.0)), 1e-300)
+            ang = np.degrees(np.arccos(cos[np.isfinite(cos) & regular]))
             if len(ang):
                 worst = max(worst, float(ang.max()))
     return worst
