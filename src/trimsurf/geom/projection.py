@@ -352,6 +352,11 @@ def _merge(result, sub, idx: np.ndarray, *, replace: bool = False):
     return type(result)(*fields)
 
 
+def _workers(n_queries: int) -> int:
+    """Threads for a k-d tree query: starting them costs more than a small batch's search."""
+    return -1 if n_queries >= 20_000 else 1
+
+
 def _solve(pts, seeds: _Seeds, evaluate, newton, retry: bool, tol: float, breaks: list, start=None):
     """Newton from `start` (warm) or the nearest seed, then (if `retry`) restarts that may do better.
 
@@ -361,7 +366,7 @@ def _solve(pts, seeds: _Seeds, evaluate, newton, retry: bool, tol: float, breaks
     next to their foot (`_crease_starts`) and once from a far seed sample that may
     hold a closer point (`_retry_seeds`); the closer result is kept.
     """
-    seed_dist, first = seeds.tree.query(pts, k=1, workers=-1)
+    seed_dist, first = seeds.tree.query(pts, k=1, workers=_workers(len(pts)))
     used = first.copy()
     if start is None:
         result = newton(pts, seeds.params[first], tuple(d[first] for d in seeds.ders))
@@ -392,7 +397,7 @@ def _solve(pts, seeds: _Seeds, evaluate, newton, retry: bool, tol: float, breaks
     ask = np.flatnonzero(result.distance > tol)  # within tol of the surface nothing closer by tol exists
     if k == 1 or not ask.size:
         return result
-    sd, near = seeds.tree.query(pts[ask], k=k, workers=-1)
+    sd, near = seeds.tree.query(pts[ask], k=k, workers=_workers(ask.size))
     sd, near = sd.reshape(ask.size, k), near.reshape(ask.size, k)
     idx, s = _retry_seeds(seeds, near, sd, result.params[ask], result.distance[ask], tol, used[ask])
     if idx.size:
