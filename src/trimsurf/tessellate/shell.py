@@ -218,9 +218,9 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
     common : bool
         Conforming mode: common parameterization of faces meeting along
         iso-parametric edges (`trimsurf.tessellate.common`, paper Fig. 12).
-        Experimental, off by default: on the samples and real files measured so
-        far it adds lines (bspline_box: 2.2x triangles) and on occt__screw and
-        gmsh__wrenchnut it leaves cracks.
+        Only faces meeting tangent-continuously (normals within 10 deg) are
+        linked. Off by default: watertight on every real model measured, at
+        1.00-1.22x the triangles (CLI ``--common``).
     measure : bool
         Measure the quality figures of the result (deviation by dense sampling,
         angles, topology, flips) into ``report``.
