@@ -67,14 +67,13 @@ def test_tips_stay_flipped_without_seam_reduction(thin_tips):
 
 def test_bug32596_whole_model(bug32596):
     """Closed model: watertight, 2-manifold, oriented, within tolerance, no flips; face 65 (edges 20
-    and 56 cross on the surface) meshed, not skipped; face 11 (normals jump 141 degrees across a patch
-    boundary) flagged by name."""
+    and 56 cross on the surface) meshed, not skipped; no face flagged (face 11's 141 degree normal jump
+    is at the pole of a surface of revolution, where the normal is undefined: 6e-5 degrees elsewhere)."""
     res = tessellate_shell(bug32596)
     r = res.report
     assert res.ok and r["faces_failed"] == 0
     assert 65 in set(res.mesh.face_id.tolist())
-    assert [f.index for f in res.faces if f.status == "flagged"] == [11]
-    assert "not G1" in res.faces[11].messages[-1]
+    assert [f.index for f in res.faces if f.status == "flagged"] == []
     assert r["boundary_edges"] == 0 and r["nonmanifold_edges"] == 0 and r["orientation_consistent"]
     assert r["flipped"] == 0
     assert r["uncovered_faces"] == []

@@ -112,13 +112,17 @@ class _State:
         a = self.alive
         return _seam_graph(TriMesh(self.V, self.T[a], face_id=self.fid[a]))
 
-    def round(self, seam, cands, chord_tol, skip, uv_check: bool = True) -> int:
+    def round(self, seam, cands, chord_tol, skip, uv_check: bool = True, interior: bool = False) -> int:
         """Try the directed collapses `cands` (v into u, in order) whose stars do not overlap; apply the good.
 
         Collapses that fail a check are added to `skip` (never tried again).
-        ``uv_check=False`` drops the (u, v) orientation test (the 3D one stays): where
+        ``uv_check=False`` (the flip pass) drops the (u, v) orientation test (the 3D one stays), and
+        lets a triangle already flipped turn by more than 60 degrees: where
         two trims of a face are closer than the tolerance their chords in (u, v) and in
-        3D can disagree on a corner's orientation. Returns the number of collapses done.
+        3D can disagree on a corner's orientation. ``interior=True``: v is instead a vertex
+        inside one face (off every seam, its triangles a closed fan of that face) collapsed into
+        any neighbour u (no chord test; the deviation is evaluated on the surface).
+        Returns the number of collapses done.
         """
         V, T, fid, alive = self.V, self.T, self.fid, self.alive
         nv = len(V)
@@ -140,19 +144,22 @@ class _State:
         # them, v within chord_tol of the new seam chord (u, w)
         c = np.asarray([x for x in cands if x not in skip], dtype=np.int64).reshape(-1, 2)
         cv, cu = c[:, 0], c[:, 1]
-        ok = deg[cv] == 2
-        f = np.where(ok, first[cv], 0)
-        n0 = both[np.minimum(f, len(both) - 1), 1]
-        n1 = both[np.minimum(f + 1, len(both) - 1), 1]
-        ok &= (cu == n0) | (cu == n1)
-        cw = np.where(cu == n0, n1, n0)
-        pu, pw, pv = V[cu], V[cw], V[cv]
-        d = pw - pu
-        den = np.einsum("ij,ij->i", d, d)
-        sp = np.clip(np.einsum("ij,ij->i", pv - pu, d) / np.where(den > 0, den, 1.0), 0.0, 1.0)
-        far = np.linalg.norm(pv - (pu + sp[:, None] * d), axis=1) > chord_tol
-        skip.update(map(tuple, c[ok & far].tolist()))
-        ok &= ~far
+        if interior:
+            ok = deg[cv] == 0
+        else:
+            ok = deg[cv] == 2
+            f = np.where(ok, first[cv], 0)
+            n0 = both[np.minimum(f, len(both) - 1), 1]
+            n1 = both[np.minimum(f + 1, len(both) - 1), 1]
+            ok &= (cu == n0) | (cu == n1)
+            cw = np.where(cu == n0, n1, n0)
+            pu, pw, pv = V[cu], V[cw], V[cv]
+            d = pw - pu
+            den = np.einsum("ij,ij->i", d, d)
+            sp = np.clip(np.einsum("ij,ij->i", pv - pu, d) / np.where(den > 0, den, 1.0), 0.0, 1.0)
+            far = np.linalg.norm(pv - (pu + sp[:, None] * d), axis=1) > chord_tol
+            skip.update(map(tuple, c[ok & far].tolist()))
+            ok &= ~far
         locked = bytearray(nv)
         sel = []        # (v, u, moved, gone)
         for v, u in c[ok].tolist():
@@ -162,8 +169,8 @@ class _State:
             star = {x for k in tv for x in Tl[k]}
             if any(locked[x] for x in star):
                 continue
-            if len({fl[k] for k in tv}) != 2:
-                skip.add((v, u))
+            if len({fl[k] for k in tv}) != (1 if interior else 2) or (interior and len(star) != len(tv) + 1):
+                skip.add((v, u))     # (interior: a closed fan has as many neighbours as triangles)
                 continue
             # link condition: u and v share exactly two neighbours (the two opposite vertices)
             nu = {x for k in vtri[vstart[u]:vstart[u + 1]] for x in Tl[k]} - {u}
@@ -180,14 +187,18 @@ class _State:
                 locked[x] = 1
         if not sel:
             return 0
-        ok = self._check(sel, uv_check)
+        ok = self._check(sel, uv_check, exempt_flipped=not uv_check)
         for (v, u, _, _), good in zip(sel, ok):
             if not good:
                 skip.add((v, u))
         return int(np.count_nonzero(ok))
 
-    def _check(self, sel, uv_check: bool = True) -> np.ndarray:
-        """Batched tests of the selected collapses; applies the ones that pass. Returns (s,) bool."""
+    def _check(self, sel, uv_check: bool = True, exempt_flipped: bool = False) -> np.ndarray:
+        """Batched tests of the selected collapses; applies the ones that pass. Returns (s,) bool.
+
+        ``exempt_flipped``: a triangle already against its face's normal may turn by any angle
+        (turning it back is the point); its new normal is tested against the surface's.
+        """
         V, T, fid = self.V, self.T, self.fid
         ns = len(sel)
         cv = np.array([x[0] for x in sel], dtype=np.int64)
@@ -206,7 +217,10 @@ class _State:
         np.maximum.at(ref, ci, ln_old)
         fail = ln_new <= 1e-12 * np.maximum(ref[ci], 1e-300)
         cos = np.einsum("ij,ij->i", old, new) / np.maximum(ln_old * ln_new, 1e-300)
-        fail |= cos < _COS_FLIP
+        turned = cos < _COS_FLIP
+        if exempt_flipped and self.cuv is not None and self.faces is not None:
+            turned &= ~_against_normal(self.faces, fid[mi], self.cuv[mi], old)
+        fail |= turned
         if self.max_edge < np.inf:
             pn = V[newt]
             fail |= np.linalg.norm(pn - np.roll(pn, 1, axis=1), axis=2).max(axis=1) > self.max_edge
@@ -311,7 +325,7 @@ def reduce_seams(mesh: TriMesh, tolerance: float, *, tri_dev=None, max_edge: flo
         if not n_round:
             break
     if st.cuv is not None and faces is not None:
-        skip = set()
+        skip, skip_in = set(), set()
         for _ in range(3):
             bad = st.flipped()
             if not len(bad):
@@ -328,6 +342,16 @@ def reduce_seams(mesh: TriMesh, tolerance: float, *, tri_dev=None, max_edge: flo
                     if np.any(key == k):
                         cands += [(a, b), (b, a)]
             n_round = st.round(seam, cands, tolerance, skip, uv_check=False) if cands else 0
+            # a flipped triangle at a corner where several faces were merged into one vertex (the
+            # merge moved it past the face's own nearby grid points: Crankshaft, U_Joint loose):
+            # its face-interior corner is collapsed into a neighbour, shortest edge first
+            bad = st.flipped()
+            if len(bad):
+                e = np.stack([st.T[bad], np.roll(st.T[bad], -1, axis=1)], axis=2).reshape(-1, 2)
+                e = e[np.argsort(np.linalg.norm(V[e[:, 0]] - V[e[:, 1]], axis=1), kind="stable")]
+                cands = np.stack([e, e[:, ::-1]], axis=1).reshape(-1, 2).tolist()
+                n_round += st.round(st.seam(), [(a, b) for a, b in cands], tolerance, skip_in, uv_check=False,
+                                    interior=True)
             total += n_round
             if not n_round:
                 break
