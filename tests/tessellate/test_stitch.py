@@ -176,3 +176,32 @@ def test_loose_corner_merge_leaves_no_flipped_triangles(shared_data):
 
     m = measure_mesh(res.mesh, sub, reversed_faces=res.report["faces_flipped"])
     assert m["max_deviation"] <= tol
+
+
+def test_loose_wing_fuselage_no_flips(shared_data):
+    """wing_fuselage (two solids touching along the wing root) stitched loose: its non-manifold edges
+    are the interface, expected; flips are not. A sliver of face 0 along its seam with face 2 (corners
+    11 x 1.8 x 9.4 tolerances apart) stayed flipped until the flip pass swapped its diagonal."""
+    shell = read_shell(shared_data / "cad" / "gmsh__wing_fuselage.step")
+    res = tessellate_shell(shell, mode="loose")
+    r = res.report
+    assert r["flipped"] == 0 and r["boundary_edges"] == 0
+    assert r["max_deviation"] <= res.tolerance
+
+
+def test_loose_u_joint_corners_no_flips(shared_data):
+    """U_Joint faces 36-53 with the faces 72, 97, 100 they meet at five-face corners: stitched loose,
+    the merged corners turned a triangle of each small face over (6 on the whole model after the
+    interior collapses); the flip pass swaps their diagonals."""
+    from trimsurf.model import Shell
+    from trimsurf.tessellate import default_parameters
+    from trimsurf.tessellate.measure import measure_mesh
+
+    shell = read_shell(shared_data / "cad" / "gmsh__U_Joint_2.stp")
+    tol, h = default_parameters(shell)
+    sub = Shell(faces=[shell.faces[i] for i in (36, 38, 39, 41, 42, 44, 45, 47, 48, 51, 53, 72, 97, 100)])
+    res = tessellate_shell(sub, tolerance=tol, max_edge=h, mode="loose", measure=False)
+    assert flipped_against_normal(res.mesh, sub, reversed_faces=res.report["faces_flipped"]) == 0
+    assert topology_report(res.mesh).n_non_manifold_edges == 0
+    m = measure_mesh(res.mesh, sub, reversed_faces=res.report["faces_flipped"])
+    assert m["max_deviation"] <= tol

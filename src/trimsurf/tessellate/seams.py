@@ -264,6 +264,71 @@ class _State:
         self.alive[gone[ok].ravel()] = False
         return ok
 
+    def flip_edges(self, bad) -> int:
+        """Swap the diagonal between a flipped triangle and its neighbour of the same face.
+
+        For each triangle in `bad` (still alive, still flipped), each of its edges inside
+        its face in turn: triangles (a, b, c) and (b, a, d) become (c, a, d) and (d, b, c)
+        when (c, d) is not an edge yet, both new triangles keep their face's (u, v)
+        orientation, point along the oriented surface normal in 3D and stay within the
+        tolerance on the surface (and `max_edge`). Returns the number of swaps.
+        """
+        V, T, fid, cuv, alive = self.V, self.T, self.fid, self.cuv, self.alive
+        ia = np.flatnonzero(alive)
+        nv1 = len(V) + 1
+        he = {}
+        for k in ia.tolist():
+            t = T[k].tolist()
+            for c in range(3):
+                he[(t[c], t[(c + 1) % 3])] = k
+        n = 0
+        for k in np.asarray(bad).tolist():
+            if not alive[k]:
+                continue
+            for c in range(3):
+                t = T[k].tolist()
+                a, b, cc = t[c], t[(c + 1) % 3], t[(c + 2) % 3]
+                k2 = he.get((b, a))
+                if k2 is None or k2 == k or fid[k2] != fid[k] or not alive[k2]:
+                    continue
+                t2 = T[k2].tolist()
+                d = t2[(t2.index(b) + 2) % 3]
+                if d in (a, b, cc) or (cc, d) in he or (d, cc) in he:
+                    continue
+                uv1 = {x: cuv[k, i] for i, x in enumerate(t)}
+                uv2 = {x: cuv[k2, i] for i, x in enumerate(t2)}
+                if not all(np.allclose(uv1[x], uv2[x], rtol=1e-5, atol=1e-8) for x in (a, b)):
+                    continue        # a periodic seam between them
+                uvx = {**uv2, **uv1}
+                new = np.array([[cc, a, d], [d, b, cc]], dtype=np.int64)
+                nuv = np.array([[uvx[x] for x in r] for r in new.tolist()])
+                ref = np.sign(_uv_area(cuv[[k2]]))[0]
+                if not np.all(np.sign(_uv_area(nuv)) == ref) or ref == 0:
+                    continue
+                nn = _normals(V, new)
+                if np.any(np.linalg.norm(nn, axis=1) <= 1e-12 * np.linalg.norm(_normals(V, T[[k2]]))):
+                    continue
+                f2 = np.array([fid[k], fid[k]])
+                if np.any(_against_normal(self.faces, f2, nuv, nn)):
+                    continue
+                if self.max_edge < np.inf and np.linalg.norm(V[cc] - V[d]) > self.max_edge:
+                    continue
+                ndev = _per_face_dev(self.surfaces, f2, nuv, V[new])
+                if not np.all(ndev <= self.tolerance):
+                    continue
+                for old in (t, t2):
+                    for i in range(3):
+                        he.pop((old[i], old[(i + 1) % 3]), None)
+                T[k], T[k2] = new[0], new[1]
+                cuv[k], cuv[k2] = nuv[0], nuv[1]
+                self.dev[k], self.dev[k2] = ndev[0], ndev[1]
+                for kk, r in ((k, new[0].tolist()), (k2, new[1].tolist())):
+                    for i in range(3):
+                        he[(r[i], r[(i + 1) % 3])] = kk
+                n += 1
+                break
+        return n
+
     def flipped(self) -> np.ndarray:
         """Alive triangles whose normal points against their face's oriented normal at the (u, v) centroid."""
         idx = np.flatnonzero(self.alive)
@@ -352,6 +417,11 @@ def reduce_seams(mesh: TriMesh, tolerance: float, *, tri_dev=None, max_edge: flo
                 cands = np.stack([e, e[:, ::-1]], axis=1).reshape(-1, 2).tolist()
                 n_round += st.round(st.seam(), [(a, b) for a, b in cands], tolerance, skip_in, uv_check=False,
                                     interior=True)
+            # a flipped sliver along a seam (its corners on the seam, or one inside the face: soapbox,
+            # wing_fuselage loose): swap its diagonal with its neighbour in the same face
+            bad = st.flipped()
+            if len(bad):
+                n_round += st.flip_edges(bad)
             total += n_round
             if not n_round:
                 break
