@@ -205,3 +205,22 @@ def test_loose_u_joint_corners_no_flips(shared_data):
     assert topology_report(res.mesh).n_non_manifold_edges == 0
     m = measure_mesh(res.mesh, sub, reversed_faces=res.report["faces_flipped"])
     assert m["max_deviation"] <= tol
+
+
+def test_loose_soapbox_fillet_end_not_flipped(shared_data):
+    """soapbox faces 3 and 9 are fillets whose whole arc (85 degrees) is within the tolerance, so one
+    triangle spans it. Stitched loose, the triangle at each fillet end, skewed between the seam with
+    face 0 and the corner, pointed against the surface normal at its corners and at its centroid's foot,
+    but not at its (u, v) centroid, the one point the flip pass looked at: it now looks at the corners
+    too, and swaps the diagonal."""
+    from trimsurf.model import Shell
+    from trimsurf.tessellate import default_parameters
+    from trimsurf.tessellate.measure import measure_mesh
+
+    shell = read_shell(shared_data / "cad" / "occtpr946__ec_soapbox-A.stp")
+    tol, h = default_parameters(shell)
+    sub = Shell(faces=[shell.faces[i] for i in (0, 3, 9, 19, 25)])
+    res = tessellate_shell(sub, tolerance=tol, max_edge=h, mode="loose", measure=False)
+    assert flipped_against_normal(res.mesh, sub, reversed_faces=res.report["faces_flipped"]) == 0
+    m = measure_mesh(res.mesh, sub, reversed_faces=res.report["faces_flipped"])
+    assert m["max_deviation"] <= tol

@@ -330,10 +330,11 @@ class _State:
         return n
 
     def flipped(self) -> np.ndarray:
-        """Alive triangles whose normal points against their face's oriented normal at the (u, v) centroid."""
+        """Alive triangles whose normal points against their face's oriented normal at the (u, v) centroid
+        or a corner (the centroid alone misses a sliver spanning a fillet, skewed: soapbox loose)."""
         idx = np.flatnonzero(self.alive)
         bad = _against_normal(self.faces, self.fid[idx], self.cuv[idx], _normals(self.V, self.T[idx]),
-                              bary=_ORIENT_BARY[:1])
+                              bary=_ORIENT_BARY)
         return idx[bad]
 
 
