@@ -224,3 +224,17 @@ def test_loose_soapbox_fillet_end_not_flipped(shared_data):
     assert flipped_against_normal(res.mesh, sub, reversed_faces=res.report["faces_flipped"]) == 0
     m = measure_mesh(res.mesh, sub, reversed_faces=res.report["faces_flipped"])
     assert m["max_deviation"] <= tol
+
+
+def test_loose_u_joint_closed(shared_data):
+    """U_Joint stitched loose: watertight, 2-manifold, no flips, within the tolerance. Six holes were
+    left at its five-face corners: a face's vertex at the middle of another face's edge (0.5 x the
+    tolerance long) whose ends only the second stitch pass merged with two other faces'; a third pass
+    (only while boundary edges remain) merges it."""
+    shell = read_shell(shared_data / "cad" / "gmsh__U_Joint_2.stp")
+    res = tessellate_shell(shell, mode="loose")
+    r = res.report
+    assert res.ok
+    assert r["boundary_edges"] == 0 and r["nonmanifold_edges"] == 0 and r["orientation_consistent"]
+    assert r["flipped"] == 0
+    assert r["max_deviation"] <= res.tolerance

@@ -424,7 +424,11 @@ def merge_face_meshes(face_meshes: dict, *, tolerance: float, stitch: bool = Tru
     if cuv is not None:
         cuv = cuv[keep]
     if stitch:
-        for p in range(2):   # a second pass catches vertices whose closest edge was split in the first
+        # a second pass catches vertices whose closest edge was split in the first; a third, those whose
+        # edge got its ends from two other faces' merges in the second (U_Joint's five-face corners)
+        for p in range(3):
+            if p == 2 and not len(mesh.boundary_edges()):
+                break
             n_before = mesh.n_triangles
             out = stitch_mesh(mesh, 0.5 * tolerance, dev, tolerance=tolerance, return_origin=True,
                               corner_uv=cuv)
