@@ -199,7 +199,7 @@ def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, tolerance: float | N
     bverts = np.unique(bedges)
     # the faces of each boundary vertex: those of its outgoing and incoming boundary edges (one face
     # before stitching; two where an earlier pass merged the corners of two faces)
-    vfaces = np.empty((len(V), 2), dtype=np.int64)
+    vfaces = np.full((len(V), 2), -1, dtype=np.int64)      # -1: no boundary edge that way
     vfaces[bedges[:, 0], 0] = efac
     vfaces[bedges[:, 1], 1] = efac
     pts = V[bverts]
