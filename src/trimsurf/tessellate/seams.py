@@ -392,8 +392,8 @@ def reduce_seams(mesh: TriMesh, tolerance: float, *, tri_dev=None, max_edge: flo
             break
     if st.cuv is not None and faces is not None:
         skip, skip_in = set(), set()
+        bad = st.flipped()       # re-evaluated only after a step changed the mesh
         for _ in range(3):
-            bad = st.flipped()
             if not len(bad):
                 break
             seam = st.seam()
@@ -408,24 +408,28 @@ def reduce_seams(mesh: TriMesh, tolerance: float, *, tri_dev=None, max_edge: flo
                     if np.any(key == k):
                         cands += [(a, b), (b, a)]
             n_round = st.round(seam, cands, tolerance, skip, uv_check=False) if cands else 0
+            if n_round:
+                bad = st.flipped()
             # a flipped triangle at a corner where several faces were merged into one vertex (the
             # merge moved it past the face's own nearby grid points: Crankshaft, U_Joint loose):
             # its face-interior corner is collapsed into a neighbour, shortest edge first
-            bad = st.flipped()
             if len(bad):
                 e = np.stack([st.T[bad], np.roll(st.T[bad], -1, axis=1)], axis=2).reshape(-1, 2)
                 e = e[np.argsort(np.linalg.norm(V[e[:, 0]] - V[e[:, 1]], axis=1), kind="stable")]
                 cands = np.stack([e, e[:, ::-1]], axis=1).reshape(-1, 2).tolist()
-                n_round += st.round(st.seam(), [(a, b) for a, b in cands], tolerance, skip_in, uv_check=False,
-                                    interior=True)
+                n_in = st.round(st.seam(), [(a, b) for a, b in cands], tolerance, skip_in, uv_check=False,
+                                interior=True)
+                if n_in:
+                    bad = st.flipped()
+                n_round += n_in
             # a flipped sliver along a seam (its corners on the seam, or one inside the face: soapbox,
             # wing_fuselage loose): swap its diagonal with its neighbour in the same face
-            bad = st.flipped()
+            total += n_round           # collapses (diagonal swaps remove no vertex)
             if len(bad):
                 n_round += st.flip_edges(bad)
-            total += n_round
             if not n_round:
                 break
+            bad = st.flipped()
     T, fid, alive = st.T[st.alive], st.fid[st.alive], st.alive
     used, inv = np.unique(T, return_inverse=True)
     out = TriMesh(V[used], inv.reshape(-1, 3), face_id=fid)
