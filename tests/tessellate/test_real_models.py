@@ -27,9 +27,9 @@ STEP_MODELS = (
 )
 
 
-def _tessellate(path, tmp_path) -> dict:
+def _tessellate(path, tmp_path, *flags) -> dict:
     rep = tmp_path / "r.json"
-    status = main(["tessellate", str(path), "-o", str(tmp_path / "m.ply"), "--report", str(rep)])
+    status = main(["tessellate", str(path), "-o", str(tmp_path / "m.ply"), "--report", str(rep), *flags])
     entry = json.loads(rep.read_text())["inputs"][0]
     entry["status"] = status
     return entry
@@ -48,6 +48,23 @@ def _common_guarantees(e: dict) -> None:
 def test_closed_step_model_watertight_within_tolerance_unflipped(shared_data, tmp_path, name):
     e = _tessellate(shared_data / "cad" / name, tmp_path)
     assert e["mode"] == "conforming"
+    _common_guarantees(e)
+    assert e["boundary_edges"] == 0
+    assert e["orientation_consistent"]
+
+
+# loose mode on the closed STEP models: faces tessellated separately, then stitched, oriented, seams
+# reduced; the same guarantees. Left out: bug32596 (periodic faces whose boundary points zig-zag
+# against each other along 8-11 x tolerance; stitching leaves 50 boundary edges; Open CASCADE meshes it
+# with cracks too) and wing_fuselage (two touching solids: non-manifold interface, tested in
+# test_guarantees.py).
+LOOSE_MODELS = tuple(m for m in STEP_MODELS if "bug32596" not in m and "wing_fuselage" not in m)
+
+
+@pytest.mark.parametrize("name", LOOSE_MODELS)
+def test_closed_step_model_loose_stitched_watertight(shared_data, tmp_path, name):
+    e = _tessellate(shared_data / "cad" / name, tmp_path, "--loose")
+    assert e["mode"] == "loose"
     _common_guarantees(e)
     assert e["boundary_edges"] == 0
     assert e["orientation_consistent"]
