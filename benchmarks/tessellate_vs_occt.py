@@ -207,7 +207,7 @@ def gmsh_mesh(cad: Path, n: int, boxes: np.ndarray) -> tuple[TriMesh, float]:
         out = os.path.join(tmp, "g.npz")
         try:
             subprocess.run([sys.executable, __file__, "--gmsh-worker", str(cad), str(n), out], check=True,
-                           timeout=GMSH_TIMEOUT)
+                           timeout=GMSH_TIMEOUT, stdout=subprocess.DEVNULL)   # its STEP reader prints
         except subprocess.TimeoutExpired:
             return None, float(GMSH_TIMEOUT)
         z = np.load(out)
