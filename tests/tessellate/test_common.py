@@ -99,8 +99,8 @@ def test_common_parameterization_stays_watertight(shared_data, name):
     assert topo.n_boundary_edges == 0 and topo.n_non_manifold_edges == 0 and topo.is_consistently_oriented
 
 
-def _patch_shell(tmp_path, name: str) -> Shell:
-    """A sample's surface cut into its Bezier patches, one untrimmed face each, sewn through STEP."""
+def _patch_faces(name: str) -> list:
+    """A sample's surface cut into its Bezier patches: one untrimmed face each, named P<i><j>."""
     s = build_sample(name).faces[0].surface
     bp = bezier_extract_surface(s.degree_u, s.degree_v, s.knots_u, s.knots_v, s.control_points, s.weights)
     du, dv = s.degree_u, s.degree_v
@@ -109,7 +109,13 @@ def _patch_shell(tmp_path, name: str) -> Shell:
         for j in range(bp.control_points.shape[1]):
             ku = np.r_[[bp.u_breaks[i]] * (du + 1), [bp.u_breaks[i + 1]] * (du + 1)]
             kv = np.r_[[bp.v_breaks[j]] * (dv + 1), [bp.v_breaks[j + 1]] * (dv + 1)]
-            faces.append(TrimmedFace(NurbsSurface(du, dv, ku, kv, bp.control_points[i, j])))
+            faces.append(TrimmedFace(NurbsSurface(du, dv, ku, kv, bp.control_points[i, j]), name=f"P{i}{j}"))
+    return faces
+
+
+def _patch_shell(tmp_path, name: str) -> Shell:
+    """A sample's surface cut into its Bezier patches, one untrimmed face each, sewn through STEP."""
+    faces = _patch_faces(name)
     path = tmp_path / f"{name}.step"
     write_shell(Shell.from_faces(faces), path)
     with warnings.catch_warnings():
@@ -159,15 +165,7 @@ def test_loose_patches_lines_meet_in_3d(tmp_path):
     """A VDA-FS model has no shared edges: iso-parametric loop segments of different faces that run
     along each other within the tolerance are linked through closest points, so the lines of the
     fender's 18 patches end at the same 3D points (within the half tolerance stitching bridges)."""
-    s = build_sample("fender").faces[0].surface
-    bp = bezier_extract_surface(s.degree_u, s.degree_v, s.knots_u, s.knots_v, s.control_points, s.weights)
-    du, dv = s.degree_u, s.degree_v
-    faces = []
-    for i in range(bp.control_points.shape[0]):
-        for j in range(bp.control_points.shape[1]):
-            ku = np.r_[[bp.u_breaks[i]] * (du + 1), [bp.u_breaks[i + 1]] * (du + 1)]
-            kv = np.r_[[bp.v_breaks[j]] * (dv + 1), [bp.v_breaks[j + 1]] * (dv + 1)]
-            faces.append(TrimmedFace(NurbsSurface(du, dv, ku, kv, bp.control_points[i, j]), name=f"P{i}{j}"))
+    faces = _patch_faces("fender")
     path = tmp_path / "fender.vda"
     write_shell(Shell.from_faces(faces), path)
     shell = read_shell(path)

@@ -14,6 +14,8 @@ from trimsurf.model import Loop, NurbsCurve, NurbsSurface, PCurve, TrimmedFace
 from trimsurf.tessellate import tessellate_shell
 from trimsurf.tessellate.repair import repair_face
 
+from ..io.test_vdafs import _vda_text
+
 # ------------------------------------------------------------------------------------------------
 # small VDA-FS files: a 2 x 2 grid of bilinear patches of z = 0.2 (x - 1) (y - 1) over [0, 2]^2
 # ------------------------------------------------------------------------------------------------
@@ -34,19 +36,7 @@ def _surf_tokens(*, dx: float = 0.0, s_breaks=(0.0, 1.0, 2.0), displace=None) ->
 
 
 def _vda(path, statements) -> str:
-    lines = ["TEST     = HEADER / 1", "trimsurf repair test"]
-    for name, keyword, tokens in statements:
-        cur = f"{name:<8} = {keyword} /"
-        for k, tok in enumerate(tokens):
-            piece = tok + ("," if k < len(tokens) - 1 else "")
-            if len(cur) + 1 + len(piece) > 72:
-                lines.append(cur)
-                cur = " " + piece
-            else:
-                cur += " " + piece
-        lines.append(cur)
-    lines.append("TEST     = END")
-    path.write_text("".join(f"{line:<72}{n:08d}\n" for n, line in enumerate(lines, 1)), encoding="ascii")
+    path.write_text(_vda_text(statements, header=("trimsurf repair test",)), encoding="ascii")
     return path
 
 
