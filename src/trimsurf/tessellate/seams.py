@@ -25,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..model import TriMesh
+from ._collapse import collapse_sets
 
 __all__ = ["reduce_seams"]
 
@@ -165,20 +166,16 @@ class _State:
         for v, u in c[ok].tolist():
             if locked[v] or locked[u]:
                 continue
-            tv = vtri[vstart[v]:vstart[v + 1]]
-            star = {x for k in tv for x in Tl[k]}
+            tv, star, common, gone, moved = collapse_sets(Tl, vtri, vstart, v, u)
             if any(locked[x] for x in star):
                 continue
             if len({fl[k] for k in tv}) != (1 if interior else 2) or (interior and len(star) != len(tv) + 1):
                 skip.add((v, u))     # (interior: a closed fan has as many neighbours as triangles)
                 continue
             # link condition: u and v share exactly two neighbours (the two opposite vertices)
-            nu = {x for k in vtri[vstart[u]:vstart[u + 1]] for x in Tl[k]} - {u}
-            if len((star - {v}) & nu) != 2:
+            if len(common) != 2:
                 skip.add((v, u))
                 continue
-            gone = [k for k in tv if u in Tl[k]]
-            moved = [k for k in tv if u not in Tl[k]]
             if len(gone) != 2:
                 skip.add((v, u))
                 continue

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._collapse import collapse_sets
+
 __all__ = ["collapse_boundary_slivers"]
 
 _BARY = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.5]])
@@ -107,26 +109,17 @@ def collapse_boundary_slivers(surface, uv: np.ndarray, xyz: np.ndarray, triangle
         # vertex -> alive triangles (CSR)
         flat = T[idx].ravel()
         order = np.argsort(flat, kind="stable")
-        vstart = np.searchsorted(flat[order], np.arange(nv + 1))
-        vtri = idx[order // 3]
+        vstart = np.searchsorted(flat[order], np.arange(nv + 1)).tolist()
+        vtri = idx[order // 3].tolist()
         Tl = T.tolist()
         locked = np.zeros(nv, dtype=bool)
         sel = []        # (v, u, moved, gone, min angle of the thin triangle)
         for k, v, u, a0 in zip(thin.tolist(), inner.tolist(), trim.tolist(), thin_ang.tolist()):
             if locked[v] or locked[u]:
                 continue
-            tv = vtri[vstart[v]:vstart[v + 1]].tolist()
-            gone = [j for j in tv if u in Tl[j]]
-            if not gone or len(gone) > 2:
+            _, star, common, gone, moved = collapse_sets(Tl, vtri, vstart, v, u)
+            if not gone or len(gone) > 2 or any(locked[x] for x in star) or len(common) != len(gone):
                 continue
-            star = {x for j in tv for x in Tl[j]}
-            if any(locked[x] for x in star):
-                continue
-            nvs = star - {v}
-            nu = {x for j in vtri[vstart[u]:vstart[u + 1]].tolist() for x in Tl[j]} - {u}
-            if len(nvs & nu) != len(gone):
-                continue
-            moved = [j for j in tv if u not in Tl[j]]
             sel.append((v, u, moved, gone, a0))
             locked[list(star | {u})] = True
         if not sel:

@@ -270,13 +270,7 @@ def discretize_chunk(uses: list, *, tolerance: float, max_edge: float, strategy:
 
 def _same_cell(uses, uvs, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Whether points a and b lie in one closed grid cell of every use (the chord crosses no iso-line)."""
-    ok = np.ones(len(a), dtype=bool)
-    for use, uv in zip(uses, uvs):
-        for axis, grid in ((0, use.us), (1, use.vs)):
-            lo = np.minimum(uv[a, axis], uv[b, axis])
-            hi = np.maximum(uv[a, axis], uv[b, axis])
-            ok &= np.searchsorted(grid, lo, side="right") >= np.searchsorted(grid, hi, side="left")
-    return ok
+    return _in_one_cell(uses, [uv[a] for uv in uvs], [uv[b] for uv in uvs])
 
 
 def _crossing_points(uses, uvs) -> np.ndarray:
