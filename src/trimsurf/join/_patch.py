@@ -371,8 +371,13 @@ def join_patch(face: TrimmedFace, proj: MeshProjection, mesh: TriMesh, loops_uv:
                loops_xyz: list[np.ndarray], loops_eps: list[np.ndarray], loops_gid: list[np.ndarray], *,
                min_angle_deg: float, allow_boundary_steiner: bool = True, split_long_edges: bool = False,
                lipschitz: float | None = None, central_init: np.ndarray | None = None,
-               cache: dict | None = None) -> PatchResult:
-    """Steps 3-5 (and the central part of step 6) for one face; see the module notes."""
+               cache: dict | None = None, max_deviation: float | None = None) -> PatchResult:
+    """Steps 3-5 (and the central part of step 6) for one face; see the module notes.
+
+    `max_deviation`: Triangle's refinement goes on (area limits on the offending triangles) until every
+    external triangle's sampled deviation from the surface, after reprojection, is within it
+    (`_refine_to_deviation`); None: quality refinement only (the paper's step 4 as written).
+    """
     import triangle
 
     # work in scaled parameters w = (u |Su|, v |Sv|) (median speeds over the mesh): an affine change of
@@ -436,6 +441,13 @@ def join_patch(face: TrimmedFace, proj: MeshProjection, mesh: TriMesh, loops_uv:
     t0 = time.perf_counter()
     out = triangle.triangulate(data, flags)
     t_tri = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    n_refine = 0
+    if max_deviation is not None and np.isfinite(max_deviation):
+        out, n_refine = _refine_to_deviation(face, out, flags, nr, np.concatenate(loops_xyz), bdata, lipschitz,
+                                             scale, float(max_deviation),
+                                             float(np.abs(np.concatenate(loops_eps)).max(initial=0.0)))
+    t_refine = time.perf_counter() - t0
     tv = np.asarray(out["vertices"], dtype=np.float64)
     tt = np.asarray(out["triangles"], dtype=np.int64)
     vm = np.asarray(out["vertex_markers"]).ravel()
@@ -527,8 +539,63 @@ def join_patch(face: TrimmedFace, proj: MeshProjection, mesh: TriMesh, loops_uv:
     return PatchResult(all_uv[used], pts[used], a_all[used], gid[used], remap[tris_all], external,
                        src[used], float(wa.lipschitz), float(np.abs(eps_r).max()), min_ext, min_in, steiner,
                        int(keep.sum()), n_removed, n_split, wa.mean_blocks_visited, scale, bdata,
-                       {"central": t_central, "triangulate": t_tri, "whitney": t_whitney}, keep,
+                       {"central": t_central, "triangulate": t_tri, "whitney": t_whitney,
+                        "refine": t_refine}, keep,
                        bool(allow_boundary_steiner))
+
+
+_REFINE_ROUNDS = 12      # Triangle refinement passes at most (each shrinks the offending triangles' areas 2-10x)
+_REFINE_SAFETY = 0.9     # refine to this fraction of the tolerance (the grid samples miss a little between them)
+_REFINE_DENSITY = 4      # barycentric divisions per edge of the samples (15 per triangle)
+
+
+def _refine_to_deviation(face: TrimmedFace, out: dict, flags: str, nr: int, r_xyz: np.ndarray, bdata, lipschitz,
+                         scale: np.ndarray, tol: float, eps_max: float) -> tuple[dict, int]:
+    """Refine Triangle's external region until each triangle, reprojected, is within `tol` of the surface.
+
+    Every vertex goes where step 5 puts it (F(p) + a(p) n(p); the dR points are the shared points
+    themselves); each triangle is sampled (`triangle_deviation`) and the ones above the target get an
+    area limit shrunk by the ratio (chord error ~ area), for Triangle's ``-r -a`` refinement with the same
+    quality bound (so the angle guarantee of Sec. III-B holds for the refined region too). The target is
+    ``max(0.9 tol, 1.5 max|eps|)``: a triangle cannot be closer to the surface than the heights a(p)
+    at its corners, up to max|eps| on dR (Sec. III-A). Returns Triangle's output and the passes run.
+    """
+    import triangle
+
+    from ._accuracy import triangle_deviation
+
+    target = max(_REFINE_SAFETY * tol, 1.5 * eps_max)
+    rflags = "r" + flags.replace("Q", "aQ")
+    for it in range(_REFINE_ROUNDS + 1):
+        tv = np.asarray(out["vertices"], dtype=np.float64)
+        tt = np.asarray(out["triangles"], dtype=np.int64)
+        wa = whitney_average(bdata, tv, lipschitz=lipschitz)
+        uv = tv / scale
+        foot, nrm = _foot_normal(face, uv)
+        pts = foot + wa.average[:, None] * nrm
+        pts[:nr] = r_xyz
+        # the dR segments themselves are left out: their deviation is the boundary's own (the error already
+        # present along the edges, Sec. III), which no refinement of the region changes (a point Triangle puts
+        # on dR lies on b(t) or, in Case 2, on the polyline itself); refining for it only makes slivers
+        seg = np.asarray(out["segments"], dtype=np.int64)
+        on_r = np.asarray(out["segment_markers"]).ravel() < 2 + nr
+        key = set(map(tuple, np.sort(seg[on_r], axis=1).tolist()))
+        e = np.sort(np.stack([tt, np.roll(tt, -1, axis=1)], axis=2), axis=2)   # edge c: corners c, c + 1
+        skip = np.array([(int(a), int(b)) in key for a, b in e.reshape(-1, 2)], dtype=bool).reshape(-1, 3)
+        dev = triangle_deviation(face, pts, uv, tt, density=_REFINE_DENSITY, exact_above=target, skip_edges=skip)
+        bad = dev > target
+        if not bad.any() or it == _REFINE_ROUNDS:
+            return out, it
+        p = tv[tt[bad]]
+        area = 0.5 * np.abs((p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1])
+                            - (p[:, 2, 0] - p[:, 0, 0]) * (p[:, 1, 1] - p[:, 0, 1]))
+        limit = np.full(len(tt), -1.0)
+        limit[bad] = area * np.clip(0.8 * target / dev[bad], 0.1, 0.5)
+        data = {"vertices": tv, "vertex_markers": out["vertex_markers"], "triangles": tt,
+                "segments": out["segments"], "segment_markers": out["segment_markers"],
+                "triangle_max_area": limit}
+        out = triangle.triangulate(data, rflags)
+    return out, _REFINE_ROUNDS
 
 
 def _check_pslg(face: TrimmedFace, vertices: np.ndarray, segments: np.ndarray, n_loops: int) -> None:

@@ -277,7 +277,7 @@ def _project_loops(face, loops):
 def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool = True,
                min_angle_deg: float = PAPER_MIN_ANGLE_DEG, split_long_edges: bool = False,
                max_distance: float | None = None, edge_spacing: float | None = None,
-               chord_tolerance: float | None = None, measure: bool = True,
+               chord_tolerance: float | None = None, measure: bool = True, deflection: float | None = None,
                progress: Callable[[int, int], None] | None = None) -> JoinResult:
     """Join separately meshed faces of a shell into one mesh whose patch boundaries coincide.
 
@@ -311,7 +311,16 @@ def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool
         later (Triangle's, shared with the neighbour) are put on b(t) itself.
     measure : bool
         Measure the report's after-figures by projecting the output vertices
-        (costs about one more projection of the meshes).
+        (costs about one more projection of the meshes) and the output's
+        deviation inside the triangles (``max_deviation``, ``p99_deviation``:
+        dense barycentric samples projected onto the faces).
+    deflection : float, optional
+        The largest deviation from the surface allowed inside the triangles
+        the join adds (model units): Triangle refines the external region
+        until each triangle's sampled deviation is within it (`_refine_to_deviation`).
+        Default: the input meshes' own largest deviation, measured (so the
+        join keeps the input's accuracy); ``inf``: no size bound (the paper's
+        step 4 as written).
     progress : callable(done, total), optional
 
     Returns
@@ -389,6 +398,12 @@ def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool
         if not (np.isfinite(edge_spacing) and edge_spacing > 0):
             raise InputError(f"join_shell: edge_spacing must be a positive number; got {edge_spacing!r}")
         spacing[:] = float(edge_spacing)
+    if deflection is None:
+        from ._accuracy import input_deviation
+        good = [i for i in range(nf) if projs[i] is not None]
+        deflection = input_deviation(shell, meshes, faces=good) if good else float("inf")
+    elif not (deflection > 0):
+        raise InputError(f"join_shell: deflection must be a positive number; got {deflection!r}")
     t_proj = time.perf_counter() - t_start
     chord_tol = _CHORD_REL * diag if chord_tolerance is None else float(chord_tolerance)
     n_loops_deleted = _sample_edges(shell, edges, meshes, projs, chains, spacing, use_edge_curves, chord_tol)
@@ -419,7 +434,7 @@ def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool
                                  split_long_edges=split_long_edges,
                                  allow_boundary_steiner=corner >= PAPER_BOUNDARY_ANGLE_DEG,
                                  central_init=None if results[i] is None else results[i].central_keep,
-                                 cache=caches.setdefault(i, {}))
+                                 cache=caches.setdefault(i, {}), max_deviation=deflection)
             except InputError as exc:
                 reports[i].status, reports[i].message = "bad", str(exc)
                 results[i] = None
@@ -467,8 +482,14 @@ def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool
             rep.flipped_after = _flipped(face, r.uv, r.points, tr)
     t_join = time.perf_counter() - t_start
     res.report = _summary(shell, res, measure)
+    res.report["deflection"] = float(deflection)
+    if measure:
+        from ._accuracy import mesh_deviation_inside
+        inside = mesh_deviation_inside(res.mesh, shell)
+        res.report.update({k: inside[k] for k in ("max_deviation", "p99_deviation", "worst_face",
+                                                  "deviation_samples_per_edge")})
     steps = {k: float(sum(r.seconds[k] for r in results if r is not None)) for k in ("central", "triangulate",
-                                                                                     "whitney")}
+                                                                                     "whitney", "refine")}
     res.report.update({"seconds_project": t_proj, "seconds_steps": steps, "seconds_join": t_join,
                        "boundary_segments_max": int(max((len(r.boundary.length) for r in results if r is not None),
                                                         default=0)),"steiner_rounds": rounds, "steiner_points_shared_by_split": n_final_points, "loops_deleted": n_loops_deleted, "chords_split": n_chords,
