@@ -15,6 +15,8 @@ from ._patch import project_mesh
 
 __all__ = ["midpoint_join", "BaselineResult"]
 
+_SAME_FRACTION = 1e-9   # two chain vertices this close in normalised arc length are paired (one vertex)
+
 
 class BaselineResult(NamedTuple):
     """The sewn mesh and which of its vertices lie on the joints (moved to or inserted from a median)."""
@@ -31,7 +33,10 @@ def midpoint_join(shell: Shell, meshes: Sequence[TriMesh]) -> BaselineResult:
     and l4 with r2 in Fig. 2); every chain vertex moves to the midpoint of
     itself and the point at its arc length on the other chain, and the other
     chain's vertices are inserted into this mesh by splitting the boundary
-    triangles. Interior vertices do not move, so a boundary vertex can move
+    triangles. Vertices at the same arc length on both chains (the ends
+    always, every node where the meshes already matched) become one vertex,
+    so the sewn mesh is closed along every joint (seams of one face
+    included) without welding. Interior vertices do not move, so a boundary vertex can move
     across an interior edge and turn a triangle over (the folding of Fig. 2,
     second case).
 
@@ -77,13 +82,12 @@ def midpoint_join(shell: Shell, meshes: Sequence[TriMesh]) -> BaselineResult:
     gid_of = [dict() for _ in range(nf)]      # local vertex -> global id
     gpos: list[np.ndarray] = []
     splits = [dict() for _ in range(nf)]      # (a, b) boundary edge -> [(s, local vertex)]
+    same: list[tuple[int, int]] = []          # pairs of global ids at the same arc length: one vertex
     edges, _ = edge_table(shell)
     for ed in edges:
         if len(ed.uses) != 2:
             continue
-        (fa, la, sa_, fwa), (fb, lb, sb_, fwb) = ed.uses
-        if fa == fb:
-            continue
+        (fa, la, sa_, fwa), (fb, lb, sb_, fwb) = ed.uses   # fa == fb: a seam, sewn like any joint
         ca, cb = chains[fa].get((la, sa_)), chains[fb].get((lb, sb_))
         if ca is None or cb is None:
             continue
@@ -93,23 +97,48 @@ def midpoint_join(shell: Shell, meshes: Sequence[TriMesh]) -> BaselineResult:
         sa, sb = arc_length_fractions(pa), arc_length_fractions(pb)
         at_a = np.column_stack([np.interp(sb, sa, pa[:, c]) for c in range(3)])  # a's points at b's fractions
         at_b = np.column_stack([np.interp(sa, sb, pb[:, c]) for c in range(3)])
-        for (f, chain, s_own, own, other_at, f2, chain2, s2) in (
-                (fa, ca, sa, pa, at_b, fb, cb, sb), (fb, cb, sb, pb, at_a, fa, ca, sa)):
+        for (f, chain, own, other_at) in ((fa, ca, pa, at_b), (fb, cb, pb, at_a)):
             for i, v in enumerate(chain):
                 g = gid_of[f].get(int(v))
                 if g is None:
                     g = len(gpos)
                     gpos.append(0.5 * (own[i] + other_at[i]))
                     gid_of[f][int(v)] = g
-        # the other chain's vertices go into each mesh: split the boundary edge they fall on
+        # the other chain's vertices go into each mesh: split the boundary edge they fall on; a vertex at
+        # the same arc length as one of this chain's (the ends always) is that vertex (merged below)
         for (f, chain, s_own, f2, chain2, s2) in ((fa, ca, sa, fb, cb, sb), (fb, cb, sb, fa, ca, sa)):
             for k, s in enumerate(s2):
-                if np.any(np.abs(s_own - s) <= 1e-12):
+                g = gid_of[f2][int(chain2[k])]
+                hit = np.flatnonzero(np.abs(s_own - s) <= _SAME_FRACTION)
+                if len(hit):
+                    same.append((gid_of[f][int(chain[hit[0]])], g))
                     continue
                 j = int(np.clip(np.searchsorted(s_own, s) - 1, 0, len(chain) - 2))
-                g = gid_of[f2][int(chain2[k])]
                 key = (int(chain[j]), int(chain[j + 1]))
                 splits[f].setdefault(key, []).append((float(s), g))
+    # paired vertices become one vertex (union-find over the global ids; corners of several faces too)
+    parent = np.arange(len(gpos))
+
+    def root(x: int) -> int:
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    for a, b in same:
+        ra, rb = root(a), root(b)
+        if ra != rb:
+            parent[max(ra, rb)] = min(ra, rb)
+    rep = np.array([root(i) for i in range(len(gpos))], dtype=np.int64)
+    gp = np.array(gpos).reshape(-1, 3)
+    if len(gp):
+        acc = np.zeros_like(gp)
+        np.add.at(acc, rep, gp)
+        cnt = np.bincount(rep, minlength=len(gp)).astype(float)
+        gp = acc / np.maximum(cnt, 1.0)[:, None]
+    gid_of = [{v: int(rep[g]) for v, g in d.items()} for d in gid_of]
+    splits = [{k: [(s, int(rep[g])) for s, g in items] for k, items in d.items()} for d in splits]
+    gpos = list(gp)
     # build the merged mesh
     out_v = [np.array(gpos).reshape(-1, 3)]
     n = len(gpos)
@@ -127,8 +156,13 @@ def midpoint_join(shell: Shell, meshes: Sequence[TriMesh]) -> BaselineResult:
         out_v.append(verts[f][own])
         n += int(own.sum())
         t = idx[tris[f]]
-        t = _split_edges(t, {(int(idx[a]), int(idx[b])): [g for _, g in sorted(items)]
-                             for (a, b), items in splits[f].items()})
+        t, centres = _split_edges(t, {(int(idx[a]), int(idx[b])): [g for _, g in sorted(items)]
+                                      for (a, b), items in splits[f].items()}, n)
+        if centres:   # triangles with points on several edges: a star around their centroid (a new vertex)
+            allv = np.concatenate(out_v)
+            out_v.append(np.array([allv[c].mean(axis=0) for c in centres]))
+            n += len(centres)
+        t = t[(t[:, 0] != t[:, 1]) & (t[:, 1] != t[:, 2]) & (t[:, 0] != t[:, 2])]
         if not shell.faces[f].same_sense:
             t = t[:, ::-1]
         out_t.append(t)
@@ -144,25 +178,39 @@ def midpoint_join(shell: Shell, meshes: Sequence[TriMesh]) -> BaselineResult:
     return BaselineResult(TriMesh(v[used], remap[t], face_id=np.concatenate(out_f)), joint[used])
 
 
-def _split_edges(tris: np.ndarray, splits: dict) -> np.ndarray:
-    """Fan-split triangles whose directed edge (a, b) (either direction) gets the points `splits[(a, b)]`."""
+def _split_edges(tris: np.ndarray, splits: dict, n_next: int) -> tuple[np.ndarray, list]:
+    """Split triangles whose directed edges (a, b) (either direction) get the points `splits[(a, b)]`.
+
+    One split edge: a fan from the opposite corner. Points on several edges (a corner triangle between
+    two joints): a star around a new centroid vertex, numbered from `n_next`; returns the triangles and
+    the corners of each such triangle (for the centroid's position).
+    """
     if not splits:
-        return tris
-    out = []
+        return tris, []
+    out, centres = [], []
     for tri in tris.tolist():
-        done = False
+        ring, n_split = [], 0
         for c in range(3):
-            a, b, o = tri[c], tri[(c + 1) % 3], tri[(c + 2) % 3]
+            a, b = tri[c], tri[(c + 1) % 3]
             if (a, b) in splits:
                 pts = splits[(a, b)]
             elif (b, a) in splits:
                 pts = splits[(b, a)][::-1]
             else:
-                continue
-            chain = [a] + list(pts) + [b]
-            out.extend([chain[j], chain[j + 1], o] for j in range(len(chain) - 1) if chain[j] != chain[j + 1])
-            done = True
-            break
-        if not done:
+                pts = []
+            n_split += bool(pts)
+            ring.append([a] + list(pts))
+        if n_split == 0:
             out.append(tri)
-    return np.array(out, dtype=np.int64)
+        elif n_split == 1:
+            c = next(k for k in range(3) if len(ring[k]) > 1)
+            chain = ring[c] + [tri[(c + 1) % 3]]
+            o = tri[(c + 2) % 3]
+            out.extend([chain[j], chain[j + 1], o] for j in range(len(chain) - 1) if chain[j] != chain[j + 1])
+        else:
+            poly = [v for part in ring for v in part]
+            cidx = n_next + len(centres)
+            centres.append(tri)
+            out.extend([poly[j], poly[(j + 1) % len(poly)], cidx] for j in range(len(poly))
+                       if poly[j] != poly[(j + 1) % len(poly)])
+    return np.array(out, dtype=np.int64).reshape(-1, 3), centres
