@@ -45,7 +45,7 @@ def fold_files(tmp_path_factory):
 def test_help_ends_with_examples(capsys):
     assert main(["join", "--help"]) == 0
     out = capsys.readouterr().out
-    assert out.rstrip().split("examples:\n")[-1].count("trimsurf join") == 3
+    assert out.rstrip().split("examples:\n")[-1].count("trimsurf join") == 4
 
 
 def test_fold_whitney_vs_baseline(fold_files, tmp_path, capsys):
@@ -142,3 +142,35 @@ def test_flipped_triangles_after_joining_are_named_and_exit_1(tmp_path, shared_d
     assert status == 1
     if flipped_faces:
         assert f"{r['flipped_after']} flipped triangles after joining" in capsys.readouterr().err
+
+
+def test_sample_name_and_deviation_exit_status(fold_files, tmp_path, capsys):
+    # issue 13: `trimsurf join folding_pair` exited 2 ("unknown CAD file suffix"); samples resolve like certify's
+    _, paths, _ = fold_files
+    rep = tmp_path / "r.json"
+    assert cli("join", "folding_pair", "--meshes", *map(str, paths), "-o", str(tmp_path / "o.ply"),
+               "--report", str(rep)) == 0
+    r = json.loads(rep.read_text())
+    assert r["model"] == "folding_pair" and r["max_deviation"] <= r["deflection"]
+    assert r["deflection"] == pytest.approx(r["input_deviation"], rel=0.2)   # --meshes: the input's own
+    # a deflection the (kept) central triangles do not meet: the report says so and the exit status is 1
+    capsys.readouterr()
+    assert cli("join", "folding_pair", "--meshes", *map(str, paths), "--deflection", "1e-7", "-o",
+               str(tmp_path / "o2.ply"), "--report", str(rep)) == 1
+    r = json.loads(rep.read_text())
+    assert r["max_deviation"] > r["deflection"] == 1e-7
+    assert "more than the deflection" in capsys.readouterr().err
+    assert main(["join", "octahedron", "-o", str(tmp_path / "x.ply")]) == 2
+    assert "is a mesh" in capsys.readouterr().err
+
+
+def test_independent_meshes(tmp_path):
+    rep = tmp_path / "r.json"
+    status = cli("join", "folding_pair", "--independent", "-o", str(tmp_path / "i.ply"), "--report", str(rep))
+    r = json.loads(rep.read_text())
+    assert r["meshes"] == "independent" and r["joined_edges"] == 1
+    assert r["flipped_after"] == 0 and r["boundary_edges_on_joins"] == 0
+    assert r["max_deviation"] <= max(r["input_deviation"], r["deflection"])
+    assert status == (0 if r["max_deviation"] <= r["deflection"] else 1)
+    assert main(["join", "folding_pair", "--independent", "--meshes", "a.obj", "b.obj", "-o",
+                 str(tmp_path / "x.ply")]) == 2

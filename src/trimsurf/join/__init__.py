@@ -15,11 +15,14 @@ The exact Whitney extension over a face's loops, with pruning, is
 from ._baseline import BaselineResult, midpoint_join
 from ._metrics import PatchErrors, corner_slopes, patch_errors
 from ._patch import PAPER_BOUNDARY_ANGLE_DEG, PAPER_MIN_ANGLE_DEG, PatchResult
+from ._accuracy import input_deviation, mesh_deviation_inside, triangle_deviation
+from ._sew import mesh_faces_independently, needs_sewing, sew_shell
 from ._shell import FaceReport, JoinResult, join_shell
 
 __all__ = ["join_shell", "JoinResult", "FaceReport", "PatchResult", "midpoint_join", "BaselineResult", "patch_errors",
            "PatchErrors", "corner_slopes", "inclination_bound", "PAPER_MIN_ANGLE_DEG",
-           "PAPER_BOUNDARY_ANGLE_DEG"]
+           "PAPER_BOUNDARY_ANGLE_DEG", "mesh_faces_independently", "sew_shell", "needs_sewing", "input_deviation",
+           "mesh_deviation_inside", "triangle_deviation"]
 
 
 def inclination_bound(lipschitz: float, min_angle_deg: float = PAPER_MIN_ANGLE_DEG) -> float:

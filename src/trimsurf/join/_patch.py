@@ -547,6 +547,7 @@ def join_patch(face: TrimmedFace, proj: MeshProjection, mesh: TriMesh, loops_uv:
 _REFINE_ROUNDS = 12      # Triangle refinement passes at most (each shrinks the offending triangles' areas 2-10x)
 _REFINE_SAFETY = 0.9     # refine to this fraction of the tolerance (the grid samples miss a little between them)
 _REFINE_DENSITY = 4      # barycentric divisions per edge of the samples (15 per triangle)
+_REFINE_MAX_TRIANGLES = 400_000   # per face: a tolerance that needs more is not met (the report says so)
 
 
 def _refine_to_deviation(face: TrimmedFace, out: dict, flags: str, nr: int, r_xyz: np.ndarray, bdata, lipschitz,
@@ -584,7 +585,7 @@ def _refine_to_deviation(face: TrimmedFace, out: dict, flags: str, nr: int, r_xy
         skip = np.array([(int(a), int(b)) in key for a, b in e.reshape(-1, 2)], dtype=bool).reshape(-1, 3)
         dev = triangle_deviation(face, pts, uv, tt, density=_REFINE_DENSITY, exact_above=target, skip_edges=skip)
         bad = dev > target
-        if not bad.any() or it == _REFINE_ROUNDS:
+        if not bad.any() or it == _REFINE_ROUNDS or len(tt) > _REFINE_MAX_TRIANGLES:
             return out, it
         p = tv[tt[bad]]
         area = 0.5 * np.abs((p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1])
