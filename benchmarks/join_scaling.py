@@ -7,7 +7,9 @@ with its own 3D curve b(t)), each meshed by a regular k x k grid in (u, v) (vert
 surface, their grid uv given as a warm start), joined by `trimsurf.join.join_shell` (Case 1) with the edge curves sampled so that each patch
 boundary has about sigma segments. Columns:
 
-* ``join_s``: the whole join (projection, central mesh, Triangle, Whitney, merge), best of REPEATS;
+* ``join_s``: the whole join (projection, central mesh, Triangle, size refinement, Whitney, merge), best
+  of REPEATS, at the join's default deflection: the input grids' own deviation inside the triangles
+  (measured before the timing, `grid_deviation`), so the strip Triangle adds is refined to it;
 * ``project_s``, ``whitney_s``: the projection of the meshes and the (pruned, exact) Whitney step;
 * ``paper_s``: the paper's constant applied to this n x sigma (8.16 s x n sigma / (2.1K x 80));
 * ``paper/ours``: how many times faster than the paper's proportional cost;
@@ -73,13 +75,29 @@ def perimeter(face) -> float:
     return total
 
 
+def grid_deviation(shell, meshes, n: int) -> float:
+    """The input grids' largest deviation inside the triangles (the join's default deflection), untimed.
+
+    Measured on every triangle up to 100K vertices; above, on 20K random triangles per face (an estimate).
+    """
+    from trimsurf.join import input_deviation
+
+    if n <= 100_000:
+        return input_deviation(shell, meshes)
+    rng = np.random.default_rng(0)
+    subs = [TriMesh(m.vertices, m.triangles[rng.choice(m.n_triangles, 20_000, replace=False)], uv=m.uv)
+            for m in meshes]
+    return input_deviation(shell, subs)
+
+
 def run_size(shell, n: int, sigma: int, repeats: int) -> dict:
     meshes = grid_meshes(shell, n)
     spacing = max(perimeter(f) for f in shell.faces) / sigma
+    deflection = grid_deviation(shell, meshes, n)
     best, res = float("inf"), None
     for _ in range(repeats):
         t = time.perf_counter()
-        r = join_shell(shell, meshes, edge_spacing=spacing, measure=False)
+        r = join_shell(shell, meshes, edge_spacing=spacing, measure=False, deflection=deflection)
         dt = time.perf_counter() - t
         if dt < best:
             best, res = dt, r
@@ -91,7 +109,8 @@ def run_size(shell, n: int, sigma: int, repeats: int) -> dict:
            "whitney_s": res.report["seconds_steps"]["whitney"], "triangulate_s": res.report["seconds_steps"]["triangulate"],
            "paper_s": paper, "paper_over_ours": paper / best, "allpairs_s": None, "allpairs_over_pruned": None,
            "max_abs_diff": None, "output_triangles": res.mesh.n_triangles,
-           "watertight_joint": res.report["boundary_edges_on_joins"] == 0}
+           "watertight_joint": res.report["boundary_edges_on_joins"] == 0, "deflection": deflection,
+           "refine_s": res.report["seconds_steps"]["refine"]}
     if n_act <= ALLPAIRS_MAX_N:
         r0 = res.patches[0]
         bd = r0.boundary
@@ -115,7 +134,7 @@ def main(argv=None) -> int:
     shell = folding_pair()
     join_shell(shell, grid_meshes(shell, 2100))  # compile the numba kernels outside the timing
     rows = []
-    print(f"{'n':>9} {'sigma':>6} {'join_s':>8} {'proj_s':>8} {'whit_s':>8} {'paper_s':>10} {'paper/ours':>10} "
+    print(f"{'n':>9} {'sigma':>6} {'join_s':>8} {'proj_s':>8} {'whit_s':>8} {'refi_s':>8} {'paper_s':>10} {'paper/ours':>10} "
           f"{'allpairs_s':>10} {'allp/prun':>9} {'max|diff|':>9}", flush=True)
     for n, sigma in (QUICK if args.quick else SIZES):
         r = run_size(shell, n, sigma, REPEATS if n <= 100_000 else 1)
@@ -124,6 +143,7 @@ def main(argv=None) -> int:
         apr = "-" if r["allpairs_over_pruned"] is None else f"{r['allpairs_over_pruned']:.1f}"
         md = "-" if r["max_abs_diff"] is None else f"{r['max_abs_diff']:.1e}"
         print(f"{r['n']:>9} {r['sigma']:>6} {r['join_s']:>8.3f} {r['project_s']:>8.3f} {r['whitney_s']:>8.3f} "
+              f"{r['refine_s']:>8.3f} "
               f"{r['paper_s']:>10.1f} {r['paper_over_ours']:>10.0f} {ap:>10} {apr:>9} {md:>9}", flush=True)
     if args.json:
         args.json.write_text(json.dumps(rows, indent=2) + "\n")

@@ -185,7 +185,7 @@ def run(args: argparse.Namespace) -> int:
     meshes, source = _face_meshes(shell, args, deflection)
     if source == "files" and args.deflection is None:
         deflection = None   # the input meshes' own measured deviation (join_shell's default)
-    input_dev = input_deviation(shell, meshes, density=6)
+    input_dev = input_deviation(shell, meshes, density=4)
     min_angle = args.min_angle if args.min_angle is not None else PAPER_MIN_ANGLE_DEG
     if args.baseline == "midpoint":
         base = midpoint_join(shell, meshes)

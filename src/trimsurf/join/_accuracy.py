@@ -20,7 +20,7 @@ import numpy as np
 
 from ..model import Shell, TriMesh, TrimmedFace
 
-__all__ = ["barycentric_grid", "triangle_deviation", "mesh_deviation_inside", "input_deviation"]
+__all__ = ["barycentric_grid", "triangle_deviation", "faces_deviation", "mesh_deviation_inside", "input_deviation"]
 
 
 def barycentric_grid(density: int) -> np.ndarray:
@@ -91,25 +91,55 @@ def triangle_deviation(face: TrimmedFace, points: np.ndarray, uv: np.ndarray, tr
     return out
 
 
-def mesh_deviation_inside(mesh: TriMesh, shell: Shell, *, density: int = 6) -> dict:
-    """The deviation of a mesh with ``face_id`` from the shell's faces, sampled inside the triangles.
+def faces_deviation(shell: Shell, face_meshes, *, density: int = 6) -> dict:
+    """The deviation of per-face meshes (``face_meshes[i]`` on ``shell.faces[i]``, None to skip), inside the triangles.
 
-    `trimsurf.quality.shell_deviation` (barycentric grid of `density` per edge: corners, edge points with
-    midpoints, centroids for density divisible by 6; every sample projected exactly onto its face's
-    surface). Returns ``max_deviation`` (sampled), ``p99_deviation`` (99th percentile of the per-triangle
-    maxima), ``worst_face`` and ``per_face`` maxima (None for a face without triangles).
+    Every mesh is sampled on a barycentric grid of `density` per edge (corners, edge points with midpoints,
+    centroids for density divisible by 6) and each sample projected exactly onto its face's surface
+    (`trimsurf.quality.surface_deviation`, warm-started from the mesh's uv when it has them). Returns
+    ``max_deviation`` (sampled), ``p99_deviation`` (99th percentile of the per-triangle maxima),
+    ``worst_face`` and ``per_face`` maxima.
     """
-    from ..quality import shell_deviation
+    from ..quality import surface_deviation
 
-    if mesh.n_triangles == 0:
-        return {"max_deviation": None, "p99_deviation": None, "worst_face": None, "per_face": [],
+    per_face, per_tri = [], []
+    for face, m in zip(shell.faces, face_meshes):
+        if m is None or m.n_triangles == 0:
+            per_face.append(None)
+            continue
+        dev = surface_deviation(m, face, density=density, two_sided=False)
+        per_face.append(float(dev.max_mesh_to_target))
+        per_tri.append(dev.per_triangle_max)
+    if not per_tri:
+        return {"max_deviation": None, "p99_deviation": None, "worst_face": None, "per_face": per_face,
                 "deviation_samples_per_edge": int(density)}
-    dev = shell_deviation(mesh, shell, density=density, two_sided=False)
-    per_tri = np.concatenate([f.per_triangle_max for f in dev.faces if f is not None])
-    return {"max_deviation": float(dev.max_mesh_to_target), "p99_deviation": float(np.percentile(per_tri, 99)),
-            "worst_face": int(dev.worst_face),
-            "per_face": [None if f is None else float(f.max_mesh_to_target) for f in dev.faces],
-            "deviation_samples_per_edge": int(density)}
+    worst = int(np.argmax([-1.0 if d is None else d for d in per_face]))
+    all_tri = np.concatenate(per_tri)
+    return {"max_deviation": float(per_face[worst]), "p99_deviation": float(np.percentile(all_tri, 99)),
+            "worst_face": worst, "per_face": per_face, "deviation_samples_per_edge": int(density)}
+
+
+def mesh_deviation_inside(mesh: TriMesh, shell: Shell, *, density: int = 6, uv_of=None) -> dict:
+    """`faces_deviation` of a mesh with ``face_id`` (its triangles of face i measured against face i).
+
+    `uv_of`, optional: ``uv_of[i]`` (n, 2) the parameters of every mesh vertex on face i (NaN where
+    unknown), used as warm starts only.
+    """
+    subs = []
+    for i in range(len(shell.faces)):
+        sel = mesh.face_id == i
+        if not sel.any():
+            subs.append(None)
+            continue
+        t = mesh.triangles[sel]
+        used = np.unique(t)
+        remap = np.full(mesh.n_vertices, -1, dtype=np.int64)
+        remap[used] = np.arange(len(used))
+        uv = None if uv_of is None or uv_of[i] is None else uv_of[i][used]
+        if uv is not None and not np.all(np.isfinite(uv)):
+            uv = None
+        subs.append(TriMesh(mesh.vertices[used], remap[t], uv=uv))
+    return faces_deviation(shell, subs, density=density)
 
 
 def input_deviation(shell: Shell, meshes, *, density: int = 4, faces=None) -> float:
@@ -117,15 +147,6 @@ def input_deviation(shell: Shell, meshes, *, density: int = 4, faces=None) -> fl
 
     `faces`: only these faces' meshes (default all).
     """
-    vs, ts, fs, off = [], [], [], 0
-    for i, m in enumerate(meshes):
-        if m.n_triangles == 0 or (faces is not None and i not in faces):
-            continue
-        vs.append(m.vertices)
-        ts.append(m.triangles + off)
-        fs.append(np.full(m.n_triangles, i))
-        off += m.n_vertices
-    if not ts:
-        return 0.0
-    whole = TriMesh(np.concatenate(vs), np.concatenate(ts), face_id=np.concatenate(fs))
-    return float(mesh_deviation_inside(whole, shell, density=density)["max_deviation"])
+    keep = [m if (m.n_triangles and (faces is None or i in faces)) else None for i, m in enumerate(meshes)]
+    dev = faces_deviation(shell, keep, density=density)["max_deviation"]
+    return 0.0 if dev is None else float(dev)

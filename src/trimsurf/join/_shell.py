@@ -485,7 +485,7 @@ def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool
     res.report["deflection"] = float(deflection)
     if measure:
         from ._accuracy import mesh_deviation_inside
-        inside = mesh_deviation_inside(res.mesh, shell)
+        inside = mesh_deviation_inside(res.mesh, shell, uv_of=joined_uv(res))
         res.report.update({k: inside[k] for k in ("max_deviation", "p99_deviation", "worst_face",
                                                   "deviation_samples_per_edge")})
     steps = {k: float(sum(r.seconds[k] for r in results if r is not None)) for k in ("central", "triangulate",
@@ -496,6 +496,19 @@ def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool
                        "case": sorted({e.case for e in edges if e.joined}),
                        "seconds": time.perf_counter() - t_start})
     return res
+
+
+def joined_uv(res: JoinResult) -> list:
+    """Per face, the (u, v) of every output vertex the face's patch uses (NaN elsewhere): warm starts."""
+    out = []
+    for r, vo in zip(res.patches, res.vertex_of):
+        if r is None or vo is None:
+            out.append(None)
+            continue
+        uv = np.full((res.mesh.n_vertices, 2), np.nan)
+        uv[vo] = r.uv
+        out.append(uv)
+    return out
 
 
 def _summary(shell: Shell, res: JoinResult, measure: bool = True) -> dict:
