@@ -85,6 +85,19 @@ def midpoint_join(shell: Shell, meshes: Sequence[TriMesh]) -> BaselineResult:
     same: list[tuple[int, int]] = []          # pairs of global ids at the same arc length: one vertex
     edges, _ = edge_table(shell)
     for ed in edges:
+        if ed.degenerate:   # a pole: every mesh vertex along it is the pole (one vertex, as in the Whitney join)
+            for f, li, si, _ in ed.uses:
+                c = chains[f].get((li, si))
+                if c is None:
+                    continue
+                ids = []
+                for v in c.tolist():
+                    if v not in gid_of[f]:
+                        gid_of[f][v] = len(gpos)
+                        gpos.append(verts[f][v].copy())
+                    ids.append(gid_of[f][v])
+                same.extend((ids[0], g) for g in ids[1:])
+            continue
         if len(ed.uses) != 2:
             continue
         (fa, la, sa_, fwa), (fb, lb, sb_, fwb) = ed.uses   # fa == fb: a seam, sewn like any joint
