@@ -19,7 +19,7 @@ def test_step_model_joined_watertight(shared_data, name):
     shell = tio.read_shell(shared_data / "cad" / name)
     diag = shell.diagonal()
     meshes = tio.occ_mesh_faces(shell, linear_deflection=2e-3 * diag)
-    res = join_shell(shell, meshes)
+    res = join_shell(shell, meshes, deflection=2e-3 * diag)
     assert res, [f.message for f in res.faces if f.status != "joined"]
     m = res.mesh
     # closed models: the per-face meshes become one closed, consistently oriented 2-manifold
@@ -37,7 +37,7 @@ def test_step_model_case2(shared_data):
     shell = tio.read_shell(shared_data / "cad" / "gmsh__t20_data.step")
     diag = shell.diagonal()
     meshes = tio.occ_mesh_faces(shell, linear_deflection=2e-3 * diag)
-    res = join_shell(shell, meshes, use_edge_curves=False)
+    res = join_shell(shell, meshes, use_edge_curves=False, deflection=2e-3 * diag)
     assert res
     assert all(e.case == 2 for e in res.edges)
     assert len(res.mesh.boundary_edges()) == 0 and len(res.mesh.non_manifold_edges()) == 0
@@ -54,10 +54,31 @@ def test_last_pass_points_shared_by_splitting(shared_data, monkeypatch):
     shell = tio.read_shell(shared_data / "cad" / "occtpr946__trj5_k1-pe-214.stp")
     diag = shell.diagonal()
     meshes = tio.occ_mesh_faces(shell, linear_deflection=2e-3 * diag)
-    res = join_shell(shell, meshes)
+    res = join_shell(shell, meshes, deflection=2e-3 * diag)
     assert res.report["steiner_points_shared_by_split"] > 0
     m = res.mesh
     assert len(m.boundary_edges()) == 0 and len(m.non_manifold_edges()) == 0
     assert m.is_consistently_oriented() and res.report["flipped_after"] == 0
     for f, face in enumerate(shell.faces):
         check_patch(face, res.patches[f], diag=diag)
+
+
+def test_refined_strip_within_deflection_and_angle_bound(shared_data):
+    # the size refinement (Triangle -r -a with the same -q) keeps Sec. III-B's angle bound where it is
+    # claimed, and every external triangle's sampled deviation within the deflection (dR segments aside)
+    from trimsurf.join._accuracy import triangle_deviation
+
+    shell = tio.read_shell(shared_data / "cad" / "gmsh__t20_data.step")
+    diag = shell.diagonal()
+    d = 1e-3 * diag
+    meshes = tio.occ_mesh_faces(shell, linear_deflection=d)
+    res = join_shell(shell, meshes, deflection=d, measure=False)
+    coarse = join_shell(shell, meshes, deflection=float("inf"), measure=False)
+    assert res.mesh.n_triangles > coarse.mesh.n_triangles
+    worst = worst_coarse = 0.0
+    for face, r, rc in zip(shell.faces, res.patches, coarse.patches):
+        check_patch(face, r, diag=diag)
+        worst = max(worst, float(triangle_deviation(face, r.points, r.uv, r.triangles[r.external], density=6).max()))
+        worst_coarse = max(worst_coarse, float(triangle_deviation(face, rc.points, rc.uv,
+                                                                  rc.triangles[rc.external], density=6).max()))
+    assert worst <= d < worst_coarse
