@@ -15,6 +15,7 @@ from ._patch import project_mesh
 
 __all__ = ["midpoint_join", "BaselineResult"]
 
+_POLE_REL = 1e-9        # mesh vertices of a degenerate edge within this x diagonal of each other are the pole
 _SAME_FRACTION = 1e-9   # two chain vertices this close in normalised arc length are paired (one vertex)
 
 
@@ -84,11 +85,16 @@ def midpoint_join(shell: Shell, meshes: Sequence[TriMesh]) -> BaselineResult:
     splits = [dict() for _ in range(nf)]      # (a, b) boundary edge -> [(s, local vertex)]
     same: list[tuple[int, int]] = []          # pairs of global ids at the same arc length: one vertex
     edges, _ = edge_table(shell)
+    diag = shell.diagonal()
     for ed in edges:
         if ed.degenerate:   # a pole: every mesh vertex along it is the pole (one vertex, as in the Whitney join)
             for f, li, si, _ in ed.uses:
                 c = chains[f].get((li, si))
                 if c is None:
+                    continue
+                # only vertices that really are at the pole (a chain found along a real edge is not)
+                p = verts[f][c]
+                if np.linalg.norm(p - p[0], axis=1).max() > _POLE_REL * diag:
                     continue
                 ids = []
                 for v in c.tolist():
