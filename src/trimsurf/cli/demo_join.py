@@ -31,12 +31,12 @@ def _join(ctx: StepContext) -> StepOutput:
     from ..join import join_shell
 
     meshes = occ_mesh_faces(shell, linear_deflection=(2e-3 if ctx.quick else 5e-4) * shell.diagonal())
-    res = join_shell(shell, meshes)
+    res = join_shell(shell, meshes, deflection=(2e-3 if ctx.quick else 5e-4) * shell.diagonal())
     path = ctx.out("joined.ply")
     write_mesh(res.mesh, path)
     keys = ("vertices", "triangles", "joined_edges", "flipped_before", "flipped_after", "abs_error_boundary",
             "abs_error_after", "lipschitz_boundary", "max_slope_after", "min_angle_external_deg",
-            "boundary_edges_on_joins", "seconds")
+            "boundary_edges_on_joins", "deflection", "max_deviation", "p99_deviation", "seconds")
     return StepOutput(figures={k: res.report[k] for k in keys}, files=[path])
 
 
