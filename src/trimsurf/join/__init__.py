@@ -7,6 +7,14 @@ long-edge splitting (Sec. III-D), for every pair of adjacent faces of a shell
 (`join_shell`), and the naive midpoint sewing of Sec. I that the paper argues
 against (`midpoint_join`).
 
+Accuracy inside the triangles (issue 13): the paper bounds the heights at the
+vertices; the strip Triangle re-meshes is also refined (Ruppert refinement with
+area limits, same angle bound) until every triangle's sampled deviation from
+the surface is within the deflection (`triangle_deviation`); the report gives
+the output's deviation measured inside the triangles (`mesh_deviation_inside`).
+The paper's real case, faces meshed independently, is `mesh_faces_independently`;
+an unsewn model is sewn first (`sew_shell`).
+
 The exact Whitney extension over a face's loops, with pruning, is
 `trimsurf.geom.whitney.whitney_average`: the same suprema/infima as every
 (query, segment) pair, at a fraction of the paper's n x sigma cost.

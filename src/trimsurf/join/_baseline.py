@@ -64,7 +64,7 @@ def midpoint_join(shell: Shell, meshes: Sequence[TriMesh]) -> BaselineResult:
     >>> shell = folding_pair()
     >>> base = midpoint_join(shell, folding_pair_meshes(shell))
     >>> base.mesh.n_triangles, int(base.on_joint.sum())
-    (67, 6)
+    (67, 4)
     """
     if len(meshes) != len(shell.faces):
         raise InputError(f"midpoint_join: need one mesh per face ({len(shell.faces)}); got {len(meshes)}")
