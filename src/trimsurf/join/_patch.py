@@ -540,7 +540,7 @@ def join_patch(face: TrimmedFace, proj: MeshProjection, mesh: TriMesh, loops_uv:
                        src[used], float(wa.lipschitz), float(np.abs(eps_r).max()), min_ext, min_in, steiner,
                        int(keep.sum()), n_removed, n_split, wa.mean_blocks_visited, scale, bdata,
                        {"central": t_central, "triangulate": t_tri, "whitney": t_whitney,
-                        "refine": t_refine}, keep,
+                        "refine": t_refine, "refine_passes": n_refine}, keep,
                        bool(allow_boundary_steiner))
 
 

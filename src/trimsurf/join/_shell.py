@@ -49,6 +49,7 @@ class FaceReport:
     flipped_after: int = 0
     whitney_blocks: float = 0.0
     boundary_steiner_allowed: bool = True   # False: last pass without points on dR (no angle guarantee)
+    refine_passes: int = 0           # Triangle size-refinement passes until the strip met the deflection
 
     def as_dict(self) -> dict:
         return {k: (float(v) if isinstance(v, (float, np.floating)) else v) for k, v in self.__dict__.items()}
@@ -476,6 +477,7 @@ def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool
         rep.n_central, rep.n_removed, rep.n_split_long = r.n_central, r.n_removed, r.n_split_long
         rep.whitney_blocks = r.whitney_blocks
         rep.boundary_steiner_allowed = r.boundary_steiner_allowed
+        rep.refine_passes = int(r.seconds.get("refine_passes", 0))
         face = shell.faces[i]
         if measure:
             tr = r.triangles if face.same_sense else r.triangles[:, ::-1]
