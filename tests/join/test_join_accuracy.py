@@ -37,7 +37,14 @@ def test_deviation_independent_random_samples(shared_data):
     # triangle, projected onto the face's surface, stay within the deflection too
     shell = tio.read_shell(shared_data / "cad" / "occt__screw.step")
     d = 1e-3 * shell.diagonal()
-    res = join_shell(shell, tio.occ_mesh_faces(shell, linear_deflection=d), deflection=d, measure=False)
+    meshes = tio.occ_mesh_faces(shell, linear_deflection=d)
+    res = join_shell(shell, meshes, deflection=d, measure=False)
+    # step 3 peels the layer the paper peels (every triangle touching the mesh boundary) and little more
+    for mesh, r in zip(meshes, res.patches):
+        on_b = np.zeros(mesh.n_vertices, dtype=bool)
+        on_b[mesh.boundary_edges().ravel()] = True
+        one_layer = int((~on_b[mesh.triangles].any(axis=1)).sum())
+        assert 0.9 * one_layer <= r.n_central <= one_layer
     m = res.mesh
     rng = np.random.default_rng(13)
     worst = 0.0
