@@ -1,4 +1,4 @@
-"""``trimsurf reconstruct MESH -o OUT``: a smooth G1/G2 Bézier surface through the vertices of a mesh."""
+"""``trimsurf reconstruct MESH -o OUT``: a smooth G1 Bézier surface (from a G1 or G2 network) through the vertices of a mesh."""
 
 from __future__ import annotations
 
@@ -13,19 +13,24 @@ from ._common import EXIT_OK, examples, format_table, print_json, progress, writ
 __all__ = ["NAME", "HELP", "DESCRIPTION", "EPILOG", "add_args", "run", "load_mesh_input", "write_output"]
 
 NAME = "reconstruct"
-HELP = "fit a smooth G1/G2 triangular Bezier surface through the vertices of a triangle mesh (minimum norm networks)"
+HELP = ("fit a smooth G1 triangular Bezier surface through the vertices of a triangle mesh (G1 or G2 minimum norm "
+        "networks)")
 DESCRIPTION = """\
 Reconstruct a smooth surface through every vertex of a triangle mesh, keeping its
 topology (Kolb, Pottmann, Seidel: minimum norm networks). A curve network is
 built over the mesh edges and optimized by one sparse linear solve per normal
 update (--network g1: cubic curves, 2 unknowns per vertex; g2: quintic curves
 and a cubic cross-boundary field, 5 unknowns per vertex; shirman-sequin: the
-unoptimized baseline). It is then filled with triangular Bezier patches
-(--fill split: three patches per facet, exactly G1 (degree 4, or 6 for g2);
-single: one patch per facet, degree 5 for cubic networks (Peters-style, G1 only
-approximately; the report gives the error) or 7 for g2 (G1, with the split as
-fallback where it would be singular); peters: the same as single for cubic
-networks).
+unoptimized baseline). It is then filled with triangular Bezier patches;
+every network, G1 or G2, is filled to a G1 surface (the G2 network's extra
+continuity is in its curves, not in the surface). --fill split: three patches
+per facet, G1 (degree 4, or 6 for g2). --fill peters (cubic networks): Peters'
+scheme, one quintic per facet joined by scalar weight functions and solved as
+one least-squares system: G1 where the vertex enclosure problem is solvable,
+some G1 error elsewhere (the MNN paper's words), measured. --fill single: for
+g2 one degree-7 patch per facet (G1, the split as fallback where it would be
+singular); for cubic networks one quintic per facet from a Chiyokura-Kimura
+field with averaged corner twists (not G1 in general; the error is measured).
 
 MESH is a mesh file (OBJ, PLY, STL, OFF, glTF) or the name of a built-in mesh
 sample (octahedron, boundary_problem, car_panel, ...). OUT by suffix: .npz or
@@ -33,7 +38,11 @@ sample (octahedron, boundary_problem, car_panel, ...). OUT by suffix: .npz or
 trimsurf.reconstruct.load_patches), a mesh suffix = the surface evaluated at
 --density subdivisions per patch side, .step/.stp = STEP with every triangular
 patch as a tensor-product patch with one collapsed edge. The report (--report)
-has vertices, patches, iterations, g0_gap, g1_angle_max_deg,
+has vertices, patches, iterations, g0_gap, g1_error_max_deg (largest jump of
+the normal across any patch edge), curvature_jump_max and
+mean_curvature_jump_max (largest jump of the normal curvature perpendicular to
+a patch edge, and of the mean curvature, 1/length), all sampled at
+g1_sampling points inside every patch edge (maxima over samples, not bounds),
 vertex_interpolation_error, seconds, and radial_deviation_max/_rms when all
 vertices lie on a sphere."""
 EPILOG = examples("trimsurf reconstruct octahedron -o octa.npz --report octa.json",
@@ -189,8 +198,9 @@ def run(args: argparse.Namespace) -> int:
         print_json(report)
     else:
         rows = [[f"reconstruct {label} -> {args.output} ({kind})"]]
-        for key in ("vertices", "patches", "degree", "iterations", "converged", "g0_gap", "g1_angle_max_deg",
-                    "g1_angle_inner_max_deg", "vertex_interpolation_error", "single_patch_fallbacks",
+        for key in ("vertices", "patches", "degree", "iterations", "converged", "g0_gap", "g1_error_max_deg",
+                    "g1_angle_max_deg", "g1_angle_inner_max_deg", "curvature_jump_max", "mean_curvature_jump_max",
+                    "g1_sampling", "g1_residual_vertices", "vertex_interpolation_error", "single_patch_fallbacks",
                     "inverted_corners", "folded_edges", "feature_kink_max_deg", "second", "length",
                     "radial_deviation_max", "radial_deviation_rms", "seconds"):
             if key in report:

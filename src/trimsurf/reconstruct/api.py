@@ -12,6 +12,7 @@ from ..geom import bezier_triangle_points
 from ..model import TriMesh
 from ._topology import mesh_topology
 from .fill import (fill_single_quintic, fill_single_septic, fill_split_quartic, fill_split_sextic)
+from .peters import fill_peters_quintic
 from .network import CurveNetwork, _count_inverted, _one_blas_thread, build_network
 from .surface import PatchSet, g1_continuity
 
@@ -125,7 +126,7 @@ def radial_deviation(ps: PatchSet, center, radius, *, density: int = 12) -> tupl
 def reconstruct_mesh(mesh: TriMesh, *, network: str = "g1", fill: str = "split", direction: str = "d2",
                      length: str = "l2", functional: str = "arc-length", weighting: str = "angle",
                      max_iterations: int = 20, tol_deg: float = 1e-3, feature_chains=(),
-                     modified_inner: bool | None = None, n_samples: int = 9, progress=None,
+                     modified_inner: bool | None = None, n_samples: int = 17, progress=None,
                      second: str = "zero") -> Reconstruction:
     """Smooth triangular Bézier surface through the vertices of a triangle mesh (MNN paper).
 
@@ -137,10 +138,15 @@ def reconstruct_mesh(mesh: TriMesh, *, network: str = "g1", fill: str = "split",
         Optimized cubic G1 network, optimized quintic G2 network, or the Shirman-Séquin
         baseline network.
     fill : {"split", "single", "peters"}
-        Cubic networks: "split" = Shirman-Séquin split (3 quartics per facet, exactly G1),
-        "single"/"peters" = one quintic per facet (approximately G1). G2 network: "split" =
-        modified split of degree 6, "single" = one degree-7 patch per facet with the split as
-        fallback where it would be singular.
+        Cubic networks: "split" = Shirman-Séquin split (3 quartics per facet, exactly G1);
+        "peters" = Peters' scheme, one quintic per facet meeting its neighbours by scalar
+        weight functions, solved as one sparse least-squares system (`fill_peters_quintic`:
+        G1 where the vertex enclosure problem is solvable, "some error in the G1 match"
+        elsewhere, as the paper says); "single" = one quintic per facet from a
+        Chiyokura-Kimura cross-boundary field with averaged corner twists (not G1 in
+        general; `fill_single_quintic`). G2 network: "split" = modified split of degree 6,
+        "single" = one degree-7 patch per facet with the split as fallback where it would be
+        singular (both G1). Every fill is measured, not assumed: see the report keys.
     direction, length, functional, weighting, max_iterations, tol_deg, feature_chains
         See `build_network`.
     second : {"zero", "l3", "l4"}
@@ -152,7 +158,8 @@ def reconstruct_mesh(mesh: TriMesh, *, network: str = "g1", fill: str = "split",
         The paper's modified first inner control point of the quartic split (default: on for
         the MNN networks, off for the Shirman-Séquin baseline).
     n_samples : int
-        Samples per shared curve for the G0/G1 figures.
+        Samples per patch edge (ends excluded) for the G0/G1 and curvature-jump figures;
+        they are maxima over these samples (``g1_sampling`` in the report says so).
     progress : callable, optional
         Called with a short stage name ("network", "fill", "check").
 
@@ -160,7 +167,14 @@ def reconstruct_mesh(mesh: TriMesh, *, network: str = "g1", fill: str = "split",
     -------
     Reconstruction
         report keys: vertices, triangles, patches, degree, iterations, converged, g0_gap,
-        g1_angle_max_deg, g1_angle_rms_deg, g1_angle_inner_max_deg, vertex_interpolation_error,
+        g1_error_max_deg (largest normal-angle jump across any patch edge: network curves and
+        the inner curves of split facets), g1_angle_max_deg (across the network curves),
+        g1_angle_rms_deg, g1_angle_inner_max_deg, g1_sampling (how the G1 figures were
+        sampled), curvature_jump_max (largest jump of the normal curvature perpendicular to
+        a patch edge, 1/length, sampled), mean_curvature_jump_max, curvature_on_edges_max
+        (largest |normal curvature| there, for scale), g1_condition_residual_max and
+        g1_residual_vertices (Peters' fill: residual of its G1 equations and the vertices
+        where it stays), vertex_interpolation_error,
         seconds, network_seconds, fill_seconds, single_patch_fallbacks, inverted_corners (facet
         corners folded in the tangent plane), folded_edges (curves where the patches meet at
         more than 90 degrees, i.e. fold back), and the options.
@@ -200,10 +214,13 @@ def _reconstruct(mesh, network, fill, direction, length, functional, weighting, 
     t1 = time.perf_counter()
     say("fill")
     n_fb = 0
+    peters_info: dict = {}
     if net.degree == 3:
         if fill == "split":
             mod = (network != "shirman-sequin") if modified_inner is None else bool(modified_inner)
             fp = fill_split_quartic(net, modified=mod)
+        elif fill == "peters":
+            fp, peters_info = fill_peters_quintic(net)
         else:
             fp = fill_single_quintic(net)
     else:
@@ -218,12 +235,21 @@ def _reconstruct(mesh, network, fill, direction, length, functional, weighting, 
                "functional": functional, "weighting": weighting}
     ps = PatchSet.from_patches(fp, topo.vertices, topo.triangles, meta=options)
     say("check")
-    cont = g1_continuity(ps, n_samples=n_samples)
+    cont = g1_continuity(ps, n_samples=n_samples, curvature=True)
     report = {"vertices": topo.n_vertices, "triangles": int(len(topo.triangles)), "patches": ps.n_patches,
               "degree": ps.degree, "iterations": net.iterations, "converged": net.converged,
-              "g0_gap": cont["g0_gap"], "g1_angle_max_deg": cont["g1_angle_max_deg"],
+              "g0_gap": cont["g0_gap"],
+              "g1_error_max_deg": max(cont["g1_angle_max_deg"], cont["g1_angle_inner_max_deg"]),
+              "g1_angle_max_deg": cont["g1_angle_max_deg"],
               "g1_angle_rms_deg": cont["g1_angle_rms_deg"],
               "g1_angle_inner_max_deg": cont["g1_angle_inner_max_deg"],
+              "g1_sampling": f"sampled: {n_samples} points inside every patch edge (maxima over the samples, "
+                             f"not bounds)",
+              "curvature_jump_max": cont["curvature_jump_max"],
+              "mean_curvature_jump_max": cont["mean_curvature_jump_max"],
+              "curvature_on_edges_max": cont["curvature_on_edges_max"],
+              "g1_condition_residual_max": peters_info.get("g1_condition_residual_max", 0.0),
+              "g1_residual_vertices": peters_info.get("g1_residual_vertices", 0),
               "vertex_interpolation_error": vertex_interpolation_error(ps),
               "single_patch_fallbacks": n_fb, "inverted_corners": inverted_corners(net),
               "folded_edges": int((cont["edge_angles_deg"] > 90.0).sum()),

@@ -217,9 +217,10 @@ def _single_points(n: int, e: np.ndarray, rows: dict, interior: dict) -> dict:
 
 
 def fill_single_quintic(net: CurveNetwork, *, twist: str = "average") -> FacetPatches:
-    """One quintic patch per facet (Peters' setting; approximately G1).
+    """One quintic patch per facet from a Chiyokura-Kimura field with averaged twists (not G1 in general).
 
-    The sides are the degree-elevated network curves; the first rows come from the
+    This is NOT Peters' construction (that is `fill_peters_quintic`, which starts from this
+    patch). The sides are the degree-elevated network curves; the first rows come from the
     Chiyokura-Kimura field ``D = k g + h E'`` (cross-boundary derivative towards the
     opposite corner). At each corner the twist control point is claimed by both sides.
     With ``twist="match"`` k and h are quadratic and their middle coefficients (two per

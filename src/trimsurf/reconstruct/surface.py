@@ -128,19 +128,19 @@ class PatchSet:
 
 
 @lru_cache(maxsize=32)
-def _side_rows(n: int, a: int, b: int, c: int) -> tuple[np.ndarray, np.ndarray]:
-    """Positions of the side row (corner a -> corner b, n + 1 points) and the next row towards c (n points)."""
+def _side_rows(n: int, a: int, b: int, c: int, depth: int = 2) -> tuple[np.ndarray, ...]:
+    """Positions of the control rows parallel to side a -> b: row r (r = 0 .. depth-1) has
+    n + 1 - r points and lies r steps towards corner c."""
     pos = {tuple(int(x) for x in r): p for p, r in enumerate(triangle_indices(n))}
-    row0, row1 = [], []
-    for m in range(n + 1):
-        cnt = [0, 0, 0]
-        cnt[a], cnt[b] = n - m, m
-        row0.append(pos[tuple(cnt)])
-    for m in range(n):
-        cnt = [0, 0, 0]
-        cnt[a], cnt[b], cnt[c] = n - 1 - m, m, 1
-        row1.append(pos[tuple(cnt)])
-    return np.array(row0), np.array(row1)
+    rows = []
+    for r in range(min(depth, n + 1)):
+        row = []
+        for m in range(n + 1 - r):
+            cnt = [0, 0, 0]
+            cnt[a], cnt[b], cnt[c] = n - r - m, m, r
+            row.append(pos[tuple(cnt)])
+        rows.append(np.array(row))
+    return tuple(rows)
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -159,18 +159,23 @@ def _curve_eval(B: np.ndarray, c: np.ndarray) -> np.ndarray:
     return out.reshape(len(B), P, d).transpose(1, 0, 2)
 
 
-def _side_frame(cp: np.ndarray, n: int, abc: tuple[int, int, int], t: np.ndarray, pid=None):
+def _side_frame(cp: np.ndarray, n: int, abc: tuple[int, int, int], t: np.ndarray, pid=None,
+                curvature: bool = False):
     """Points and unit normals along side a -> b of patches cp (P, N, 3) at parameters t.
 
     The normal is (d/dt along the side) x (derivative towards corner c), negated when
     (a, b, c) is an odd permutation, so it agrees with the patch orientation. With `pid`,
-    only those patches (gathering just the two rows needed).
+    only those patches (gathering just the rows needed). With `curvature`, also the
+    normal curvature in the tangent direction perpendicular to the side and the mean
+    curvature (both signed with the oriented normal), from the exact second derivatives
+    (three control rows).
     """
-    r0, r1 = _side_rows(n, *abc)
+    rows = _side_rows(n, *abc, depth=3 if curvature else 2)
     if pid is None:
-        e, r = cp[:, r0], cp[:, r1]
+        R = [cp[:, r] for r in rows]
     else:
-        e, r = cp[pid[:, None], r0[None, :]], cp[pid[:, None], r1[None, :]]
+        R = [cp[pid[:, None], r[None, :]] for r in rows]
+    e, r = R[0], R[1]
     Bn = bernstein(n, t)
     Bm = bernstein(n - 1, t)
     pts = _curve_eval(Bn, e)
@@ -179,16 +184,39 @@ def _side_frame(cp: np.ndarray, n: int, abc: tuple[int, int, int], t: np.ndarray
     nrm = _cross(along, cross)
     if abc not in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
         nrm = -nrm
-    return pts, nrm / np.linalg.norm(nrm, axis=-1, keepdims=True)
+    nrm = nrm / np.linalg.norm(nrm, axis=-1, keepdims=True)
+    if not curvature:
+        return pts, nrm
+    if n < 2:
+        z = np.zeros(pts.shape[:2])
+        return pts, nrm, z, z
+    Bk = bernstein(n - 2, t)
+    xt, xs = n * along, n * cross
+    xtt = n * (n - 1) * _curve_eval(Bk, e[:, 2:] - 2 * e[:, 1:-1] + e[:, :-2])
+    xts = n * (n - 1) * _curve_eval(Bk, r[:, 1:] - r[:, :-1] - e[:, 1:-1] + e[:, :-2])
+    xss = n * (n - 1) * _curve_eval(Bk, R[2] - 2 * r[:, :-1] + e[:, :-2])
+    dot = lambda a, b: np.einsum("...i,...i->...", a, b)   # noqa: E731
+    E_, F_, G_ = dot(xt, xt), dot(xt, xs), dot(xs, xs)
+    L_, M_, N_ = dot(xtt, nrm), dot(xts, nrm), dot(xss, nrm)
+    det = np.maximum(E_ * G_ - F_ * F_, 1e-300)
+    H = (E_ * N_ - 2 * F_ * M_ + G_ * L_) / (2 * det)
+    # unit direction w = (Xs - F/E Xt) / |.|, perpendicular to the side in the tangent plane
+    al = -F_ / np.maximum(E_, 1e-300)
+    kw = (L_ * al * al + 2 * M_ * al + N_) / np.maximum(det / np.maximum(E_, 1e-300), 1e-300)
+    return pts, nrm, kw, H
 
 
-def _side_samples(ps: PatchSet, facets: np.ndarray, sides: np.ndarray, t: np.ndarray):
+def _side_samples(ps: PatchSet, facets: np.ndarray, sides: np.ndarray, t: np.ndarray, curvature: bool = False):
     """Points and unit normals of the patches touching facet side (f, k) at side parameter t.
 
-    Returns (len(facets), len(t), 3) points and normals; t runs from corner k to corner k+1.
+    Returns (len(facets), len(t), 3) points and normals (and with `curvature` the cross
+    normal curvature and the mean curvature, (len(facets), len(t)) each); t runs from
+    corner k to corner k+1.
     """
     n_pts = np.empty((len(facets), len(t), 3))
     n_nrm = np.empty_like(n_pts)
+    kw = np.zeros((len(facets), len(t)))
+    hm = np.zeros_like(kw)
     single = ps.sub < 0
     lookup_single = np.full(ps.mesh_triangles.shape[0], -1)
     lookup_single[ps.facet[single]] = np.flatnonzero(single)
@@ -203,7 +231,12 @@ def _side_samples(ps: PatchSet, facets: np.ndarray, sides: np.ndarray, t: np.nda
             if not len(sel):
                 continue
             abc = (k, (k + 1) % 3, (k + 2) % 3) if kind == "single" else (0, 1, 2)
-            n_pts[sel], n_nrm[sel] = _side_frame(ps.control_points, ps.degree, abc, t, pid)
+            out = _side_frame(ps.control_points, ps.degree, abc, t, pid, curvature)
+            n_pts[sel], n_nrm[sel] = out[0], out[1]
+            if curvature:
+                kw[sel], hm[sel] = out[2], out[3]
+    if curvature:
+        return n_pts, n_nrm, kw, hm
     return n_pts, n_nrm
 
 
@@ -212,18 +245,25 @@ def _angle_deg(a, b):
     return np.degrees(np.arctan2(np.linalg.norm(_cross(a, b), axis=-1), np.einsum("...i,...i->...", a, b)))
 
 
-def g1_continuity(ps: PatchSet, *, n_samples: int = 17, interior: bool = True) -> dict:
-    """G0 gap and G1 normal angle across every shared mesh edge (and inner split curves).
+def g1_continuity(ps: PatchSet, *, n_samples: int = 17, interior: bool = True, curvature: bool = False) -> dict:
+    """G0 gap, G1 normal angle and (optionally) curvature jumps across every patch edge.
 
-    Samples each shared network curve at `n_samples` parameters (ends excluded when
-    `interior`, where all patches meet at a vertex and the normal is the vertex normal).
-    Normals come from the first two control rows along the curve (exact derivatives).
+    Samples each shared network curve, and the inner curves of split facets, at
+    `n_samples` parameters (ends excluded when `interior`, where all patches meet at a
+    vertex and the normal is the vertex normal). Normals come from the first two control
+    rows along the curve (exact derivatives), curvatures from the first three. All
+    figures are maxima over these samples, not bounds between them.
 
     Returns
     -------
-    dict with ``g0_gap`` (max distance), ``g1_angle_max_deg``, ``g1_angle_rms_deg``,
-    ``g1_angle_inner_max_deg`` (across the inner curves of split facets) and ``edge_angles_deg``
-    (per shared edge maximum).
+    dict with ``g0_gap`` (max distance), ``g1_angle_max_deg``, ``g1_angle_rms_deg`` (across
+    the mesh edges), ``g1_angle_inner_max_deg`` (across the inner curves of split facets),
+    ``edge_angles_deg`` (per shared edge maximum), ``n_samples``; with `curvature` also
+    ``curvature_jump_max`` (largest difference of the two patches' normal curvatures in
+    the surface direction perpendicular to the edge, 1/length), ``mean_curvature_jump_max``
+    (of the mean curvatures), ``curvature_on_edges_max`` (largest |normal curvature| across
+    edges, for scale), each over all patch edges, and ``edge_curvature_jumps`` (per shared
+    mesh edge maximum).
     """
     T = ps.mesh_triangles
     F = len(T)
@@ -235,14 +275,23 @@ def g1_continuity(ps: PatchSet, *, n_samples: int = 17, interior: bool = True) -
     h1, h2 = order[same], order[same + 1]
     f1, s1, f2, s2 = h1 // 3, h1 % 3, h2 // 3, h2 % 3
     t = np.linspace(0, 1, n_samples + 2)[1:-1] if interior else np.linspace(0, 1, n_samples)
-    p1, n1 = _side_samples(ps, f1, s1, t)
-    p2, n2 = _side_samples(ps, f2, s2, t[::-1])
+    o1 = _side_samples(ps, f1, s1, t, curvature)
+    o2 = _side_samples(ps, f2, s2, t[::-1], curvature)
+    p1, n1, p2, n2 = o1[0], o1[1], o2[0], o2[1]
     gap = np.linalg.norm(p1 - p2, axis=2)
     ang = _angle_deg(n1, n2)
     out = {"g0_gap": float(gap.max()) if gap.size else 0.0,
            "g1_angle_max_deg": float(ang.max()) if ang.size else 0.0,
            "g1_angle_rms_deg": float(np.sqrt(np.mean(ang ** 2))) if ang.size else 0.0,
-           "edge_angles_deg": ang.max(axis=1) if ang.size else np.zeros(0)}
+           "edge_angles_deg": ang.max(axis=1) if ang.size else np.zeros(0), "n_samples": int(n_samples)}
+    jumps = {"k": [0.0], "h": [0.0], "abs": [0.0]}
+    if curvature:
+        dk = np.abs(o1[2] - o2[2])
+        out["edge_curvature_jumps"] = dk.max(axis=1) if dk.size else np.zeros(0)
+        if dk.size:
+            jumps["k"].append(float(dk.max()))
+            jumps["h"].append(float(np.abs(o1[3] - o2[3]).max()))
+            jumps["abs"].append(float(max(np.abs(o1[2]).max(), np.abs(o2[2]).max())))
     split = ps.sub >= 0
     inner = 0.0
     if split.any():
@@ -251,11 +300,19 @@ def g1_continuity(ps: PatchSet, *, n_samples: int = 17, interior: bool = True) -
         fs = np.flatnonzero((pid >= 0).all(axis=1))
         for k in range(len(fs) and 3):
             # inner curve k (V_k -> Z): sub k side (0 -> 2), sub k-1 side (1 -> 2)
-            pa, na = _side_frame(ps.control_points, ps.degree, (0, 2, 1), t, pid[fs, k])
-            pb, nb = _side_frame(ps.control_points, ps.degree, (1, 2, 0), t, pid[fs, (k - 1) % 3])
-            inner = max(inner, float(_angle_deg(na, nb).max()))
-            out["g0_gap"] = max(out["g0_gap"], float(np.linalg.norm(pa - pb, axis=2).max()))
+            oa = _side_frame(ps.control_points, ps.degree, (0, 2, 1), t, pid[fs, k], curvature)
+            ob = _side_frame(ps.control_points, ps.degree, (1, 2, 0), t, pid[fs, (k - 1) % 3], curvature)
+            inner = max(inner, float(_angle_deg(oa[1], ob[1]).max()))
+            out["g0_gap"] = max(out["g0_gap"], float(np.linalg.norm(oa[0] - ob[0], axis=2).max()))
+            if curvature:
+                jumps["k"].append(float(np.abs(oa[2] - ob[2]).max()))
+                jumps["h"].append(float(np.abs(oa[3] - ob[3]).max()))
+                jumps["abs"].append(float(max(np.abs(oa[2]).max(), np.abs(ob[2]).max())))
     out["g1_angle_inner_max_deg"] = inner
+    if curvature:
+        out["curvature_jump_max"] = max(jumps["k"])
+        out["mean_curvature_jump_max"] = max(jumps["h"])
+        out["curvature_on_edges_max"] = max(jumps["abs"])
     return out
 
 
