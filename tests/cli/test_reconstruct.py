@@ -14,7 +14,7 @@ from trimsurf.cli import main
 from trimsurf.reconstruct import load_patches
 
 REPORT_FIELDS = ("vertices", "patches", "iterations", "g0_gap", "g1_angle_max_deg", "vertex_interpolation_error",
-                 "seconds")
+                 "seconds", "g1_error_max_deg", "g1_sampling", "curvature_jump_max", "mean_curvature_jump_max")
 
 
 def test_octahedron_patches_and_report(tmp_path, capsys):
@@ -28,7 +28,21 @@ def test_octahedron_patches_and_report(tmp_path, capsys):
     assert np.radians(report["g1_angle_max_deg"]) < 1e-8
     assert report["radial_deviation_max"] < 0.15          # 0.107 measured (baseline 0.205)
     assert load_patches(out).n_patches == 24
-    assert "g1_angle_max_deg" in capsys.readouterr().out
+    assert "sampled" in report["g1_sampling"] and report["curvature_jump_max"] > 0
+    text = capsys.readouterr().out
+    assert "g1_error_max_deg" in text and "curvature_jump_max" in text and "sampled" in text
+
+
+def test_peters_fill_reports_its_g1_error(tmp_path, capsys):
+    """--fill peters: one quintic per facet, G1 error measured (0.81 degrees on the shifted
+    octahedron, where no vertex has a solvable vertex enclosure problem), exit 0."""
+    rep = tmp_path / "p.json"
+    assert main(["reconstruct", "octahedron", "-o", str(tmp_path / "p.npz"), "--fill", "peters",
+                 "--report", str(rep)]) == 0
+    report = json.loads(rep.read_text())
+    assert report["degree"] == 5 and report["patches"] == 8 and report["fill"] == "peters"
+    assert 0.5 < report["g1_error_max_deg"] < 1.0 and report["g1_residual_vertices"] == 6
+    assert report["curvature_jump_max"] > 0
 
 
 @pytest.mark.parametrize("network,fill,degree", [("g2", "single", 7), ("g2", "split", 6),

@@ -53,7 +53,7 @@ def test_split_is_not_trivially_flat():
 
 
 def test_single_quintic_reports_its_g1_error():
-    """Peters-style single quintics are only approximately G1 (vertex enclosure): the error is
+    """Chiyokura-Kimura single quintics with averaged twists are not G1: the error is
     measured, nonzero on the coarse octahedron and small on a fine smooth mesh."""
     coarse = octahedron()
     ps = _ps(fill_single_quintic(build_network(coarse, kind="g1")), coarse)
