@@ -1,6 +1,7 @@
 """Demo steps of `trimsurf.reconstruct`: the MNN paper's examples (shifted octahedron, boundary problem,
 car part, machinery part with its design curves), Shirman-Séquin baseline vs G1 and G2 minimum norm
-networks, as Gaussian-curvature pictures."""
+networks (split, Peters' single quintics, single degree-7 patches), as Gaussian-curvature pictures,
+with every fill's sampled G1 error and curvature jump across patch edges."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ __all__: list[str] = []
 _PANEL = (460, 400)
 _VARIANTS = (("Shirman-Sequin", dict(network="shirman-sequin", fill="split")),
              ("G1 MNN, split", dict(network="g1", fill="split")),
+             ("G1 MNN, Peters", dict(network="g1", fill="peters")),
              ("G2 MNN, single", dict(network="g2", fill="single")))
 # the machinery part as in the paper's Fig. 7a/7b: Shirman-Sequin vs G2 D2 L2 split vs G2 single
 _MACHINERY = (("Shirman-Sequin", dict(network="shirman-sequin", fill="split")),
@@ -30,8 +32,11 @@ def _case(ctx: StepContext, name: str, mesh, density: int, sphere: bool, zebra: 
     for label, kw in variants:
         rec = reconstruct_mesh(mesh, feature_chains=features, **kw)
         r = rec.report
-        key = kw["network"].replace("-", "_") + ("_" + kw["fill"] if variants is _MACHINERY else "")
+        key = kw["network"].replace("-", "_") + ("_" + kw["fill"] if variants is _MACHINERY
+                                                 or kw["fill"] == "peters" else "")
         figures[f"{name}.{key}.g1_angle_max_deg"] = r["g1_angle_max_deg"]
+        figures[f"{name}.{key}.g1_error_max_deg"] = r["g1_error_max_deg"]
+        figures[f"{name}.{key}.curvature_jump_max"] = r["curvature_jump_max"]
         figures[f"{name}.{key}.iterations"] = r["iterations"]
         if sphere:
             dmax, drms = radial_deviation(rec.patches, np.zeros(3), 1.0, density=density)
@@ -48,7 +53,7 @@ def _case(ctx: StepContext, name: str, mesh, density: int, sphere: bool, zebra: 
         panels.append(m)
         scalars.append(K)
         titles.append(label)
-        if kw["network"] == "g1":
+        if kw["network"] == "g1" and kw["fill"] != "peters":
             save_patches(rec.patches, ctx.out(f"{name}.g1.npz"))
     allk = np.concatenate(scalars)
     lo, hi = np.percentile(allk, [2, 98])
@@ -78,7 +83,8 @@ def _reconstruct(ctx: StepContext) -> StepOutput:
         rec = reconstruct_mesh(ctx.obj, network="g1", fill="split", feature_chains=feats)
         r = rec.report
         return StepOutput(figures={k: r[k] for k in ("vertices", "patches", "iterations", "g0_gap",
-                                                       "g1_angle_max_deg", "vertex_interpolation_error",
+                                                       "g1_angle_max_deg", "g1_error_max_deg",
+                                                       "curvature_jump_max", "vertex_interpolation_error",
                                                        "folded_edges", "feature_kink_max_deg", "seconds")})
     density = 6 if ctx.quick else 10
     figures: dict = {}

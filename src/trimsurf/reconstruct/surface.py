@@ -159,6 +159,38 @@ def _curve_eval(B: np.ndarray, c: np.ndarray) -> np.ndarray:
     return out.reshape(len(B), P, d).transpose(1, 0, 2)
 
 
+@lru_cache(maxsize=64)
+def _side_operator(n: int, t_key: tuple, curvature: bool) -> np.ndarray:
+    """Linear map from the stacked control rows along a side (row 0: n + 1 points, row 1: n,
+    row 2: n - 1 with `curvature`) to the point, X_t, X_s (and X_tt, X_ts, X_ss) at the t."""
+    t = np.array(t_key)
+    n0, n1, n2 = n + 1, n, (n - 1 if curvature else 0)
+    blocks = []
+    Bn, Bm = bernstein(n, t), bernstein(n - 1, t)
+    k = len(t)
+
+    def block(parts):
+        out = np.zeros((k, n0 + n1 + n2))
+        for off, mat in parts:
+            out[:, off:off + mat.shape[1]] += mat
+        return out
+
+    D0 = np.eye(n0)[1:] - np.eye(n0)[:-1]                       # (n, n+1) first differences of row 0
+    blocks.append(block([(0, Bn)]))
+    blocks.append(block([(0, n * Bm @ D0)]))                    # X_t
+    blocks.append(block([(n0, n * Bm), (0, -n * Bm @ np.eye(n0)[:-1])]))   # X_s = n sum B (r1 - r0[:-1])
+    if curvature:
+        Bk = bernstein(n - 2, t) if n >= 2 else np.zeros((k, 0))
+        c = n * (n - 1)
+        E0, E1 = np.eye(n0), np.eye(n1)
+        blocks.append(block([(0, c * Bk @ (E0[2:] - 2 * E0[1:-1] + E0[:-2]))]))                       # X_tt
+        blocks.append(block([(n0, c * Bk @ (E1[1:] - E1[:-1])), (0, -c * Bk @ (E0[1:-1] - E0[:-2]))]))  # X_ts
+        blocks.append(block([(n0 + n1, c * Bk), (n0, -2 * c * Bk @ E1[:-1]), (0, c * Bk @ E0[:-2])]))   # X_ss
+    W = np.concatenate(blocks, axis=0)
+    W.setflags(write=False)
+    return W
+
+
 def _side_frame(cp: np.ndarray, n: int, abc: tuple[int, int, int], t: np.ndarray, pid=None,
                 curvature: bool = False):
     """Points and unit normals along side a -> b of patches cp (P, N, 3) at parameters t.
@@ -168,33 +200,26 @@ def _side_frame(cp: np.ndarray, n: int, abc: tuple[int, int, int], t: np.ndarray
     only those patches (gathering just the rows needed). With `curvature`, also the
     normal curvature in the tangent direction perpendicular to the side and the mean
     curvature (both signed with the oriented normal), from the exact second derivatives
-    (three control rows).
+    (three control rows). One matrix product for all quantities.
     """
-    rows = _side_rows(n, *abc, depth=3 if curvature else 2)
-    if pid is None:
-        R = [cp[:, r] for r in rows]
-    else:
-        R = [cp[pid[:, None], r[None, :]] for r in rows]
-    e, r = R[0], R[1]
-    Bn = bernstein(n, t)
-    Bm = bernstein(n - 1, t)
-    pts = _curve_eval(Bn, e)
-    along = _curve_eval(Bm, e[:, 1:] - e[:, :-1])
-    cross = _curve_eval(Bm, r - e[:, :-1])
-    nrm = _cross(along, cross)
+    want = bool(curvature)
+    curvature = want and n >= 2
+    rows = np.concatenate(_side_rows(n, *abc, depth=3 if curvature else 2))
+    R = cp[:, rows] if pid is None else cp[pid[:, None], rows[None, :]]      # (P, r, 3)
+    W = _side_operator(n, tuple(float(x) for x in t), curvature)
+    k = len(t)
+    vals = _curve_eval(W, R)                                                  # (P, q k, 3)
+    pts, xt, xs = vals[:, :k], vals[:, k:2 * k], vals[:, 2 * k:3 * k]
+    nrm = _cross(xt, xs)
     if abc not in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
         nrm = -nrm
     nrm = nrm / np.linalg.norm(nrm, axis=-1, keepdims=True)
     if not curvature:
+        if want:
+            z = np.zeros(pts.shape[:2])
+            return pts, nrm, z, z
         return pts, nrm
-    if n < 2:
-        z = np.zeros(pts.shape[:2])
-        return pts, nrm, z, z
-    Bk = bernstein(n - 2, t)
-    xt, xs = n * along, n * cross
-    xtt = n * (n - 1) * _curve_eval(Bk, e[:, 2:] - 2 * e[:, 1:-1] + e[:, :-2])
-    xts = n * (n - 1) * _curve_eval(Bk, r[:, 1:] - r[:, :-1] - e[:, 1:-1] + e[:, :-2])
-    xss = n * (n - 1) * _curve_eval(Bk, R[2] - 2 * r[:, :-1] + e[:, :-2])
+    xtt, xts, xss = vals[:, 3 * k:4 * k], vals[:, 4 * k:5 * k], vals[:, 5 * k:]
     dot = lambda a, b: np.einsum("...i,...i->...", a, b)   # noqa: E731
     E_, F_, G_ = dot(xt, xt), dot(xt, xs), dot(xs, xs)
     L_, M_, N_ = dot(xtt, nrm), dot(xts, nrm), dot(xss, nrm)
