@@ -43,6 +43,12 @@ def test_peters_fill_reports_its_g1_error(tmp_path, capsys):
     assert report["degree"] == 5 and report["patches"] == 8 and report["fill"] == "peters"
     assert 0.5 < report["g1_error_max_deg"] < 1.0 and report["g1_residual_vertices"] == 6
     assert report["curvature_jump_max"] > 0
+    # the figures are those of the file written: read back and measured again
+    from trimsurf.reconstruct import g1_continuity
+
+    again = g1_continuity(load_patches(tmp_path / "p.npz"), curvature=True)
+    assert again["g1_angle_max_deg"] == report["g1_error_max_deg"]
+    assert again["curvature_jump_max"] == report["curvature_jump_max"]
 
 
 @pytest.mark.parametrize("network,fill,degree", [("g2", "single", 7), ("g2", "split", 6),

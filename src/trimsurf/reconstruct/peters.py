@@ -8,7 +8,10 @@ share a curve c(t) meet G1 when their cross-boundary derivatives satisfy, for al
     alpha(t) D_p(t) + beta(t) D_q(t) = gamma(t) c'(t)                            (G1)
 
 with scalar weight polynomials: alpha, beta linear, gamma cubic (D_p, D_q are quartic,
-c' quadratic, so both sides are quintic). alpha, beta and gamma at the two ends are
+c' quadratic, so both sides are quintic). The MNN paper gives neither the weights'
+degrees nor formulas; these are the lowest degrees that fit a quintic patch on a cubic
+network and let alpha/beta differ at the two ends (it must: it is fixed by the tangents
+there). alpha, beta and gamma at the two ends are
 fixed by the curve tangents at the vertices (alpha(0) D_p(0) + beta(0) D_q(0) is
 parallel to c'(0) in the vertex's tangent plane; normalized alpha + beta = 2); the
 inner coefficients gamma_1, gamma_2 and the six inner control points of every patch
