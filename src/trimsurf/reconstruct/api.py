@@ -174,7 +174,9 @@ def reconstruct_mesh(mesh: TriMesh, *, network: str = "g1", fill: str = "split",
         a patch edge, 1/length, sampled), mean_curvature_jump_max, curvature_on_edges_max
         (largest |normal curvature| there, for scale), g1_condition_residual_max and
         g1_residual_vertices (Peters' fill: residual of its G1 equations and the vertices
-        where it stays), vertex_interpolation_error,
+        where it stays), vep_even_vertices (Peters' fill: inner vertices of even valence, where
+        the vertex enclosure constraint applies), weight_sign_changes (Peters' fill: curves
+        whose weights are not positive at an end), vertex_interpolation_error,
         seconds, network_seconds, fill_seconds, single_patch_fallbacks, inverted_corners (facet
         corners folded in the tangent plane), folded_edges (curves where the patches meet at
         more than 90 degrees, i.e. fold back), and the options.
@@ -250,6 +252,8 @@ def _reconstruct(mesh, network, fill, direction, length, functional, weighting, 
               "curvature_on_edges_max": cont["curvature_on_edges_max"],
               "g1_condition_residual_max": peters_info.get("g1_condition_residual_max", 0.0),
               "g1_residual_vertices": peters_info.get("g1_residual_vertices", 0),
+              "vep_even_vertices": int(peters_info.get("vep_even_vertices", 0)),
+              "weight_sign_changes": int(peters_info.get("weight_sign_changes", 0)),
               "vertex_interpolation_error": vertex_interpolation_error(ps),
               "single_patch_fallbacks": n_fb, "inverted_corners": inverted_corners(net),
               "folded_edges": int((cont["edge_angles_deg"] > 90.0).sum()),
