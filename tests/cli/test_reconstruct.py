@@ -156,3 +156,24 @@ def test_subprocess_run(tmp_path):
     report = json.loads(rep.read_text())
     assert report["radial_deviation_max"] < 0.06     # 0.049 measured (baseline 0.089)
     assert out.stat().st_size > 0
+
+
+def test_exit_status_follows_the_measured_g1_error(tmp_path, capsys, shared_data):
+    """A fill that is G1 by construction exits 1 when the measured G1 error says otherwise
+    (a noisy scan whose network folds at some corners), naming the cause; Peters' fill is
+    held to a limit only when one is given."""
+    mask = str(shared_data / "meshes" / "mannequin_mask.off")
+    rep = tmp_path / "m.json"
+    assert main(["reconstruct", mask, "-o", str(tmp_path / "m.npz"), "--report", str(rep)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("trimsurf: warning: G1 error") and "folded" in err and "\n" not in err
+    report = json.loads(rep.read_text())
+    assert report["g1_ok"] is False and report["g1_error_max_deg"] > 90 and report["inverted_corners"] > 0
+    # the shifted octahedron: split passes the default 1e-6 deg; Peters (0.82 deg) passes without a limit
+    # and fails a 0.5 degree one
+    assert main(["reconstruct", "octahedron", "-o", str(tmp_path / "o.npz")]) == 0
+    assert main(["reconstruct", "octahedron", "-o", str(tmp_path / "p.npz"), "--fill", "peters"]) == 0
+    assert main(["reconstruct", "octahedron", "-o", str(tmp_path / "p.npz"), "--fill", "peters",
+                 "--max-g1-deg", "0.5"]) == 1
+    assert "exceeds 0.5 deg" in capsys.readouterr().err
+    assert main(["reconstruct", "octahedron", "-o", str(tmp_path / "p.npz"), "--max-g1-deg", "-1"]) == 2

@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 from ..errors import FileFormatError, InputError
-from ._common import EXIT_OK, examples, format_table, print_json, progress, write_json
+from ._common import EXIT_FAILED, EXIT_OK, examples, format_table, print_json, print_warning, progress, write_json
 
 __all__ = ["NAME", "HELP", "DESCRIPTION", "EPILOG", "add_args", "run", "load_mesh_input", "write_output"]
 
@@ -44,7 +44,10 @@ mean_curvature_jump_max (largest jump of the normal curvature perpendicular to
 a patch edge, and of the mean curvature, 1/length), all sampled at
 g1_sampling points inside every patch edge (maxima over samples, not bounds),
 vertex_interpolation_error, seconds, and radial_deviation_max/_rms when all
-vertices lie on a sphere."""
+vertices lie on a sphere. Exit status 1 (after writing OUT and the report) when
+the measured G1 error exceeds --max-g1-deg (default 1e-6 degrees for the fills
+that are G1 by construction; e.g. a noisy scan whose network folds at some
+corners)."""
 EPILOG = examples("trimsurf reconstruct octahedron -o octa.npz --report octa.json",
                   "trimsurf reconstruct scan.ply -o scan-smooth.ply --network g2 --fill single --density 12",
                   "trimsurf reconstruct car_panel -o panel.step --network g1 --direction d2 --length l2",
@@ -80,6 +83,11 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--density", type=int, default=None, metavar="N",
                         help="subdivisions per patch side for mesh output and deviation figures "
                              "(default: 8, fewer for large meshes)")
+    parser.add_argument("--max-g1-deg", type=float, default=None, metavar="DEG",
+                        help="largest G1 error (degrees, sampled across patch edges) accepted; above it the run "
+                             "exits with status 1 (default: 1e-6 for the fills that are G1 by construction, i.e. "
+                             "split and g2 single; no limit for peters and the cubic single fill, whose error is "
+                             "reported)")
     parser.add_argument("--report", type=Path, metavar="REPORT.json", help="write the report as JSON")
     parser.add_argument("--json", action="store_true", help="print the report as JSON instead of a table")
 
@@ -106,6 +114,8 @@ def load_mesh_input(name: str):
 
 
 _SAMPLE_FEATURES = {"machinery_part": "machinery_part_features"}
+# G1 error (degrees, sampled) above which a fill that is G1 by construction counts as failed
+G1_EXACT_DEG = 1e-6
 
 
 def _read_features(path: Path | None, label: str = ""):
@@ -159,6 +169,10 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--second {args.second} sets the g2 network's second derivatives; use --network g2")
     if args.fill == "peters" and args.network == "g2":
         raise InputError("--fill peters fills cubic networks; use --fill single or split with --network g2")
+    if args.max_g1_deg is not None and not args.max_g1_deg >= 0:
+        raise InputError(f"--max-g1-deg must be >= 0; got {args.max_g1_deg}")
+    g1_exact = args.fill == "split" or (args.fill == "single" and args.network == "g2")
+    g1_limit = args.max_g1_deg if args.max_g1_deg is not None else (G1_EXACT_DEG if g1_exact else None)
     from .. import io
 
     suffix = args.output.suffix.lower()
@@ -192,6 +206,8 @@ def run(args: argparse.Namespace) -> int:
         report["output_kind"] = kind
         bar.advance()
     report["seconds"] = time.perf_counter() - t0
+    report["g1_limit_deg"] = g1_limit
+    report["g1_ok"] = g1_limit is None or report["g1_error_max_deg"] <= g1_limit
     if args.report is not None:
         write_json(report, args.report)
     if args.json:
@@ -207,4 +223,9 @@ def run(args: argparse.Namespace) -> int:
                 v = report[key]
                 rows.append([key, f"{v:.3g}" if isinstance(v, float) else str(v)])
         print(format_table(rows, indent=0))
+    if not report["g1_ok"]:
+        why = (f"; {report['inverted_corners']} facet corners folded in the tangent plane (noisy mesh), "
+               f"{report['folded_edges']} folded curves" if report["inverted_corners"] or report["folded_edges"] else "")
+        print_warning(f"G1 error {report['g1_error_max_deg']:.3g} deg (sampled) exceeds {g1_limit:g} deg{why}")
+        return EXIT_FAILED
     return EXIT_OK
