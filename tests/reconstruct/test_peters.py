@@ -186,3 +186,18 @@ def test_reported_g1_error_agrees_with_an_independent_evaluation():
             cos = np.clip(np.einsum("ij,ij->i", *normals), -1, 1)
             worst = max(worst, float(np.degrees(np.arccos(cos)).max()))
     assert worst == pytest.approx(rec.report["g1_error_max_deg"], rel=1e-6)
+
+
+def test_peters_patches_are_regular(bumpy_sphere):
+    """The least-squares moves of the inner control points do not fold a patch: the Jacobian
+    keeps the facet's orientation at every sample (10 per side), and no curve folds."""
+    from trimsurf.geom import bezier_triangle_derivatives
+
+    rec = reconstruct_mesh(bumpy_sphere, network="g1", fill="peters")
+    g = 10
+    bary = np.array([(a, b, g - a - b) for a in range(g + 1) for b in range(g + 1 - a)], float) / g
+    D = bezier_triangle_derivatives(rec.patches.control_points, 5, bary)
+    V, T = bumpy_sphere.vertices, bumpy_sphere.triangles
+    nf = np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])
+    assert np.einsum("pki,pi->pk", np.cross(D[1, 0], D[0, 1]), nf).min() > 0
+    assert rec.report["folded_edges"] == 0 and rec.report["weight_sign_changes"] == 0
