@@ -1,4 +1,4 @@
-"""``trimsurf reconstruct MESH -o OUT``: a smooth G1 Bézier surface (from a G1 or G2 network) through the vertices of a mesh."""
+"""``trimsurf reconstruct MESH -o OUT``: a smooth G1 Bézier surface (from a G1 or G2 network) through mesh vertices."""
 
 from __future__ import annotations
 
@@ -224,8 +224,9 @@ def run(args: argparse.Namespace) -> int:
                 rows.append([key, f"{v:.3g}" if isinstance(v, float) else str(v)])
         print(format_table(rows, indent=0))
     if not report["g1_ok"]:
+        folds = report["inverted_corners"] or report["folded_edges"]
         why = (f"; {report['inverted_corners']} facet corners folded in the tangent plane (noisy mesh), "
-               f"{report['folded_edges']} folded curves" if report["inverted_corners"] or report["folded_edges"] else "")
+               f"{report['folded_edges']} folded curves" if folds else "")
         print_warning(f"G1 error {report['g1_error_max_deg']:.3g} deg (sampled) exceeds {g1_limit:g} deg{why}")
         return EXIT_FAILED
     return EXIT_OK

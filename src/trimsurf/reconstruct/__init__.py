@@ -34,7 +34,8 @@ from ._topology import MeshTopology, mesh_topology
 
 __all__ = ["reconstruct_mesh", "Reconstruction", "FILLS", "build_network", "CurveNetwork", "curve_parameters",
            "NETWORKS", "DIRECTIONS", "LENGTHS", "FUNCTIONALS", "SECONDS", "vertex_normals", "local_frames",
-           "normal_curvature_forms", "NORMAL_WEIGHTS", "fill_split_quartic", "fill_single_quintic", "fill_peters_quintic",
+           "normal_curvature_forms", "NORMAL_WEIGHTS", "fill_split_quartic", "fill_single_quintic",
+           "fill_peters_quintic",
            "fill_split_sextic", "fill_single_septic", "FacetPatches", "PatchSet", "g1_continuity", "grid_bary",
            "save_patches", "load_patches", "vertex_interpolation_error", "sphere_fit", "radial_deviation",
            "mesh_topology", "MeshTopology", "patches_to_shell", "triangle_to_tensor"]

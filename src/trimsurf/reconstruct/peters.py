@@ -87,7 +87,7 @@ def _end_weights(Dp, Dq, c, n):
     return a, b, g
 
 
-def fill_peters_quintic(net: CurveNetwork, *, iterations: int = 8, damping: float = 1e-4) -> tuple[FacetPatches, dict]:
+def fill_peters_quintic(net: CurveNetwork, *, iterations: int = 8, damping: float = 1e-3) -> tuple[FacetPatches, dict]:
     """Peters' scheme: one quintic per facet, G1 by scalar weight functions (see the module text).
 
     Parameters
@@ -96,13 +96,14 @@ def fill_peters_quintic(net: CurveNetwork, *, iterations: int = 8, damping: floa
         A cubic network ("g1" or "shirman-sequin").
     iterations, damping : int, float
         The least-squares system is solved by `iterations` damped steps (proximal point
-        iteration, Tikhonov weight `damping` times the largest diagonal of A^T A), each
-        from the last: components the equations fix well converge to the exact solution,
-        nearly singular ones (where G1 would need large control-point moves: the VEP, and
-        curves whose weights have nearly the same ratio alpha/beta at both ends) stay near
-        the reference. Measured on nefertiti (G1 MNN network): damping 1e-4 / 1e-5 / 1e-9
-        gives G1 errors 3.75 / 3.72 / 3.06 degrees and curvature jumps across the edges of
-        73 / 84 / 1502 per model unit (the split fill: 101).
+        iteration, Tikhonov weight `damping` times the largest squared column norm of one
+        curve's equations), each from the last: components the equations fix well converge
+        to the exact solution, nearly singular ones (where G1 would need large
+        control-point moves: the VEP, and curves whose weights have nearly the same ratio
+        alpha/beta at both ends) stay near the reference. Measured on nefertiti (G1 MNN
+        network), damping 1e-1 / 1e-3 / 1e-5 / 1e-9: G1 error 3.70 / 3.67 / 3.39 / 4.40
+        degrees, curvature jump across the edges 63 / 84 / 152 / 27736 per model unit (the
+        split fill: 101); on the icosphere (VEP solvable) 5e-4 / 2e-5 / 7e-10 / 3e-13 degrees.
 
     Returns
     -------
@@ -110,12 +111,13 @@ def fill_peters_quintic(net: CurveNetwork, *, iterations: int = 8, damping: floa
         Degree 5, one patch per facet (sub = -1).
     info : dict
         ``g1_condition_residual_max`` (largest residual of the G1 equations relative to the
-        curve's derivative size; ~1e-15 where the system is consistent),
+        curve's derivative size; ~1e-15 where the system is consistent and solved undamped),
         ``vep_even_vertices`` (inner vertices of even valence, where the vertex enclosure
         constraint applies), ``g1_residual_vertices`` (vertices at which the G1 equations of
         an incident curve keep a relative residual above 1e-6: the VEP, or both ends of a
-        curve coupled when its weights have the same ratio alpha/beta at both ends), ``weight_sign_changes`` (curves where alpha or beta is not
-        positive at an end: the weights vanish inside and the joint cannot be G1 there).
+        curve coupled when its weights have the same ratio alpha/beta at both ends),
+        ``weight_sign_changes`` (curves where alpha or beta is not positive at an end: the
+        weights vanish inside and the joint cannot be G1 there).
     """
     if net.degree != 3:
         raise ValueError("fill_peters_quintic needs a cubic (G1) network")
@@ -201,7 +203,7 @@ def fill_peters_quintic(net: CurveNetwork, *, iterations: int = 8, damping: floa
     tw_col = np.stack([9 * fa + 3 * slot[sa, 1], 9 * fa + 3 * slot[sa, 3],
                        9 * fb + 3 * slot[sb, 3], 9 * fb + 3 * slot[sb, 1]], axis=1)       # (ne, 4)
     cols = (tw_col[:, :, None] + np.arange(3)).reshape(ne, 12)
-    scale2 = max(float(np.einsum("eij,eij->j", At, At).max()), float(np.einsum("eij,eij->j", Ap, Ap).max()), 1e-300)
+    scale2 = max(float(np.einsum("eij,eij->ej", At, At).max()), float(np.einsum("eij,eij->ej", Ap, Ap).max()), 1e-300)
     mu = damping * scale2
     Kinv = np.linalg.inv(np.einsum("eri,erj->eij", Ap, Ap) + mu * np.eye(8))            # (ne, 8, 8)
     ApK = np.einsum("eri,eij->erj", Ap, Kinv)                                            # (ne, 12, 8)
