@@ -214,7 +214,8 @@ def fill_peters_quintic(net: CurveNetwork, *, iterations: int = 8, damping: floa
     S = sparse.csr_matrix((Sblk.reshape(-1), (np.repeat(cols, 12, axis=1).reshape(-1),
                                                np.tile(cols, (1, 12)).reshape(-1))), shape=(n_t, n_t))
     S = (S + mu * sparse.identity(n_t, format="csr")).tocsc()
-    lu = splu(S, permc_spec="MMD_AT_PLUS_A", options={"SymmetricMode": True})
+    # S is symmetric positive definite: diagonal pivots are stable and keep the MMD ordering
+    lu = splu(S, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
     rhs = -resid.reshape(ne, 12)
     x_t = np.zeros(n_t)
     x_p = np.zeros((ne, 8))
