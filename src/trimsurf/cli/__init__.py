@@ -10,16 +10,71 @@ input or usage.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import signal
+import threading
 import traceback
+
+import numpy as np
 
 from .. import __version__
 from ..errors import InputError
 from . import certify, demo, fit, info, join, reconstruct, samples, tessellate, view
-from ._common import EXIT_FAILED, EXIT_INPUT, cli_warnings, examples, print_error
+from ._common import (EXIT_FAILED, EXIT_INPUT, check_output_file, check_output_folder, cli_warnings, examples,
+                      print_error)
 
 __all__ = ["main", "build_parser", "SUBCOMMANDS"]
 
 SUBCOMMANDS = (info, samples, tessellate, join, certify, reconstruct, fit, view, demo)
+
+
+#: output options checked before any work: attribute -> (option as typed, allowed suffixes or None)
+_OUTPUT_FILES = {"output": ("-o", None), "report": ("--report", None), "png": ("--png", (".png",)),
+                 "html": ("--html", (".html",)), "write_mesh": ("--write-mesh", None)}
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    """Refuse output paths that cannot be written before the work starts (`InputError`, exit 2).
+
+    Every output file option (-o, --report, --png, --html, --write-mesh): not a
+    folder, its folder exists and is writable, the suffix fits (--png: .png).
+    ``demo --out`` is a folder (created if its parent exists); ``tessellate -o``
+    may be a folder and is checked by tessellate itself.
+    """
+    if args.command == "demo":
+        check_output_folder(args.out, option="--out")
+        return
+    if args.command == "samples" and getattr(args, "out", None) is not None:
+        check_output_file(args.out, option="--out")
+    for name, (option, suffixes) in _OUTPUT_FILES.items():
+        if name == "output" and args.command == "tessellate":
+            continue
+        check_output_file(getattr(args, name, None), option=option, suffixes=suffixes)
+
+
+_TERMINATED = threading.Event()
+
+
+class _Terminated(BaseException):
+    """SIGTERM, raised in the main thread so that every ``finally`` (temporary files) runs, as for Ctrl-C."""
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt():
+    """While the block runs (in the main thread), SIGTERM raises `_Terminated`; the old handler is restored."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        _TERMINATED.set()
+        raise _Terminated()
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -52,14 +107,27 @@ def main(argv: list[str] | None = None) -> int:
     any other exception is a bug: one line plus a hint, status 1 (with
     ``--debug`` the exception propagates with its traceback).
     """
+    _TERMINATED.clear()
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # --help, --version (0) and usage errors (2)
         return exc.code if isinstance(exc.code, int) else EXIT_INPUT
     try:
-        with cli_warnings():
+        # numpy floating-point warnings never reach the terminal: inputs are checked for finite, bounded
+        # values at read time, and every figure reported is measured on the output
+        with cli_warnings(), np.errstate(all="ignore"), _sigterm_as_interrupt():
+            check_outputs(args)
             return int(args.run(args))
+    except MemoryError:
+        if args.debug:
+            traceback.print_exc()
+        print_error(f"out of memory in {args.command} (coarser options, e.g. a larger tolerance or grid size, "
+                    "need less; nothing was written)")
+        return EXIT_INPUT
+    except _Terminated:
+        print_error("terminated")
+        return EXIT_INPUT
     except InputError as exc:
         if args.debug:
             traceback.print_exc()
@@ -75,6 +143,9 @@ def main(argv: list[str] | None = None) -> int:
         print_error("interrupted")
         return EXIT_INPUT
     except Exception as exc:
+        if _TERMINATED.is_set():  # raised inside native code (numba, C callbacks) and wrapped there
+            print_error("terminated")
+            return EXIT_INPUT
         if args.debug:
             raise
         print_error(f"internal error: {type(exc).__name__}: {exc} (a bug; rerun with --debug for the traceback "

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import json
 import math
+import os
 import sys
 import warnings
 from dataclasses import asdict, is_dataclass
@@ -13,10 +14,12 @@ from typing import Iterator
 
 import numpy as np
 
-from ..errors import TrimsurfWarning
+from ..errors import InputError, TrimsurfWarning
 
 __all__ = ["EXIT_OK", "EXIT_FAILED", "EXIT_INPUT", "one_line", "print_error", "print_warning", "cli_warnings",
-           "jsonable", "print_json", "write_json", "progress", "format_table", "examples"]
+           "jsonable", "print_json", "write_json", "progress", "format_table", "examples", "BudgetError",
+           "memory_budget", "check_budget", "estimate_shell_triangles", "check_output_file",
+           "check_output_folder", "BYTES_PER"]
 
 EXIT_OK = 0        # success
 EXIT_FAILED = 1    # some part failed (or an internal error)
@@ -148,3 +151,168 @@ def format_table(rows, *, indent: int = 0) -> str:
 def examples(*lines: str) -> str:
     """An argparse epilog: 'examples:' and the command lines, indented."""
     return "examples:\n" + "\n".join(f"  {line}" for line in lines)
+
+
+# -- resource budgets ------------------------------------------------------------
+
+class BudgetError(InputError):
+    """Options that would make an output (or a working set) larger than the memory budget."""
+
+
+#: default memory budget of one command, bytes; ``TRIMSURF_MEMORY_BUDGET`` (e.g. ``16G``, ``500M``) overrides
+DEFAULT_MEMORY_BUDGET = 2 * 2 ** 30
+
+#: peak memory per output element, bytes, measured on this project's samples (RSS above the ~0.2 GB baseline):
+#: tessellate bspline_box --max-edge 5 / 2: 88,852 / 741,564 triangles -> 0.83 / 2.78 GB peak (3.5-7 KB each);
+#: reconstruct octahedron --density 200 / 400: 0.96 / 3.84 M triangles -> 0.38 / 1.03 GB (~230 B each);
+#: fit holed_sheet --grid 100 100 / 200 200: 1e4 / 4e4 control points -> 0.59 / 1.41 GB (~27 KB each)
+#: (the issue's --grid 400 400 took 5.1 GB: 32 KB each). join gap_pair --deflection 3e-5 / 1e-5 / 1e-6: 31,261 /
+#: 54,675 / ~180,000 joined triangles (about 11x the Open CASCADE face meshes' 2,884 / 4,871 / 15,035) -> 0.62 /
+#: 0.93 / over 4 GB peak: the cost per joined triangle grows (5, 8.4, ~20 KB), see `_bytes`.
+BYTES_PER = {"tessellate_triangle": 4000, "reconstruct_triangle": 250, "fit_control_point": 32000,
+             "join_triangle": 5000}
+
+
+def _bytes(kind: str, count: float) -> float:
+    """Peak bytes of `count` elements of `kind`; the join's per-triangle cost grows as (n / 3e4)^0.8 beyond 3e4."""
+    if kind == "join_triangle":
+        return BYTES_PER[kind] * count * max(1.0, count / 3e4) ** 0.8
+    return BYTES_PER[kind] * count
+
+
+def _parse_bytes(text: str) -> float:
+    text = text.strip().upper().removesuffix("B")
+    scale = {"K": 2 ** 10, "M": 2 ** 20, "G": 2 ** 30, "T": 2 ** 40}.get(text[-1:], 1)
+    value = float(text[:-1] if text[-1:] in "KMGT" and text[-1:] else text)
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(text)
+    return value * scale
+
+
+def memory_budget() -> float:
+    """The memory budget in bytes: ``TRIMSURF_MEMORY_BUDGET`` (``16G``, ``500M``, bytes) or 2 GiB."""
+    raw = os.environ.get("TRIMSURF_MEMORY_BUDGET")
+    if not raw:
+        return float(DEFAULT_MEMORY_BUDGET)
+    try:
+        return _parse_bytes(raw)
+    except (ValueError, IndexError):
+        raise InputError(f"TRIMSURF_MEMORY_BUDGET={raw!r}: expected a size such as 8G, 500M or a byte count"
+                         ) from None
+
+
+def _size(nbytes: float) -> str:
+    for unit, scale in (("TB", 2 ** 40), ("GB", 2 ** 30), ("MB", 2 ** 20)):
+        if nbytes >= scale:
+            return f"{nbytes / scale:.3g} {unit}"
+    return f"{nbytes / 2 ** 10:.3g} KB"
+
+
+def check_budget(count: float, kind: str, *, what: str, hint: str) -> None:
+    """Raise `BudgetError` when `count` elements of `kind` (a `BYTES_PER` key) exceed the memory budget.
+
+    `what` starts the message (``--max-edge 0.001 too small``), `hint` ends it
+    (``use a larger --max-edge``). A non-finite count is over any budget.
+
+    Examples
+    --------
+    >>> check_budget(1e3, "reconstruct_triangle", what="--density 2 too large", hint="lower --density")
+    >>> check_budget(1e12, "reconstruct_triangle", what="--density 9999 too large", hint="lower --density")
+    Traceback (most recent call last):
+    ...
+    trimsurf.cli._common.BudgetError: --density 9999 too large: would make ~1e+12 triangles (~227 TB, above the memory budget of 2 GB); lower --density, or raise the budget with TRIMSURF_MEMORY_BUDGET=...
+    """
+    budget = memory_budget()
+    need = _bytes(kind, count)
+    if need <= budget:
+        return
+    noun = "control points" if kind.endswith("control_point") else "triangles"
+    amount = f"~{count:.3g} {noun}" if math.isfinite(count) else f"unboundedly many {noun}"
+    cost = f"~{_size(need)}, " if math.isfinite(need) else ""
+    raise BudgetError(f"{what}: would make {amount} ({cost}above the memory budget of {_size(budget)}); {hint}, "
+                      f"or raise the budget with TRIMSURF_MEMORY_BUDGET=...")
+
+
+def estimate_shell_triangles(shell, tolerance: float, max_edge: float | None = None, *, n: int = 9) -> float:
+    """Triangles a mesh of `shell` within `tolerance` and with edges up to `max_edge` needs, roughly.
+
+    Each face's (untrimmed) surface is sampled on an n x n grid; per grid cell
+    the area A and the curvature kappa (second differences along u and v) give
+    a spacing h = min(max_edge, sqrt(8 tolerance / kappa)) along u and along
+    v (the chord error kappa h^2 / 8 of a circle) and 2 A / (h_u h_v)
+    triangles (a grid of h_u x h_v cells). An upper estimate for trimmed faces (their whole surface counts);
+    measured against the tessellator on the samples in tests/cli/test_hardening.py.
+    """
+    total = 0.0
+    with np.errstate(all="ignore"):
+        for face in shell.faces:
+            (u0, u1), (v0, v1) = face.surface.domain
+            uu, vv = np.meshgrid(np.linspace(u0, u1, n), np.linspace(v0, v1, n), indexing="ij")
+            p = face.surface.evaluate(np.column_stack([uu.ravel(), vv.ravel()])).reshape(n, n, 3)
+            # cell areas: two triangles per cell
+            a = p[1:, :-1] - p[:-1, :-1]
+            b = p[:-1, 1:] - p[:-1, :-1]
+            c = p[1:, 1:] - p[1:, :-1]
+            d = p[1:, 1:] - p[:-1, 1:]
+            area = 0.5 * (np.linalg.norm(np.cross(a, b), axis=-1) + np.linalg.norm(np.cross(c, d), axis=-1))
+            # curvature at the samples along u and along v: |P+ - 2P + P-| / s^2, s the half chord
+            h_dir = []
+            for axis in (0, 1):
+                q = np.moveaxis(p, axis, 0)
+                d2 = np.linalg.norm(q[2:] - 2 * q[1:-1] + q[:-2], axis=-1)
+                s2 = (0.5 * np.linalg.norm(q[2:] - q[:-2], axis=-1)) ** 2
+                k = np.where(s2 > 0, d2 / np.where(s2 > 0, s2, 1.0), 0.0)
+                k = np.concatenate([k[:1], k, k[-1:]])            # ends take their neighbour's value
+                kappa = np.moveaxis(k, 0, axis)
+                k_cell = np.maximum.reduce([kappa[1:, 1:], kappa[:-1, 1:], kappa[1:, :-1], kappa[:-1, :-1]])
+                h = np.sqrt(8.0 * tolerance / np.where(k_cell > 0, k_cell, 1e-300))
+                if max_edge is not None:
+                    h = np.minimum(h, max_edge)
+                h_dir.append(h)
+            # spacing along each direction from its own curvature: anisotropic cells (as mesh generators make)
+            total += float(np.sum(2.0 * area / (h_dir[0] * h_dir[1])))
+    return total if math.isfinite(total) else math.inf
+
+
+# -- outputs, checked before the work ----------------------------------------------
+
+def check_output_file(path: Path | None, *, option: str = "", suffixes: tuple[str, ...] | None = None) -> None:
+    """Refuse an output file path before any work: a folder, a missing or non-folder parent, no write access.
+
+    `suffixes` (lower case, with dots) restricts the file name's suffix. The
+    message names `path` as the user gave it (with `option`, e.g. ``--report``).
+    """
+    if path is None:
+        return
+    path = Path(path)
+    where = f"{option} {path}" if option else str(path)
+    if suffixes is not None and path.suffix.lower() not in suffixes:
+        raise InputError(f"{where}: expected a {' or '.join(suffixes)} file name; got "
+                         f"{path.suffix or 'no suffix'!r}")
+    if path.is_dir():
+        raise InputError(f"{where}: is a folder; give a file name")
+    parent = path.parent
+    if not parent.exists():
+        raise InputError(f"{where}: folder {parent} does not exist")
+    if not parent.is_dir():
+        raise InputError(f"{where}: {parent} is not a folder")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise InputError(f"{where}: folder {parent} is not writable")
+    if path.exists() and not os.access(path, os.W_OK):
+        raise InputError(f"{where}: file is not writable")
+
+
+def check_output_folder(path: Path, *, option: str = "") -> None:
+    """Refuse an output folder path before any work: a file, a missing parent, no write access.
+
+    A folder that does not exist yet is fine when its parent does (it is created).
+    """
+    path = Path(path)
+    where = f"{option} {path}" if option else str(path)
+    if path.exists():
+        if not path.is_dir():
+            raise InputError(f"{where}: is not a folder (a file is there); an output folder is needed")
+        if not os.access(path, os.W_OK | os.X_OK):
+            raise InputError(f"{where}: folder is not writable")
+        return
+    check_output_file(path, option=option)

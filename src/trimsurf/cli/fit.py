@@ -8,7 +8,8 @@ import warnings
 from pathlib import Path
 
 from ..errors import InputError, TrimsurfWarning
-from ._common import EXIT_FAILED, EXIT_OK, examples, format_table, print_json, print_warning, progress, write_json
+from ._common import (EXIT_FAILED, EXIT_OK, check_budget, examples, format_table, print_json, print_warning,
+                      progress, write_json)
 
 __all__ = ["NAME", "HELP", "DESCRIPTION", "EPILOG", "add_args", "run", "fit_mesh", "EMBED_CHOICES",
            "BACKMAP_CHOICES"]
@@ -160,9 +161,12 @@ def render_fit_png(result, mesh, path: Path, *, title: str = "") -> Path:
 def run(args: argparse.Namespace) -> int:
     from .. import io
 
-    mesh = io.read_mesh(args.mesh)
     if args.grid is not None and min(args.grid) < 4:
         raise InputError(f"--grid needs at least 4 x 4 control points; got {args.grid[0]} x {args.grid[1]}")
+    if args.grid is not None:
+        check_budget(float(args.grid[0]) * float(args.grid[1]), "fit_control_point",
+                     what=f"--grid {args.grid[0]} {args.grid[1]} too large", hint="use a smaller --grid")
+    mesh = io.read_mesh(args.mesh)
     steps = 8 + (args.png is not None)
     with progress(steps, f"fit {args.mesh.name}") as bar:
         report, _ = fit_mesh(mesh, args.output, embed=args.embed, backmap=args.backmap, grid=args.grid,

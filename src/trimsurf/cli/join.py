@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ._common import EXIT_FAILED, EXIT_OK, examples, format_table, print_warning, progress, write_json
+from ._common import EXIT_FAILED, EXIT_OK, check_budget, examples, format_table, print_warning, progress, write_json
 
 __all__ = ["NAME", "HELP", "DESCRIPTION", "EPILOG", "add_args", "run"]
 
@@ -182,7 +182,14 @@ def run(args: argparse.Namespace) -> int:
         shell, sewn = sew_shell(shell), True
     diag = shell.diagonal()
     deflection = args.deflection if args.deflection is not None else 1e-3 * diag
+    if source_is_meshed := not args.meshes:
+        if deflection < 1e-7:  # Open CASCADE's Precision::Confusion: no mesher resolves finer
+            raise InputError(f"--deflection {deflection:g} too small: below Open CASCADE's precision 1e-7")
     meshes, source = _face_meshes(shell, args, deflection)
+    # the join re-triangulates the strips along shared edges: about 11x the face meshes' triangles
+    check_budget(11.0 * sum(m.n_triangles for m in meshes), "join_triangle",
+                 what=f"--deflection {deflection:g} too small" if source_is_meshed else "--meshes too fine",
+                 hint="use a larger --deflection" if source_is_meshed else "give coarser face meshes")
     if source == "files" and args.deflection is None:
         deflection = None   # the input meshes' own measured deviation (join_shell's default)
     input_dev = input_deviation(shell, meshes, density=4)

@@ -8,7 +8,8 @@ import time
 from pathlib import Path
 
 from ..errors import FileFormatError, InputError
-from ._common import EXIT_FAILED, EXIT_OK, examples, format_table, print_json, print_warning, progress, write_json
+from ._common import (EXIT_FAILED, EXIT_OK, check_budget, examples, format_table, print_json, print_warning, progress,
+                      write_json)
 
 __all__ = ["NAME", "HELP", "DESCRIPTION", "EPILOG", "add_args", "run", "load_mesh_input", "write_output"]
 
@@ -186,6 +187,9 @@ def run(args: argparse.Namespace) -> int:
         bar.advance(description="network")
         features = _read_features(args.features, label)
         density = args.density or (8 if mesh.n_triangles <= 20000 else 4 if mesh.n_triangles <= 200000 else 2)
+        # the evaluated surface (mesh output, deviation figures): density^2 triangles per patch
+        check_budget(mesh.n_triangles * (3 if args.fill == "split" else 1) * float(density) ** 2,
+                     "reconstruct_triangle", what=f"--density {density} too large", hint="use a smaller --density")
 
         def stage(name):
             if name in ("fill", "check"):

@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import argparse
+import math
 import time
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import FileFormatError, InputError
-from ._common import EXIT_FAILED, EXIT_OK, examples, format_table, print_warning, progress, write_json
+from ._common import (EXIT_FAILED, EXIT_INPUT, EXIT_OK, check_budget, check_output_file, check_output_folder,
+                      estimate_shell_triangles, examples, format_table, print_error, print_warning, progress,
+                      write_json)
 
 __all__ = ["NAME", "HELP", "DESCRIPTION", "EPILOG", "add_args", "run", "write_quad_mesh", "REPORT_FIELDS"]
 
@@ -91,13 +94,24 @@ def _targets(inputs: list[Path], output: Path, fmt: str, many: bool) -> list[Pat
     fmt = fmt if fmt.startswith(".") else "." + fmt
     if fmt.lower() not in MESH_SUFFIXES:
         raise InputError(f"--format {fmt!r}: expected one of {', '.join(MESH_SUFFIXES)}")
-    if not many and output.suffix.lower() in MESH_SUFFIXES:
+    if not many and output.suffix.lower() in MESH_SUFFIXES and not output.is_dir():
+        check_output_file(output, option="-o")
         return [output]
     if output.suffix and output.suffix.lower() not in MESH_SUFFIXES and not output.is_dir() and not many:
         raise InputError(f"{output}: unknown mesh suffix {output.suffix!r}; expected one of {', '.join(MESH_SUFFIXES)}")
     if output.exists() and not output.is_dir():
         raise InputError(f"{output}: several inputs need an output folder, not a file")
-    return [output / (p.stem + fmt) for p in inputs]
+    if many and not output.exists() and output.suffix.lower() in MESH_SUFFIXES:
+        raise InputError(f"-o {output}: {len(inputs)} inputs need an output folder, and {output.name} is a mesh "
+                         "file name; give a folder (e.g. -o meshes/)")
+    check_output_folder(output, option="-o")
+    targets = [output / (p.stem + fmt) for p in inputs]
+    seen: dict[Path, Path] = {}
+    for p, t in zip(inputs, targets):
+        if t in seen:
+            raise InputError(f"{p} and {seen[t]} would both be written to {t}; tessellate them separately")
+        seen[t] = p
+    return targets
 
 
 def write_quad_mesh(mesh, quads: np.ndarray, path: Path) -> None:
@@ -173,6 +187,24 @@ def _total(entries: list[dict]) -> dict:
             "faces_failed": agg("faces_failed", sum)}
 
 
+def check_tessellate_budget(shell, path, tolerance, max_edge) -> None:
+    """Refuse (exit 2) options whose mesh would not fit the memory budget (`_common.check_budget`)."""
+    from ..tessellate.shell import default_parameters
+
+    if tolerance is None or max_edge is None:
+        d_tol, d_h = default_parameters(shell)
+        tolerance = d_tol if tolerance is None else tolerance
+        max_edge = d_h if max_edge is None else max_edge
+    # calibrated: the tessellator makes 0.4-1.8x this on the samples (tests/cli/test_hardening.py)
+    n = 3.0 * estimate_shell_triangles(shell, tolerance, max_edge)
+    h_n = 3.0 * estimate_shell_triangles(shell, math.inf, max_edge)
+    if h_n >= 0.5 * n:
+        what, hint = f"{path}: --max-edge {max_edge:g} too small", "use a larger --max-edge"
+    else:
+        what, hint = f"{path}: --tolerance {tolerance:g} too small", "use a larger --tolerance"
+    check_budget(n, "tessellate_triangle", what=what, hint=hint)
+
+
 def run(args: argparse.Namespace) -> int:
     from ..io import read_shell, write_mesh
     from ..tessellate import tessellate_shell
@@ -184,42 +216,78 @@ def run(args: argparse.Namespace) -> int:
     inputs = _inputs(args.inputs)
     many = len(inputs) > 1 or any(p.is_dir() for p in args.inputs)
     targets = _targets(inputs, args.output, args.format, many)
+    check_output_file(args.report, option="--report")
     if args.quads:
         for t in targets:
             if t.suffix.lower() not in (".obj", ".ply"):
                 raise InputError(f"{t}: --quads needs an OBJ or PLY output; got {t.suffix!r}")
-    entries, status = [], EXIT_OK
+    entries, status, unreadable = [], EXIT_OK, 0
     with progress(len(inputs), "tessellate") as bar:
         for path, target in zip(inputs, targets):
             t0 = time.perf_counter()
-            shell = read_shell(path)
-            res = tessellate_shell(shell, tolerance=args.tolerance, max_edge=args.max_edge,
-                                   mode="loose" if args.loose else "auto",
-                                   strategy="bisection" if args.bisection else "equidistributed",
-                                   common=args.common)
+            try:
+                shell = read_shell(path)
+                check_tessellate_budget(shell, path, args.tolerance, args.max_edge)
+                res = tessellate_shell(shell, tolerance=args.tolerance, max_edge=args.max_edge,
+                                       mode="loose" if args.loose else "auto",
+                                       strategy="bisection" if args.bisection else "equidistributed",
+                                       common=args.common)
+            except (InputError, OSError, MemoryError) as exc:
+                if not many:
+                    raise
+                # a batch goes on: the file is named on stderr and in the report
+                message = _failure(exc, path)
+                print_error(message)
+                entries.append({"input": str(path), "output": None, "error": message,
+                                "seconds": time.perf_counter() - t0})
+                unreadable += 1
+                status = EXIT_FAILED
+                bar.advance(1, description=path.name)
+                continue
             for f in res.failed_faces:
                 print_warning(f"{path}: face {f.index} ({f.name}) skipped: {'; '.join(f.messages)}")
                 status = EXIT_FAILED
+            written = None
             if res.mesh.n_triangles:
                 if args.quads:
                     write_quad_mesh(res.mesh, res.quads, target)
                 else:
                     write_mesh(res.mesh, target)
+                written = str(target)
             else:
                 print_warning(f"{path}: no face could be tessellated; nothing written")
                 status = EXIT_FAILED
-            entries.append(_entry(path, res, time.perf_counter() - t0) | {"output": str(target)})
+            entries.append(_entry(path, res, time.perf_counter() - t0) | {"output": written})
             bar.advance(1, description=path.name)
+    if unreadable == len(inputs):
+        status = EXIT_INPUT
     rows = [["input", "triangles", "max dev", "tolerance", "max edge", "p5 angle", "boundary", "non-manifold",
              "flipped", "seconds"]]
     def num(v, f):
         return "-" if v is None else format(v, f)
 
     for e in entries:
+        if "error" in e:
+            rows.append([Path(e["input"]).name, "failed"] + ["-"] * 7 + [num(e["seconds"], ".2f")])
+            continue
         rows.append([Path(e["input"]).name, e["triangles"], num(e["max_deviation"], ".3g"), num(e["tolerance"], ".3g"),
                      num(e["max_edge"], ".3g"), num(e["p5_angle_deg"], ".1f"), num(e["boundary_edges"], "d"),
                      num(e["nonmanifold_edges"], "d"), num(e["flipped"], "d"), num(e["seconds"], ".2f")])
     print(format_table(rows))
     if args.report is not None:
-        write_json({"inputs": entries, "total": _total(entries)}, args.report)
+        failed = [{"input": e["input"], "error": e["error"]} for e in entries if "error" in e]
+        write_json({"inputs": entries, "total": _total(entries), "failed_inputs": failed}, args.report)
+    if many and unreadable:
+        print_warning(f"{unreadable} of {len(inputs)} inputs failed: "
+                      + ", ".join(Path(e["input"]).name for e in entries if "error" in e))
     return status
+
+
+def _failure(exc: BaseException, path: Path) -> str:
+    """One line for a batch input that failed, naming the file once."""
+    if isinstance(exc, MemoryError):
+        return f"{path}: out of memory (use a larger --tolerance or --max-edge)"
+    if isinstance(exc, OSError):
+        return f"{exc.filename or path}: {exc.strerror or exc}"
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return text if str(path) in text else f"{path}: {text}"

@@ -131,15 +131,34 @@ def load_view_input(name: str) -> tuple[str, TriMesh, Shell | None, TriMesh | No
             raise InputError(f"{name}: no such file, and not a sample name ({', '.join(SAMPLES)})")
         obj, label = build_sample(name), name
     if isinstance(obj, TriMesh):
+        _check_extent(name, obj)
         info.update({"kind": "mesh", "n_triangles": obj.n_triangles})
         return label, obj, None, None, info
     from ..tessellate import tessellate_shell
 
     result = tessellate_shell(obj)
     mesh = result.mesh
+    if not mesh.n_triangles:
+        raise InputError(f"{name}: no face could be tessellated; nothing to show")
+    _check_extent(name, mesh)
     info.update({"kind": "shell", "n_faces": len(obj.faces), "n_triangles": mesh.n_triangles,
                  "tessellation": {"tolerance": result.tolerance, "max_edge": result.max_edge, "mode": result.mode}})
     return label, mesh, obj, mesh_with_face_uv(result), info
+
+
+def _check_extent(name: str, mesh: TriMesh) -> None:
+    """Refuse a mesh the renderers cannot frame: non-finite or huge coordinates, or a box of no extent."""
+    from ..io._meshfile import COORDINATE_LIMIT
+
+    with np.errstate(all="ignore"):
+        big = float(np.max(np.abs(mesh.vertices))) if mesh.n_vertices else 0.0
+        extent = float(np.max(np.ptp(mesh.vertices, axis=0))) if mesh.n_vertices else 0.0
+    if not big <= COORDINATE_LIMIT:
+        raise InputError(f"{name}: coordinates up to {big:.3g}, beyond the supported magnitude {COORDINATE_LIMIT:g}")
+    # renderers work in float32: an extent below 1e-9 of the coordinates (or below 1e-30) cannot be framed
+    if not (extent > 1e-9 * big and extent > 1e-30):
+        raise InputError(f"{name}: the mesh's extent {extent:.3g} is too small to render next to its "
+                         f"coordinates (up to {big:.3g})")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -33,7 +33,8 @@ material. An OBJ keeps its per-vertex uv when every ``v`` has exactly one ``vt``
 file is kept and the uv are dropped with a `TrimsurfWarning`.
 
 Bad files raise `MeshReadError` (cannot be parsed, no triangles) or the
-`MeshError` kind that `TriMesh` raises (NaN coordinates, indices out of range,
+`MeshError` kind that `TriMesh` raises (NaN or infinite coordinates, or coordinates beyond
+``COORDINATE_LIMIT`` = 1e12, indices out of range,
 repeated indices: `DegenerateError`), always naming the file. Triangles of
 zero area with distinct indices are read; `trimsurf.quality` reports them.
 
@@ -158,6 +159,26 @@ def _face_id_of(mesh, m: int) -> np.ndarray | None:
     return fid if len(fid) == m else None
 
 
+#: largest coordinate magnitude accepted from a file (model units): beyond it squared distances, areas and
+#: curvatures lose all precision or overflow (the issue's 1e300 meshes); 1e12 mm is a million km
+COORDINATE_LIMIT = 1e12
+
+
+def _check_coordinates(path, vertices: np.ndarray, *, per_triangle: bool = False) -> None:
+    """Raise `MeshError` naming the first vertex with a non-finite coordinate or one beyond `COORDINATE_LIMIT`."""
+    with np.errstate(all="ignore"):
+        bad = ~(np.abs(vertices) <= COORDINATE_LIMIT).all(axis=1)   # NaN compares False
+    if not bad.any():
+        return
+    i = int(np.argmax(bad))
+    what = f"triangle {i // 3}" if per_triangle else f"vertex {i}"
+    value = vertices[i][~(np.abs(vertices[i]) <= COORDINATE_LIMIT)][0]
+    if np.isfinite(value):
+        raise MeshError(f"{path}: {what} has coordinate {value:.3g}, beyond the supported magnitude "
+                        f"{COORDINATE_LIMIT:g}; {int(bad.sum())} vertices are out of range")
+    raise MeshError(f"{path}: {what} has a non-finite coordinate ({value}); {int(bad.sum())} vertices are bad")
+
+
 def read(path: str | os.PathLike) -> TriMesh:
     """Read an OBJ, PLY, STL, OFF, glTF or GLB file into a `TriMesh`.
 
@@ -211,10 +232,8 @@ def read(path: str | os.PathLike) -> TriMesh:
                             "(malformed, truncated, no faces, or a point cloud)")
     if not len(triangles):
         raise MeshReadError(f"{path}: {name} file holds {len(vertices)} vertices and no triangles")
+    _check_coordinates(path, vertices, per_triangle=suffix == ".stl")
     if suffix == ".stl":
-        if not np.all(np.isfinite(vertices)):
-            bad = np.argwhere(~np.isfinite(vertices))[0]
-            raise MeshError(f"{path}: triangle {int(bad[0]) // 3} has a non-finite coordinate")
         vertices, triangles = _merge_exact_duplicates(vertices, triangles)
     for note in notes:
         warnings.warn(f"{path}: {note}", TrimsurfWarning, stacklevel=2)

@@ -352,6 +352,9 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
                 new_index[origin[kept]] = np.flatnonzero(kept)
                 quads = new_index[quads]
                 quads = quads[(quads >= 0).all(axis=1)]
+    elif not face_meshes:  # loose mode with every face failed: nothing to merge (the CLI says so, exit 1)
+        mesh = TriMesh(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64))
+        stitch_info["faces_collapsed"] = []
     else:
         from .orient import orient_meshes
         from .stitch import merge_face_meshes

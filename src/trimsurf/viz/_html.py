@@ -5,6 +5,7 @@ from __future__ import annotations
 import base64
 import gzip
 import json
+import re
 from importlib import resources
 from pathlib import Path
 from typing import Sequence
@@ -46,6 +47,23 @@ def _mesh_blob(mesh: TriMesh, normals: np.ndarray, curv, origin: np.ndarray) -> 
     c = np.where(np.isfinite(c), c, 0.0).astype("<f4").tobytes()
     idx = mesh.triangles.astype("<u4").tobytes()
     return gzip.compress(pos + nrm + pad + c + idx, compresslevel=1, mtime=0)
+
+
+def script_json(value) -> str:
+    """`value` as JSON safe inside an HTML ``<script>`` element: ``<``, ``>``, ``&`` as ``\\u003c`` etc.
+
+    Escaping only ``</`` is not enough: ``<!--<script>`` in a string switches the
+    HTML parser into a state where ``</script>`` no longer ends the element.
+
+    Examples
+    --------
+    >>> script_json({"title": "a<!--<script>.obj"})
+    '{"title": "a\\\\u003c!--\\\\u003cscript\\\\u003e.obj"}'
+    >>> json.loads(script_json({"title": "a<!--<script>.obj"}))["title"]
+    'a<!--<script>.obj'
+    """
+    text = json.dumps(value)
+    return text.replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
 
 
 def write_html(meshes: TriMesh | Sequence[TriMesh], path, *, titles: Sequence[str] = (), title: str = "",
@@ -155,10 +173,10 @@ def write_html(meshes: TriMesh | Sequence[TriMesh], path, *, titles: Sequence[st
     safe_title = (title or "trimsurf viewer").replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
     parts = {"__VERSION__": str(version), "__TITLE__": safe_title,
              "__THREE_B64__": _b64(_asset("three.module.min.js")), "__ORBIT_B64__": _b64(_asset("OrbitControls.js")),
-             "__META__": json.dumps(meta).replace("</", "<\\/"), "__BLOBS__": "\n".join(blobs),
+             "__META__": script_json(meta), "__BLOBS__": "\n".join(blobs),
              "__VIEWER_JS__": _asset("viewer.js")}
-    for key, value in parts.items():
-        page = page.replace(key, value)
+    # one pass: a title or mesh name holding a placeholder's text is never replaced in turn
+    page = re.sub("|".join(re.escape(k) for k in parts), lambda m: parts[m.group(0)], page)
     from ..io._atomic import atomic_path
 
     path = Path(path)
