@@ -6,6 +6,7 @@ import base64
 import gzip
 import io
 import json
+import os
 import re
 import shutil
 
@@ -59,9 +60,19 @@ def _screenshot(page) -> np.ndarray:
         return np.asarray(im.convert("RGB"), dtype=np.int16)
 
 
+def _need_chromium() -> None:
+    """Skip with scripts/test's reason when it could not install chromium; fail when run without it."""
+    if shutil.which(CHROMIUM) is not None:
+        return
+    reason = os.environ.get("TRIMSURF_BROWSER_SKIP")
+    if reason:
+        pytest.skip(f"{CHROMIUM} is missing: {reason}")
+    pytest.fail(f"{CHROMIUM} is missing: run the tests with scripts/test (README), which installs Debian's "
+                "chromium or says why it cannot")
+
+
 def test_page_in_headless_chromium(tmp_path):
-    if shutil.which(CHROMIUM) is None:
-        pytest.fail(f"{CHROMIUM} is missing: .ci/run installs Debian's chromium (apt-get install -y chromium)")
+    _need_chromium()
     from playwright.sync_api import sync_playwright
 
     path = write_html([icosphere(1), icosphere(4)], tmp_path / "v.html", titles=("coarse sphere", "fine sphere"),
@@ -126,3 +137,50 @@ def test_far_from_origin_keeps_float32_precision(tmp_path):
     pos = np.frombuffer(raw[:12 * m.n_vertices], "<f4").reshape(-1, 3)
     # stored relative to the box centre: float32 resolves ~1e-7 of the unit sphere, not ~0.1 of 2e6
     np.testing.assert_allclose(pos + np.asarray(meta["origin"]), far.vertices, atol=1e-6)
+
+
+HOSTILE_TITLES = ("a<!--<script>.obj", "</script><script>document.body.dataset.error='x'</script>",
+                  "__VIEWER_JS__ __BLOBS__ & <b>")
+
+
+def _meta_text(page: str) -> str:
+    m = re.search(r'<script type="application/json" id="trimsurf-meta">(.*?)</script>', page, re.S)
+    assert m is not None
+    return m.group(1)
+
+
+def test_hostile_titles_stay_inside_their_json(tmp_path):
+    """Issue 16 item 8: the embedded JSON escapes every '<' (as \\u003c), so no title can end or open a tag."""
+    path = write_html([icosphere(1)] * len(HOSTILE_TITLES), tmp_path / "v.html", titles=HOSTILE_TITLES,
+                      title="a<!--<script>")
+    page = path.read_text(encoding="utf-8")
+    meta = _meta_text(page)
+    assert "<" not in meta and ">" not in meta and "\\u003c!--\\u003cscript\\u003e" in meta
+    assert [m["title"] for m in json.loads(meta)["meshes"]] == list(HOSTILE_TITLES)
+    # the page has exactly the template's script elements: one per mesh blob plus the fixed ones
+    plain = write_html([icosphere(1)] * len(HOSTILE_TITLES), tmp_path / "p.html", titles=("a", "b", "c"))
+    assert page.count("<script") == plain.read_text(encoding="utf-8").count("<script")
+    # placeholders in a title are not expanded (the viewer's code appears once)
+    assert page.count("trimsurfViewer =") == plain.read_text(encoding="utf-8").count("trimsurfViewer =")
+
+
+def test_hostile_titles_page_runs_in_headless_chromium(tmp_path):
+    _need_chromium()
+    from playwright.sync_api import sync_playwright
+
+    path = write_html([icosphere(1)] * len(HOSTILE_TITLES), tmp_path / "v.html", titles=HOSTILE_TITLES)
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 400, "height": 300})
+            errors: list[str] = []
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            page.goto(path.as_uri())
+            page.wait_for_function("document.body.dataset.ready === '1' || !!document.body.dataset.error",
+                                   timeout=30_000)
+            assert page.evaluate("document.body.dataset.error || ''") == ""
+            shown = page.evaluate("JSON.parse(document.getElementById('trimsurf-meta').textContent)"
+                                  ".meshes.map(m => m.title)")
+        finally:
+            browser.close()
+    assert not errors and shown == list(HOSTILE_TITLES)
