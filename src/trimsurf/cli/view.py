@@ -155,8 +155,8 @@ def _check_extent(name: str, mesh: TriMesh) -> None:
         extent = float(np.max(np.ptp(mesh.vertices, axis=0))) if mesh.n_vertices else 0.0
     if not big <= COORDINATE_LIMIT:
         raise InputError(f"{name}: coordinates up to {big:.3g}, beyond the supported magnitude {COORDINATE_LIMIT:g}")
-    # renderers work in float32: an extent below 1e-9 of the coordinates (or below 1e-30) cannot be framed
-    if not (extent > 1e-9 * big and extent > 1e-30):
+    # an extent below 1e-13 of the coordinates (float64 keeps ~16 digits) or below 1e-30 cannot be framed
+    if not (extent > 1e-13 * big and extent > 1e-30):
         raise InputError(f"{name}: the mesh's extent {extent:.3g} is too small to render next to its "
                          f"coordinates (up to {big:.3g})")
 

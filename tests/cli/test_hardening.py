@@ -1,0 +1,194 @@
+"""Issue 16 (hostile input), the CLI's part: budgets, outputs, batches, bounded mesh coordinates.
+
+Every refusal is exit 2 with exactly one ``trimsurf: error:`` line naming what the user typed, before the
+work starts (so these tests are fast), and leaves no file behind.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import stat
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from trimsurf import io
+from trimsurf.cli import _common, main
+from trimsurf.errors import InputError
+from trimsurf.io._atomic import atomic_path, new_file_mode
+from trimsurf.samples import build_sample
+
+
+def _one_error(err: str) -> str:
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1, err
+    assert lines[0].startswith("trimsurf: error: ") and "Traceback" not in err and "Warning" not in err, err
+    return lines[0]
+
+
+def _files(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.iterdir())
+
+
+@pytest.fixture(scope="module")
+def cad(tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("cad")
+    io.write_shell(build_sample("gap_pair"), folder / "gap_pair.step")
+    return folder
+
+
+@pytest.fixture(scope="module")
+def sheet(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("mesh") / "sheet.obj"
+    io.write_mesh(build_sample("holed_sheet"), path)
+    return path
+
+
+# -- budgets -------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("argv, message", [
+    (["tessellate", "{gap}", "-o", "{out}/o.ply", "--max-edge=1e-3"], "--max-edge 0.001 too small: would make ~"),
+    (["tessellate", "{gap}", "-o", "{out}/o.ply", "--tolerance=1e-9"], "--tolerance 1e-09 too small: would make ~"),
+    (["reconstruct", "octahedron", "-o", "{out}/o.ply", "--density=100000"], "--density 100000 too large"),
+    (["fit", "{sheet}", "-o", "{out}/o.step", "--grid", "400", "400"], "--grid 400 400 too large"),
+    (["join", "{gap}", "-o", "{out}/o.ply", "--deflection=1e-8"], "--deflection 1e-08 too small"),
+])
+def test_budget_refuses_before_computing(argv, message, cad, sheet, tmp_path, capsys):
+    """The issue's 5.8 GB tessellate, 7.2 GB reconstruct, 5.1 GB fit: refused in seconds, exit 2, a hint."""
+    out = tmp_path / "out"
+    out.mkdir()
+    argv = [a.format(gap=cad / "gap_pair.step", sheet=sheet, out=out) for a in argv]
+    t0 = time.perf_counter()
+    assert main(argv) == 2
+    assert time.perf_counter() - t0 < 10
+    line = _one_error(capsys.readouterr().err)
+    assert message in line, line
+    assert ("TRIMSURF_MEMORY_BUDGET" in line and "use a smaller" in line or "use a larger" in line
+            or "below Open CASCADE's precision" in line), line
+    assert _files(out) == []
+
+
+def test_join_issue_deflection_refused(cad, tmp_path, capsys):
+    """The issue's `join gap_pair --deflection=1e-6` (past 120 s, 4 GB): refused after the cheap face meshing."""
+    t0 = time.perf_counter()
+    assert main(["join", str(cad / "gap_pair.step"), "-o", str(tmp_path / "j.ply"), "--deflection=1e-6"]) == 2
+    assert time.perf_counter() - t0 < 60
+    line = _one_error(capsys.readouterr().err)
+    assert "--deflection 1e-06 too small: would make ~" in line and "use a larger --deflection" in line
+    assert _files(tmp_path) == []
+
+
+def test_budget_environment_variable(monkeypatch):
+    monkeypatch.delenv("TRIMSURF_MEMORY_BUDGET", raising=False)
+    _common.check_budget(5e4, "fit_control_point", what="w", hint="h")  # 1.6 GB: within the default 2 GiB
+    with pytest.raises(_common.BudgetError):
+        _common.check_budget(1e5, "fit_control_point", what="w", hint="h")
+    monkeypatch.setenv("TRIMSURF_MEMORY_BUDGET", "8G")
+    _common.check_budget(1e5, "fit_control_point", what="w", hint="h")
+    assert _common.memory_budget() == 8 * 2 ** 30
+    for bad in ("lots", "-1G", "nan"):
+        monkeypatch.setenv("TRIMSURF_MEMORY_BUDGET", bad)
+        with pytest.raises(InputError, match="TRIMSURF_MEMORY_BUDGET"):
+            _common.memory_budget()
+    with pytest.raises(_common.BudgetError, match="unboundedly many"):
+        monkeypatch.setenv("TRIMSURF_MEMORY_BUDGET", "1T")
+        _common.check_budget(float("inf"), "tessellate_triangle", what="w", hint="h")
+
+
+@pytest.mark.parametrize("name, tolerance, max_edge", [("gap_pair", None, None), ("hood", 0.05, None),
+                                                       ("bspline_box", None, 20.0)])
+def test_tessellate_estimate_is_within_a_factor_of_three(name, tolerance, max_edge):
+    """The budget's triangle estimate against the triangles the tessellator writes (0.4-1.8x when measured)."""
+    from trimsurf.cli.tessellate import check_tessellate_budget
+    from trimsurf.tessellate import tessellate_shell
+    from trimsurf.tessellate.shell import default_parameters
+
+    shell = build_sample(name)
+    d_tol, d_h = default_parameters(shell)
+    estimate = 3.0 * _common.estimate_shell_triangles(shell, tolerance or d_tol, max_edge or d_h)
+    res = tessellate_shell(shell, tolerance=tolerance, max_edge=max_edge, measure=False)
+    assert 1 / 3 <= res.mesh.n_triangles / estimate <= 3, (res.mesh.n_triangles, estimate)
+    check_tessellate_budget(shell, name, tolerance, max_edge)  # well within the budget: no error
+
+
+def test_memory_error_is_one_line_exit_2(monkeypatch, cad, tmp_path, capsys):
+    from trimsurf.cli import tessellate as cmd
+
+    def boom(*a, **k):
+        raise MemoryError()
+
+    monkeypatch.setattr("trimsurf.tessellate.tessellate_shell", boom)
+    assert main(["tessellate", str(cad / "gap_pair.step"), "-o", str(tmp_path / "o.ply")]) == 2
+    assert "out of memory" in _one_error(capsys.readouterr().err)
+    assert _files(tmp_path) == []
+    assert cmd.NAME == "tessellate"
+
+
+# -- item 4: --loose with every face failed ---------------------------------------------------------------
+
+def test_loose_with_every_face_failed(cad, tmp_path, capsys):
+    assert main(["tessellate", str(cad / "gap_pair.step"), "-o", str(tmp_path / "o.ply"), "--loose"]) == 1
+    err = capsys.readouterr().err
+    assert "no face could be tessellated" in err and "concatenate" not in err and "internal error" not in err
+    assert _files(tmp_path) == []
+
+
+# -- item 5: mesh coordinates ----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("value, message", [("1e300", "beyond the supported magnitude"),
+                                            ("inf", "non-finite"), ("nan", "non-finite"),
+                                            ("-2e12", "beyond the supported magnitude")])
+@pytest.mark.parametrize("suffix", [".off", ".obj"])
+def test_mesh_coordinates_finite_and_bounded(value, message, suffix, tmp_path, capsys):
+    path = tmp_path / f"m{suffix}"
+    if suffix == ".off":
+        path.write_text(f"OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n{value} 1 0\n3 0 1 2\n3 1 3 2\n")
+    else:
+        path.write_text(f"v 0 0 0\nv 1 0 0\nv 0 1 0\nv {value} 1 0\nf 1 2 3\nf 2 4 3\n")
+    for argv in (["info", str(path)], ["view", str(path), "--png", str(tmp_path / "v.png")]):
+        assert main(argv) == 2
+        line = _one_error(capsys.readouterr().err)
+        assert message in line and "vertex 3" in line and str(path) in line, line
+    assert _files(tmp_path) == [path.name]
+
+
+def test_stl_huge_coordinate_names_the_triangle(tmp_path):
+    tri = build_sample("octahedron")
+    v = tri.vertices.copy()
+    v[tri.triangles[2, 1]] = [1e20, 0, 0]  # STL is float32
+    path = tmp_path / "m.stl"
+    io.write_mesh(type(tri)(v, tri.triangles), path)
+    with pytest.raises(InputError, match=r"triangle \d+ has coordinate 1e\+20, beyond"):
+        io.read_mesh(path)
+
+
+def test_rejected_inputs_print_no_numpy_warning(tmp_path):
+    """A real process: nothing but the one error line on stderr (no RuntimeWarning from numpy)."""
+    path = tmp_path / "m.off"
+    path.write_text("OFF\n3 1 0\n0 0 0\n1e300 1e300 1e300\n-1e300 1 0\n3 0 1 2\n")
+    for cmd in ("info", "view"):
+        res = subprocess.run([sys.executable, "-m", "trimsurf", cmd, str(path), "--png", str(tmp_path / "x.png")]
+                             if cmd == "view" else [sys.executable, "-m", "trimsurf", cmd, str(path)],
+                             capture_output=True, text=True, timeout=120, cwd=tmp_path)
+        assert res.returncode == 2, res.stderr
+        _one_error(res.stderr)
+
+
+def test_view_large_coordinates_and_degenerate_extent(tmp_path, capsys):
+    """Coordinates near the bound render (no camera assert); an extent below float32's reach is one line."""
+    far = tmp_path / "far.off"
+    far.write_text("OFF\n3 1 0\n1e11 0 0\n100000000010 0 0\n1e11 10 0\n3 0 1 2\n")
+    assert main(["view", str(far), "--png", str(tmp_path / "far.png"), "--size", "160x120"]) == 0
+    assert (tmp_path / "far.png").stat().st_size > 0
+    tiny = tmp_path / "tiny.off"
+    tiny.write_text("OFF\n3 1 0\n1e11 0 0\n1e11 1e-4 0\n1e11 0 1e-4\n3 0 1 2\n")
+    capsys.readouterr()
+    assert main(["view", str(tiny), "--png", str(tmp_path / "tiny.png")]) == 2
+    assert "too small to render" in _one_error(capsys.readouterr().err)
+    assert not (tmp_path / "tiny.png").exists()
