@@ -192,3 +192,190 @@ def test_view_large_coordinates_and_degenerate_extent(tmp_path, capsys):
     assert main(["view", str(tiny), "--png", str(tmp_path / "tiny.png")]) == 2
     assert "too small to render" in _one_error(capsys.readouterr().err)
     assert not (tmp_path / "tiny.png").exists()
+
+
+# -- item 6: outputs ---------------------------------------------------------------------------------------
+
+@pytest.fixture
+def umask():
+    def set_mask(mask: int) -> None:
+        os.umask(mask)
+
+    old = os.umask(0o022)
+    yield set_mask
+    os.umask(old)
+
+
+@pytest.mark.parametrize("mask", [0o022, 0o002, 0o077])
+def test_new_outputs_respect_the_umask(mask, umask, cad, tmp_path):
+    umask(mask)
+    with atomic_path(tmp_path / "a.txt") as tmp:
+        tmp.write_text("x")
+    assert stat.S_IMODE((tmp_path / "a.txt").stat().st_mode) == 0o666 & ~mask
+    out = tmp_path / "o.ply"
+    assert main(["tessellate", str(cad / "gap_pair.step"), "-o", str(out), "--tolerance", "20",
+                 "--report", str(tmp_path / "r.json")]) == 0
+    for p in (out, tmp_path / "r.json"):
+        assert stat.S_IMODE(p.stat().st_mode) == 0o666 & ~mask, p
+
+
+def test_overwrite_keeps_the_mode(umask, tmp_path):
+    umask(0o077)
+    target = tmp_path / "o.obj"
+    target.write_text("old")
+    target.chmod(0o664)
+    assert new_file_mode(target) == 0o664
+    io.write_mesh(build_sample("octahedron"), target)
+    assert stat.S_IMODE(target.stat().st_mode) == 0o664 and target.read_text() != "old"
+    assert _files(tmp_path) == ["o.obj"]
+
+
+def test_atomic_errors_name_the_target(tmp_path):
+    folder = tmp_path / "x.ply"
+    folder.mkdir()
+    with pytest.raises(IsADirectoryError) as info:
+        with atomic_path(folder) as tmp:
+            tmp.write_text("x")
+    assert info.value.filename == str(folder)
+    assert _files(tmp_path) == ["x.ply"] and _files(folder) == []
+
+
+_SLOW_WRITE = """
+import pathlib, sys, time
+from trimsurf.cli import main
+real = pathlib.Path.write_bytes
+def slow(self, data):
+    n = real(self, data[: len(data) // 2])
+    print("WRITING", self.name, flush=True)
+    time.sleep(60)
+    return n
+pathlib.Path.write_bytes = slow
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_sigterm_during_a_write_leaves_nothing(tmp_path):
+    """SIGTERM while the mesh is being written: exit 2, one line, neither the output nor a hidden temp file."""
+    out = tmp_path / "out"
+    out.mkdir()
+    proc = subprocess.Popen([sys.executable, "-c", _SLOW_WRITE, "reconstruct", "octahedron", "-o",
+                             str(out / "o.ply")], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        line = proc.stdout.readline()
+        assert line.startswith("WRITING .o."), line       # the temporary file beside the target
+        assert len(_files(out)) == 1
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 2
+    assert _one_error(err) == "trimsurf: error: terminated"
+    assert _files(out) == []
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["reconstruct", "octahedron", "-o", "{dir}"], "-o {dir}: is a folder"),
+    (["reconstruct", "octahedron", "-o", "{tmp}/o.ply", "--report", "{dir}"], "--report {dir}: is a folder"),
+    (["reconstruct", "octahedron", "-o", "{tmp}/missing/o.ply"], "-o {tmp}/missing/o.ply: folder {tmp}/missing "
+                                                                  "does not exist"),
+    (["reconstruct", "octahedron", "-o", "{tmp}/file.txt/o.ply"], "{tmp}/file.txt is not a folder"),
+    (["tessellate", "{gap}", "-o", "{tmp}/o.ply", "--report", "{dir}"], "--report {dir}: is a folder"),
+    (["tessellate", "{gap}", "-o", "{tmp}/missing/o.ply"], "folder {tmp}/missing does not exist"),
+    (["tessellate", "{gap}", "{gap}", "-o", "{tmp}/file.txt"], "several inputs need an output folder"),
+    (["join", "{gap}", "-o", "{dir}"], "-o {dir}: is a folder"),
+    (["certify", "{gap}", "--write-mesh", "{dir}"], "--write-mesh {dir}: is a folder"),
+    (["certify", "{gap}", "--report", "{tmp}/missing/r.json"], "does not exist"),
+    (["fit", "{sheet}", "-o", "{tmp}/o.step", "--png", "{tmp}/x.jpg"], "--png {tmp}/x.jpg: expected a .png"),
+    (["fit", "{sheet}", "-o", "{tmp}/o.step", "--report", "{dir}"], "--report {dir}: is a folder"),
+    (["view", "octahedron", "--html", "{dir}/v.html", "--report", "{dir}"], "--report {dir}: is a folder"),
+    (["view", "octahedron", "--png", "{tmp}/missing/v.png"], "does not exist"),
+    (["samples", "octahedron", "--out", "{dir}"], "--out {dir}: is a folder"),
+    (["demo", "--out", "{tmp}/missing/demo"], "folder {tmp}/missing does not exist"),
+])
+def test_outputs_checked_before_the_work(argv, message, cad, sheet, tmp_path, capsys, monkeypatch):
+    """Bad output paths fail in well under a second with the user's path; nothing is computed or written."""
+    folder = tmp_path / "adir.ply"
+    folder.mkdir()
+    (tmp_path / "file.txt").write_text("x")
+    fmt = dict(dir=folder, tmp=tmp_path, gap=cad / "gap_pair.step", sheet=sheet)
+
+    def never(*a, **k):
+        raise AssertionError("the work started")
+
+    for name in ("trimsurf.reconstruct.reconstruct_mesh", "trimsurf.tessellate.tessellate_shell",
+                 "trimsurf.io.read_shell", "trimsurf.io.read_mesh", "trimsurf.join.join_shell",
+                 "trimsurf.certify.certify_shell"):
+        monkeypatch.setattr(name, never)
+    before = sorted(p.name for p in tmp_path.rglob("*"))
+    assert main([a.format(**fmt) for a in argv]) == 2
+    line = _one_error(capsys.readouterr().err)
+    assert message.format(**fmt) in line, line
+    assert "/." not in line  # never a temporary file's name
+    assert sorted(p.name for p in tmp_path.rglob("*")) == before
+
+
+def test_two_inputs_and_a_mesh_file_name(cad, tmp_path, capsys):
+    other = tmp_path / "other.step"
+    other.write_bytes((cad / "gap_pair.step").read_bytes())
+    assert main(["tessellate", str(cad / "gap_pair.step"), str(other), "-o", str(tmp_path / "out.ply")]) == 2
+    line = _one_error(capsys.readouterr().err)
+    assert "2 inputs need an output folder" in line and "out.ply" in line
+    assert _files(tmp_path) == ["other.step"]
+
+
+def test_two_inputs_with_the_same_stem(cad, tmp_path, capsys):
+    (tmp_path / "a").mkdir()
+    twin = tmp_path / "a" / "gap_pair.step"
+    twin.write_bytes((cad / "gap_pair.step").read_bytes())
+    assert main(["tessellate", str(cad / "gap_pair.step"), str(twin), "-o", str(tmp_path / "out")]) == 2
+    assert "would both be written to" in _one_error(capsys.readouterr().err)
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into read-only folders")
+def test_unwritable_output_folder(tmp_path, capsys):
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o555)
+    try:
+        assert main(["reconstruct", "octahedron", "-o", str(ro / "o.ply")]) == 2
+        assert f"folder {ro} is not writable" in _one_error(capsys.readouterr().err)
+    finally:
+        ro.chmod(0o755)
+
+
+# -- item 7: folder inputs -----------------------------------------------------------------------------------
+
+def test_folder_batch_goes_on_after_a_bad_file(cad, tmp_path, capsys):
+    src = tmp_path / "cad"
+    src.mkdir()
+    good = (cad / "gap_pair.step").read_bytes()
+    (src / "a.step").write_bytes(good)
+    (src / "b.step").write_text("ISO-10303-21;\nthis is not STEP\n")
+    (src / "c.step").write_bytes(good)
+    out, report = tmp_path / "out", tmp_path / "r.json"
+    assert main(["tessellate", str(src), "-o", str(out), "--tolerance", "20", "--report", str(report)]) == 1
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    errors = [ln for ln in err.splitlines() if ln.startswith("trimsurf: error: ")]
+    assert len(errors) == 1 and str(src / "b.step") in errors[0]
+    assert "1 of 3 inputs failed: b.step" in err
+    assert _files(out) == ["a.ply", "c.ply"]
+    data = json.loads(report.read_text())
+    assert [e["input"] for e in data["failed_inputs"]] == [str(src / "b.step")]
+    assert [e["output"] for e in data["inputs"]] == [str(out / "a.ply"), None, str(out / "c.ply")]
+    assert data["total"]["triangles"] == 2 * io.read_mesh(out / "a.ply").n_triangles
+
+
+def test_folder_batch_of_unreadable_files_exit_2(tmp_path, capsys):
+    src = tmp_path / "cad"
+    src.mkdir()
+    for name in ("a.step", "b.igs", "c.vda"):
+        (src / name).write_text("garbage\n")
+    report = tmp_path / "r.json"
+    assert main(["tessellate", str(src), "-o", str(tmp_path / "out"), "--report", str(report)]) == 2
+    err = capsys.readouterr().err
+    assert len([ln for ln in err.splitlines() if ln.startswith("trimsurf: error: ")]) == 3
+    assert "3 of 3 inputs failed" in err
+    assert len(json.loads(report.read_text())["failed_inputs"]) == 3
+    assert not (tmp_path / "out").exists()
