@@ -58,6 +58,8 @@ def sheet(tmp_path_factory) -> Path:
     (["reconstruct", "octahedron", "-o", "{out}/o.ply", "--density=100000"], "--density 100000 too large"),
     (["fit", "{sheet}", "-o", "{out}/o.step", "--grid", "400", "400"], "--grid 400 400 too large"),
     (["join", "{gap}", "-o", "{out}/o.ply", "--deflection=1e-8"], "--deflection 1e-08 too small"),
+    (["join", "{gap}", "-o", "{out}/o.ply", "--deflection=1e-4", "--mesher", "trimsurf"],
+     "--deflection 0.0001 too small: would make ~"),
 ])
 def test_budget_refuses_before_computing(argv, message, cad, sheet, tmp_path, capsys):
     """The issue's 5.8 GB tessellate, 7.2 GB reconstruct, 5.1 GB fit: refused in seconds, exit 2, a hint."""

@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ._common import EXIT_FAILED, EXIT_OK, check_budget, examples, format_table, print_warning, progress, write_json
+from ._common import (EXIT_FAILED, EXIT_OK, check_budget, estimate_shell_triangles, examples, format_table,
+                      print_warning, progress, write_json)
 
 __all__ = ["NAME", "HELP", "DESCRIPTION", "EPILOG", "add_args", "run"]
 
@@ -185,6 +186,9 @@ def run(args: argparse.Namespace) -> int:
     if source_is_meshed := not args.meshes:
         if deflection < 1e-7:  # Open CASCADE's Precision::Confusion: no mesher resolves finer
             raise InputError(f"--deflection {deflection:g} too small: below Open CASCADE's precision 1e-7")
+        if args.mesher == "trimsurf":  # the tessellator's own budget, before it runs (as `trimsurf tessellate`)
+            check_budget(3.0 * estimate_shell_triangles(shell, deflection, 20 * deflection), "tessellate_triangle",
+                         what=f"--deflection {deflection:g} too small", hint="use a larger --deflection")
     meshes, source = _face_meshes(shell, args, deflection)
     # the join re-triangulates the strips along shared edges: about 11x the face meshes' triangles
     check_budget(11.0 * sum(m.n_triangles for m in meshes), "join_triangle",
