@@ -391,3 +391,27 @@ def test_tessellate_estimate_on_real_files(name, triangles, shared_data):
     shell = io.read_shell(shared_data / "cad" / name)
     estimate = 3.0 * _common.estimate_shell_triangles(shell, *default_parameters(shell))
     assert 1 / 3 <= triangles / estimate <= 3, estimate
+
+
+def test_folder_batch_goes_on_after_an_internal_error(cad, tmp_path, monkeypatch, capsys):
+    """A bug on one file (not bad input) is named, the rest is written, exit 1 (not 2)."""
+    import trimsurf.tessellate as tess
+
+    src = tmp_path / "cad"
+    src.mkdir()
+    for name in ("a.step", "b.step"):
+        (src / name).write_bytes((cad / "gap_pair.step").read_bytes())
+    real = tess.tessellate_shell
+    calls = []
+
+    def flaky(shell, **kw):
+        calls.append(1)
+        if len(calls) == 1:
+            raise ZeroDivisionError("boom")
+        return real(shell, **kw)
+
+    monkeypatch.setattr(tess, "tessellate_shell", flaky)
+    assert main(["tessellate", str(src), "-o", str(tmp_path / "out"), "--tolerance", "20"]) == 1
+    err = capsys.readouterr().err
+    assert f"trimsurf: error: {src / 'a.step'}: internal error: ZeroDivisionError: boom" in err
+    assert _files(tmp_path / "out") == ["b.ply"]

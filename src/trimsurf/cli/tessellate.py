@@ -221,7 +221,7 @@ def run(args: argparse.Namespace) -> int:
         for t in targets:
             if t.suffix.lower() not in (".obj", ".ply"):
                 raise InputError(f"{t}: --quads needs an OBJ or PLY output; got {t.suffix!r}")
-    entries, status, unreadable = [], EXIT_OK, 0
+    entries, status, unreadable, n_failed = [], EXIT_OK, 0, 0
     with progress(len(inputs), "tessellate") as bar:
         for path, target in zip(inputs, targets):
             t0 = time.perf_counter()
@@ -232,15 +232,17 @@ def run(args: argparse.Namespace) -> int:
                                        mode="loose" if args.loose else "auto",
                                        strategy="bisection" if args.bisection else "equidistributed",
                                        common=args.common)
-            except (InputError, OSError, MemoryError) as exc:
-                if not many:
+            except Exception as exc:
+                if not many or getattr(args, "debug", False):
                     raise
                 # a batch goes on: the file is named on stderr and in the report
+                bad_input = isinstance(exc, (InputError, OSError, MemoryError))
                 message = _failure(exc, path)
                 print_error(message)
                 entries.append({"input": str(path), "output": None, "error": message,
                                 "seconds": time.perf_counter() - t0})
-                unreadable += 1
+                unreadable += bad_input
+                n_failed += 1
                 status = EXIT_FAILED
                 bar.advance(1, description=path.name)
                 continue
@@ -277,8 +279,8 @@ def run(args: argparse.Namespace) -> int:
     if args.report is not None:
         failed = [{"input": e["input"], "error": e["error"]} for e in entries if "error" in e]
         write_json({"inputs": entries, "total": _total(entries), "failed_inputs": failed}, args.report)
-    if many and unreadable:
-        print_warning(f"{unreadable} of {len(inputs)} inputs failed: "
+    if many and n_failed:
+        print_warning(f"{n_failed} of {len(inputs)} inputs failed: "
                       + ", ".join(Path(e["input"]).name for e in entries if "error" in e))
     return status
 
@@ -289,5 +291,8 @@ def _failure(exc: BaseException, path: Path) -> str:
         return f"{path}: out of memory (use a larger --tolerance or --max-edge)"
     if isinstance(exc, OSError):
         return f"{exc.filename or path}: {exc.strerror or exc}"
+    if not isinstance(exc, InputError):
+        return (f"{path}: internal error: {type(exc).__name__}: {' '.join(str(exc).split())} (a bug; rerun with "
+                "--debug for the traceback and report it)")
     text = " ".join(str(exc).split()) or type(exc).__name__
     return text if str(path) in text else f"{path}: {text}"
