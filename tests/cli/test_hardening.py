@@ -415,3 +415,20 @@ def test_folder_batch_goes_on_after_an_internal_error(cad, tmp_path, monkeypatch
     err = capsys.readouterr().err
     assert f"trimsurf: error: {src / 'a.step'}: internal error: ZeroDivisionError: boom" in err
     assert _files(tmp_path / "out") == ["b.ply"]
+
+
+# -- item 11: the README's test command -----------------------------------------------------------------------
+
+def test_readme_test_command_is_the_script_ci_runs(repo_root):
+    """README's first block: install + demo, then scripts/test; .ci/run calls the same script."""
+    readme = (repo_root / "README.md").read_text(encoding="utf-8").splitlines()
+    block = readme[readme.index("```") + 1:readme.index("```", readme.index("```") + 1)]
+    assert block[0].startswith("python3 -m venv .venv && .venv/bin/pip install -e '.[test]'") and "demo" in block[0]
+    assert block[1] == "scripts/test"
+    script = repo_root / "scripts" / "test"
+    assert os.access(script, os.X_OK)
+    assert subprocess.run(["bash", "-n", str(script)], capture_output=True, timeout=30).returncode == 0
+    text = script.read_text(encoding="utf-8")
+    assert "apt-get install -y -qq chromium" in text and "TRIMSURF_BROWSER_SKIP" in text and "-m pytest -q" in text
+    ci = (repo_root / ".ci" / "run").read_text(encoding="utf-8")
+    assert "\nscripts/test " in ci and "pytest -q" not in ci.replace("runs pytest -q", "")
