@@ -20,8 +20,8 @@ import numpy as np
 from .. import __version__
 from ..errors import InputError
 from . import certify, demo, fit, info, join, reconstruct, samples, tessellate, view
-from ._common import (EXIT_FAILED, EXIT_INPUT, check_output_file, check_output_folder, cli_warnings, examples,
-                      print_error)
+from ._common import (_TERMINATED, EXIT_FAILED, EXIT_INPUT, Terminated, check_output_file, check_output_folder,
+                      cli_warnings, examples, print_error)
 
 __all__ = ["main", "build_parser", "SUBCOMMANDS"]
 
@@ -52,23 +52,16 @@ def check_outputs(args: argparse.Namespace) -> None:
         check_output_file(getattr(args, name, None), option=option, suffixes=suffixes)
 
 
-_TERMINATED = threading.Event()
-
-
-class _Terminated(BaseException):
-    """SIGTERM, raised in the main thread so that every ``finally`` (temporary files) runs, as for Ctrl-C."""
-
-
 @contextlib.contextmanager
 def _sigterm_as_interrupt():
-    """While the block runs (in the main thread), SIGTERM raises `_Terminated`; the old handler is restored."""
+    """While the block runs (in the main thread), SIGTERM raises `Terminated`; the old handler is restored."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
 
     def handler(signum, frame):
         _TERMINATED.set()
-        raise _Terminated()
+        raise Terminated()
 
     previous = signal.signal(signal.SIGTERM, handler)
     try:
@@ -123,9 +116,9 @@ def main(argv: list[str] | None = None) -> int:
         if args.debug:
             traceback.print_exc()
         print_error(f"out of memory in {args.command} (coarser options, e.g. a larger tolerance or grid size, "
-                    "need less; nothing was written)")
+                    "need less)")
         return EXIT_INPUT
-    except _Terminated:
+    except Terminated:
         print_error("terminated")
         return EXIT_INPUT
     except InputError as exc:

@@ -7,6 +7,7 @@ import json
 import math
 import os
 import sys
+import threading
 import warnings
 from dataclasses import asdict, is_dataclass
 from pathlib import Path
@@ -16,8 +17,8 @@ import numpy as np
 
 from ..errors import InputError, TrimsurfWarning
 
-__all__ = ["EXIT_OK", "EXIT_FAILED", "EXIT_INPUT", "one_line", "print_error", "print_warning", "cli_warnings",
-           "jsonable", "print_json", "write_json", "progress", "format_table", "examples", "BudgetError",
+__all__ = ["Terminated", "EXIT_OK", "EXIT_FAILED", "EXIT_INPUT", "one_line", "print_error", "print_warning",
+           "cli_warnings", "jsonable", "print_json", "write_json", "progress", "format_table", "examples", "BudgetError",
            "memory_budget", "check_budget", "estimate_shell_triangles", "check_output_file",
            "check_output_folder", "BYTES_PER"]
 
@@ -26,6 +27,14 @@ EXIT_FAILED = 1    # some part failed (or an internal error)
 EXIT_INPUT = 2     # bad input or usage
 
 PROG = "trimsurf"
+
+
+#: set when SIGTERM arrived during a command (see `cli.main`): a batch must not go on after it
+_TERMINATED = threading.Event()
+
+
+class Terminated(BaseException):
+    """SIGTERM, raised in the main thread so that every ``finally`` (temporary files) runs, as for Ctrl-C."""
 
 
 def one_line(message: object) -> str:

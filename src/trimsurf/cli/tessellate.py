@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FileFormatError, InputError
-from ._common import (EXIT_FAILED, EXIT_INPUT, EXIT_OK, check_budget, check_output_file, check_output_folder,
-                      estimate_shell_triangles, examples, format_table, print_error, print_warning, progress,
-                      write_json)
+from ._common import (_TERMINATED, EXIT_FAILED, EXIT_INPUT, EXIT_OK, check_budget, check_output_file,
+                      check_output_folder, estimate_shell_triangles, examples, format_table, print_error,
+                      print_warning, progress, write_json)
 
 __all__ = ["NAME", "HELP", "DESCRIPTION", "EPILOG", "add_args", "run", "write_quad_mesh", "REPORT_FIELDS"]
 
@@ -233,7 +233,7 @@ def run(args: argparse.Namespace) -> int:
                                        strategy="bisection" if args.bisection else "equidistributed",
                                        common=args.common)
             except Exception as exc:
-                if not many or getattr(args, "debug", False):
+                if not many or getattr(args, "debug", False) or _TERMINATED.is_set():
                     raise
                 # a batch goes on: the file is named on stderr and in the report
                 bad_input = isinstance(exc, (InputError, OSError, MemoryError))

@@ -55,7 +55,8 @@ def atomic_path(path: str | os.PathLike):
     ...     target = pathlib.Path(folder) / "a.txt"
     ...     with atomic_path(target) as tmp:
     ...         _ = tmp.write_text("x")
-    ...     sorted(p.name for p in pathlib.Path(folder).iterdir()), target.stat().st_mode & 0o777 == new_file_mode(target)
+    ...     names = sorted(p.name for p in pathlib.Path(folder).iterdir())
+    ...     names, target.stat().st_mode & 0o777 == 0o666 & ~_umask()
     (['a.txt'], True)
     """
     target = Path(path)
