@@ -242,6 +242,21 @@ def test_atomic_errors_name_the_target(tmp_path):
     assert _files(tmp_path) == ["x.ply"] and _files(folder) == []
 
 
+def test_write_errors_name_the_target(tmp_path, monkeypatch, capsys):
+    """A full disk while the mesh is written: one line naming -o's path, no temporary file left."""
+    import errno
+    import pathlib
+
+    def full(self, data):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(self))
+
+    monkeypatch.setattr(pathlib.Path, "write_bytes", full)
+    out = tmp_path / "o.ply"
+    assert main(["reconstruct", "octahedron", "-o", str(out)]) == 2
+    assert _one_error(capsys.readouterr().err) == f"trimsurf: error: {out}: No space left on device"
+    assert _files(tmp_path) == []
+
+
 _SLOW_WRITE = """
 import pathlib, sys, time
 from trimsurf.cli import main

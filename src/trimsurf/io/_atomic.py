@@ -73,7 +73,12 @@ def atomic_path(path: str | os.PathLike):
             os.fchmod(fd, mode)
         finally:
             os.close(fd)
-        yield Path(tmp)
+        try:
+            yield Path(tmp)
+        except OSError as exc:  # e.g. a full disk while writing: the user's path, not the temporary one
+            if exc.filename is not None and os.fspath(exc.filename) == tmp and exc.errno is not None:
+                raise type(exc)(exc.errno, exc.strerror, str(target)) from None
+            raise
         try:
             os.chmod(tmp, mode)  # a writer may have replaced the file
             os.replace(tmp, target)
