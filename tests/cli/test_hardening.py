@@ -447,3 +447,19 @@ def test_readme_test_command_is_the_script_ci_runs(repo_root):
     assert "apt-get install -y -qq chromium" in text and "TRIMSURF_BROWSER_SKIP" in text and "-m pytest -q" in text
     ci = (repo_root / ".ci" / "run").read_text(encoding="utf-8")
     assert "\nscripts/test " in ci and "pytest -q" not in ci.replace("runs pytest -q", "")
+
+
+def test_numpy_floating_point_warnings_stay_off_the_terminal(monkeypatch, capsys):
+    """Inside a command numpy's divide/overflow/invalid warnings are off (pytest would raise them as errors)."""
+    from trimsurf.cli import info as info_cmd
+
+    def noisy(args):
+        with np.errstate():  # the command's own state, inherited from main
+            x = np.array([1.0, 0.0, 1e300])
+            print(float(np.sum(x / np.array([0.0, 0.0, 1e-300]))), np.sqrt(-x[:1])[0])
+        return 0
+
+    monkeypatch.setattr(info_cmd, "run", noisy)
+    assert main(["info", "anything.off"]) == 0
+    out, err = capsys.readouterr()
+    assert out.split() == ["nan", "nan"] and err == ""
