@@ -188,8 +188,11 @@ def run(args: argparse.Namespace) -> int:
         features = _read_features(args.features, label)
         density = args.density or (8 if mesh.n_triangles <= 20000 else 4 if mesh.n_triangles <= 200000 else 2)
         # the evaluated surface (mesh output, deviation figures): density^2 triangles per patch
-        check_budget(mesh.n_triangles * (3 if args.fill == "split" else 1) * float(density) ** 2,
-                     "reconstruct_triangle", what=f"--density {density} too large", hint="use a smaller --density")
+        if args.density is not None or suffix in io.MESH_SUFFIXES:
+            check_budget(mesh.n_triangles * (3 if args.fill == "split" else 1) * float(density) ** 2,
+                         "reconstruct_triangle", hint="use a smaller --density or write .npz",
+                         what=f"--density {density} too large" if args.density is not None else
+                         f"{label}: a mesh output at the default --density {density}")
 
         def stage(name):
             if name in ("fill", "check"):
