@@ -175,12 +175,13 @@ DEFAULT_MEMORY_BUDGET = 2 * 2 ** 30
 #: tessellate bspline_box --max-edge 5 / 2: 88,852 / 741,564 triangles -> 0.83 / 2.78 GB peak (3.5-7 KB each);
 #: reconstruct octahedron --density 200 / 400: 0.96 / 3.84 M triangles -> 0.38 / 1.03 GB (~230 B each);
 #: fit holed_sheet --grid 100 100 / 200 200: 1e4 / 4e4 control points -> 0.59 / 1.41 GB (~27 KB each)
-#: (the issue's --grid 400 400 took 5.1 GB: 32 KB each). join gap_pair --deflection 3e-5 / 1e-5 / 3e-6: 31,261 /
-#: 54,675 / 99,314 joined triangles (11x the Open CASCADE face meshes' 2,884 / 4,871 / 8,753) -> 0.62 / 0.93 /
-#: 1.90 GB peak (7.8 / 26.6 / 129 s): the cost per joined triangle grows (5, 8.4, 14.4 KB), see `_bytes`; the
-#: issue's --deflection 1e-6 (15,035 face triangles) ran past 120 s and 4 GB.
+#: (the issue's --grid 400 400 took 5.1 GB: 32 KB each). join gap_pair --deflection 1e-3 / 1e-4 / 1e-5 (the join
+#: refining until its triangles are within the deflection): 9,267 / 21,068 / 58,757 joined triangles (12-14.5x the
+#: Open CASCADE face meshes' 640 / 1,656 / 4,871) -> 0.64 / 0.79 / 1.33 GB peak (8.8 / 17.6 / 85 s): the cost per
+#: joined triangle grows (~15 KB at 59k), see `_bytes`; the issue's --deflection 1e-6 (15,035 face triangles) ran
+#: past 120 s and 4 GB.
 BYTES_PER = {"tessellate_triangle": 4000, "reconstruct_triangle": 250, "fit_control_point": 32000,
-             "join_triangle": 5000}
+             "join_triangle": 9000}
 
 
 def _bytes(kind: str, count: float) -> float:

@@ -190,8 +190,8 @@ def run(args: argparse.Namespace) -> int:
             check_budget(3.0 * estimate_shell_triangles(shell, deflection, 20 * deflection), "tessellate_triangle",
                          what=f"--deflection {deflection:g} too small", hint="use a larger --deflection")
     meshes, source = _face_meshes(shell, args, deflection)
-    # the join re-triangulates the strips along shared edges: about 11x the face meshes' triangles
-    check_budget(11.0 * sum(m.n_triangles for m in meshes), "join_triangle",
+    # the join re-triangulates and refines the strips along shared edges: 12-14.5x the face meshes' triangles
+    check_budget(13.0 * sum(m.n_triangles for m in meshes), "join_triangle",
                  what=f"--deflection {deflection:g} too small" if source_is_meshed else "--meshes too fine",
                  hint="use a larger --deflection" if source_is_meshed else "give coarser face meshes")
     if source == "files" and args.deflection is None:
