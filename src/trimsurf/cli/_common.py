@@ -179,7 +179,7 @@ DEFAULT_MEMORY_BUDGET = 2 * 2 ** 30
 #: refining until its triangles are within the deflection): 9,267 / 21,068 / 58,757 joined triangles (12-14.5x the
 #: Open CASCADE face meshes' 640 / 1,656 / 4,871) -> 0.64 / 0.79 / 1.33 GB peak (8.8 / 17.6 / 85 s): the cost per
 #: joined triangle grows (~15 KB at 59k), see `_bytes`; the issue's --deflection 1e-6 (15,035 face triangles) ran
-#: past 120 s and 4 GB.
+#: past 120 s and 4 GB. join U_Joint at its default: 9,812 face triangles -> 19,277 (2x), 0.63 GB, 22 s.
 BYTES_PER = {"tessellate_triangle": 4000, "reconstruct_triangle": 250, "fit_control_point": 32000,
              "join_triangle": 9000}
 
@@ -219,11 +219,13 @@ def _size(nbytes: float) -> str:
     return f"{nbytes / 2 ** 10:.3g} KB"
 
 
-def check_budget(count: float, kind: str, *, what: str, hint: str) -> None:
+def check_budget(count: float, kind: str, *, what: str, hint: str, per_part=None) -> None:
     """Raise `BudgetError` when `count` elements of `kind` (a `BYTES_PER` key) exceed the memory budget.
 
     `what` starts the message (``--max-edge 0.001 too small``), `hint` ends it
     (``use a larger --max-edge``). A non-finite count is over any budget.
+    `per_part` (counts of independent parts, e.g. one per face, summing to
+    `count`) prices each part on its own (`_bytes` grows faster than linearly).
 
     Examples
     --------
@@ -234,7 +236,7 @@ def check_budget(count: float, kind: str, *, what: str, hint: str) -> None:
     trimsurf.cli._common.BudgetError: --density 9999 too large: would make ~1e+12 triangles (~227 TB, above the memory budget of 2 GB); lower --density, or raise the budget with TRIMSURF_MEMORY_BUDGET=...
     """
     budget = memory_budget()
-    need = _bytes(kind, count)
+    need = _bytes(kind, count) if per_part is None else float(sum(_bytes(kind, c) for c in per_part))
     if need <= budget:
         return
     noun = "control points" if kind.endswith("control_point") else "triangles"
