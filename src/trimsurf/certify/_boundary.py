@@ -50,6 +50,7 @@ import numpy as np
 
 from ..errors import TrimLoopError
 from ..geom.whitney import boundary_data, lipschitz_loops
+from ._gap import BoundsCache, interval_bounds, polygon_remainder, use_remainder
 from ..model import NurbsCurve, PCurve, Shell, TrimmedFace
 
 __all__ = ["FaceBoundary", "BoundaryLoop", "sample_boundaries"]
@@ -127,6 +128,7 @@ class _Use:
     pcurve: PCurve
     bcurve: NurbsCurve | None
     descending: bool          # runs from hi to lo
+    pairing: str = "surface"  # how eps pairs b(t) with the face (see `_eval_use`)
 
 
 @dataclass
@@ -140,6 +142,12 @@ class _Edge:
     vertex_lo: int = -1
     vertex_hi: int = -1
     degenerate: bool = False
+    shell_edge: int = -1
+    tau: dict = None                  # (face, loop, seg) -> p-curve parameter at each sample (the pairing)
+    poly: dict = None                 # (face, loop, seg) -> the Whitney polygon's vertices at the samples
+    gap_bound: float = 0.0            # rigorous bound of max |G_A - G_B| along the edge (shared edges)
+    gap_tolerance: float = 0.0        # the point tolerance the sampling aimed the bound at
+    interval_bound: np.ndarray = None  # per sample interval
 
 
 def _face_loops(face: TrimmedFace):
@@ -227,6 +235,7 @@ def _build_edges(shell: Shell) -> tuple[list[_Edge], dict]:
                     k = len(edges) - 1
                     if shared is not None:
                         by_id[shared] = k
+                        edges[k].shell_edge = shared
                 where[(f, l, s)] = k
     # add the other uses' p-curve knots to shared edges
     for e in edges:
@@ -241,7 +250,7 @@ def _densify(shell: Shell, e: _Edge, max_chord: float) -> None:
     t = e.t
     worst = np.zeros(len(t) - 1)
     for u in e.uses:
-        _, fp, target, _ = _eval_use(shell, e, u, t)
+        _, fp, target, _, _ = _eval_use(shell, e, u, t)
         worst = np.maximum(worst, np.linalg.norm(np.diff(fp, axis=0), axis=1))
         worst = np.maximum(worst, np.linalg.norm(np.diff(target, axis=0), axis=1))
     n = np.minimum(np.ceil(worst / max_chord).astype(np.int64), 64)
@@ -251,11 +260,18 @@ def _densify(shell: Shell, e: _Edge, max_chord: float) -> None:
 
 
 def _eval_use(shell: Shell, edge: _Edge, use: _Use, t: np.ndarray, *, corners: bool = True):
-    """uv, F(uv), target b(t) (corner vertices at the ends) and eps at parameters t."""
+    """uv, F(uv), target b(t) (corner vertices at the ends), eps and the p-curve parameter tau at edge parameters t.
+
+    pairing "surface": uv is the foot of b(t) on F (the closest point of the surface, Gauss-Newton from
+    the closest point of the trim curve; at the edge ends the foot of the vertex):
+    eps is then b's distance from the surface and the face's Whitney boundary C runs through the feet;
+    "curve": uv = p(tau(t)) with tau(t) the parameter of the point of the trim curve F(p(tau)) closest to
+    b(t) (Gauss-Newton from tau = t, kept where it is closer than the same-parameter point and increases
+    with t); "parameter": tau = t (the same-parameter pairing of the file). tau is returned in every case
+    (the closest point of the trim curve for "surface").
+    """
     face = shell.faces[use.face]
-    uv = use.pcurve.curve.evaluate(t)
-    fp = face.surface.evaluate(uv)
-    target = use.bcurve.evaluate(t) if use.bcurve is not None else fp.copy()
+    target = use.bcurve.evaluate(t) if use.bcurve is not None else None
     if use.bcurve is not None:
         # make b end exactly at its vertices: blend the end mismatch linearly in t (Sec. 3.1 assumes
         # "v always coincides with an endpoint of b"; the blend is at most the vertex mismatch)
@@ -265,16 +281,75 @@ def _eval_use(shell: Shell, edge: _Edge, use: _Use, t: np.ndarray, *, corners: b
             target += (1.0 - s) * (edge.corner_lo - ends[0])
         if edge.corner_hi is not None:
             target += s * (edge.corner_hi - ends[1])
+    tau = np.asarray(t, dtype=np.float64).copy()
+    uv = use.pcurve.curve.evaluate(tau)
+    fp = face.surface.evaluate(uv)
+    if target is not None and use.pairing in ("curve", "surface") and len(t):
+        tau, uv, fp = _closest_tau(face.surface, use.pcurve.curve, tau, uv, fp, target, edge.lo, edge.hi)
+        if use.pairing == "surface":
+            # the ends too: a corner's point is the foot of its vertex (the same for both of its segments),
+            # so eps is b's normal distance from F everywhere, also at the corners
+            uv, fp = _closest_on_surface(face.surface, uv, fp, target, np.ones(len(t), dtype=bool))
+    if target is None:
+        target = fp.copy()
     if corners:
         if edge.corner_lo is not None:
             target[t == edge.lo] = edge.corner_lo
         if edge.corner_hi is not None:
             target[t == edge.hi] = edge.corner_hi
-    return uv, fp, target, target - fp
+    return uv, fp, target, target - fp, tau
+
+
+def _closest_on_surface(surface, uv, fp, target, free, iterations: int = 12):
+    """Gauss-Newton foot points of the targets on F from uv (kept where closer than the start; ends fixed)."""
+    cur = uv.copy()
+    for _ in range(iterations):
+        d = surface.derivatives(cur, 1)
+        su, sv, r = d[1, 0], d[0, 1], target - d[0, 0]
+        e, f, g = (np.einsum("ij,ij->i", a, b) for a, b in ((su, su), (su, sv), (sv, sv)))
+        ru, rv = np.einsum("ij,ij->i", r, su), np.einsum("ij,ij->i", r, sv)
+        det = e * g - f * f
+        ok = free & (det > 1e-14 * np.maximum(e * g, 1e-300))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            du = np.where(ok, (g * ru - f * rv) / det, 0.0)
+            dv = np.where(ok, (e * rv - f * ru) / det, 0.0)
+        cur = cur + np.column_stack([du, dv])
+        if not np.any(np.abs(du) + np.abs(dv) > 1e-15 * (1.0 + np.abs(cur).max())):
+            break
+    cfp = surface.evaluate(cur)
+    better = free & (np.linalg.norm(cfp - target, axis=1) < np.linalg.norm(fp - target, axis=1))
+    return np.where(better[:, None], cur, uv), np.where(better[:, None], cfp, fp)
+
+
+def _closest_tau(surface, curve, t, uv, fp, target, lo, hi, iterations: int = 12):
+    """Closest-point pairing: tau(t) minimising |F(p(tau)) - b(t)| near tau = t (see `_eval_use`)."""
+    tau = t.copy()
+    fixed = (t == lo) | (t == hi)
+    span = hi - lo
+    cur_uv, cur_fp = uv, fp
+    for _ in range(iterations):
+        dc = curve.derivatives(tau, 1)
+        ds = surface.derivatives(dc[0], 1)
+        dphi = ds[1, 0] * dc[1][:, :1] + ds[0, 1] * dc[1][:, 1:]
+        den = np.einsum("ij,ij->i", dphi, dphi)
+        num = np.einsum("ij,ij->i", target - ds[0, 0], dphi)
+        step = np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)
+        step[fixed] = 0.0
+        step = np.clip(step, -0.25 * span, 0.25 * span)
+        tau = np.clip(tau + step, lo, hi)
+        if not np.any(np.abs(step) > 1e-15 * span):
+            break
+    cur_uv = curve.evaluate(tau)
+    cur_fp = surface.evaluate(cur_uv)
+    worse = np.linalg.norm(cur_fp - target, axis=1) > np.linalg.norm(fp - target, axis=1)
+    tau[worse], cur_uv[worse], cur_fp[worse] = t[worse], uv[worse], fp[worse]
+    if len(t) > 1 and np.all(np.diff(t) > 0) and not np.all(np.diff(tau) > 0):
+        return t.copy(), uv, fp             # not monotone: keep the same-parameter pairing on this use
+    return tau, cur_uv, cur_fp
 
 
 def _assemble_face(shell: Shell, edges: list[_Edge], where: dict, f: int, merge_tol: float,
-                   cache: dict) -> list[BoundaryLoop]:
+                   cache: dict, corner_info: dict | None = None) -> list[BoundaryLoop]:
     face = shell.faces[f]
     loops = []
     for l, loop in enumerate(_face_loops(face)):
@@ -283,7 +358,7 @@ def _assemble_face(shell: Shell, edges: list[_Edge], where: dict, f: int, merge_
             k = where[(f, l, s)]
             e = edges[k]
             use = next(u for u in e.uses if (u.face, u.loop, u.seg) == (f, l, s))
-            uv, _, target, eps = cache[(f, l, s)]
+            uv, _, target, eps, _ = cache[(f, l, s)]
             t = e.t
             if use.descending:
                 uv, target, eps, t = uv[::-1], target[::-1], eps[::-1], t[::-1]
@@ -298,8 +373,15 @@ def _assemble_face(shell: Shell, edges: list[_Edge], where: dict, f: int, merge_
             if not keep_end and n >= 1:
                 # the corner: one point for both segments, in the middle of the (tiny) uv gap of the loop,
                 # passing through the vertex (or the mean of the two targets when there is none)
+                shift = 0.5 * float(np.linalg.norm(puv[-1] - nxt[0][0]))
+                mean_tg = 0.5 * (ptg[-1] + nxt[2][0])
+                if corner_info is not None:
+                    # for the gap bound: how far the corner point moved off each p-curve, and its target
+                    for seg_i, t_end in ((i, pt[-1]), ((i + 1) % n, nxt[4][0])):
+                        key_c = (f, l, int(parts[seg_i][5][0]), float(t_end))
+                        corner_info[key_c] = (shift, mean_tg.copy(), 0.5 * (puv[-1] + nxt[0][0]))
                 nxt[0][0] = 0.5 * (puv[-1] + nxt[0][0])
-                nxt[2][0] = 0.5 * (ptg[-1] + nxt[2][0])
+                nxt[2][0] = mean_tg
                 nxt[1][0] = nxt[2][0] - face.surface.evaluate(nxt[0][:1])[0]
             uv.append(puv[sl]); eps.append(peps[sl]); tgt.append(ptg[sl]); key.append(pk[sl]); tt.append(pt[sl])
             sg.append(ps[sl])
@@ -324,9 +406,37 @@ def _assemble_face(shell: Shell, edges: list[_Edge], where: dict, f: int, merge_
     return loops
 
 
+def edge_interval_bounds(shell: Shell, e: _Edge, cache: dict, corner_info: dict, lipschitz: dict,
+                         bcache: BoundsCache) -> tuple[np.ndarray, np.ndarray]:
+    """Rigorous bound of the gap between the perturbed faces on each sample interval of a shared edge,
+    as (fixed, remainder) (`trimsurf.certify._gap.interval_bounds`)."""
+    rems, tgts = [], []
+    for u in e.uses:
+        uv, _, target, _, tau = cache[(u.face, u.loop, u.seg)]
+        shift = np.zeros(len(tau))
+        target = target.copy()
+        uv = uv.copy()
+        for end_i, t_end in ((0, e.lo), (len(tau) - 1, e.hi)):
+            info = corner_info.get((u.face, u.loop, u.seg, float(t_end)))
+            if info is not None:
+                shift[end_i] = info[0]
+                target[end_i] = info[1]
+                if u.pairing == "surface":
+                    uv[end_i] = info[2]
+        surface = shell.faces[u.face].surface
+        if u.pairing == "surface":
+            rems.append(polygon_remainder(surface, uv, bcache))
+        else:
+            rems.append(use_remainder(surface, u.pcurve.curve, uv, tau, lipschitz[u.face], shift, bcache))
+        tgts.append(target)
+    return interval_bounds(rems, tgts)
+
+
 def sample_boundaries(shell: Shell, *, rtol: float = 1e-2, abs_tol: float | None = None, max_rounds: int = 8,
                       max_samples_per_edge: int = 2048, check: bool = True, max_chord: float | None = None,
-                      faces=None) -> tuple[list[FaceBoundary], list[_Edge], dict]:
+                      faces=None, pairing: str = "surface", point_tolerance: float | None = None,
+                      max_gap_rounds: int = 6, max_gap_samples_per_edge: int = 1 << 14,
+                      ) -> tuple[list[FaceBoundary], list[_Edge], dict]:
     """Adaptively sampled boundary discrepancy of every face (see the module docstring).
 
     Parameters
@@ -339,12 +449,23 @@ def sample_boundaries(shell: Shell, *, rtol: float = 1e-2, abs_tol: float | None
     max_rounds : int
     max_samples_per_edge : int
     check : bool
-        Halve every interval once more and raise L when the refined constant is larger.
+        Halve every interval once more and report how much L grows (``lipschitz_check_ratio``: how far
+        the sampled constant is from that of the continuous discrepancy; L itself is exact for the data).
     max_chord : float or None
         Start with samples at most this far apart in space (and in (u, v), relative to the face's
         extent): the spacing of the well-defined mesh along its edges.
     faces : iterable of int or None
         Faces whose boundaries are wanted (default all).
+    pairing : {"surface", "curve", "parameter"}
+        How eps pairs the edge curve b(t) with the face: the closest point of the surface (default; the
+        face's Whitney boundary runs through the feet of b), the closest point F(p(tau)) of the trim curve,
+        or the same parameter (tau = t, for comparison). See `_eval_use`.
+    point_tolerance : float or None
+        Shared edges are sampled until the rigorous bound of the gap between the perturbed faces
+        (`trimsurf.certify._gap`) is below this (default 1e-6 of the diagonal); None with ``faces`` given
+        skips the gap phase when not every face is wanted.
+    max_gap_rounds, max_gap_samples_per_edge : int
+        Limits of that refinement (an edge whose bound stays above the tolerance says so).
 
     Returns
     -------
@@ -357,7 +478,12 @@ def sample_boundaries(shell: Shell, *, rtol: float = 1e-2, abs_tol: float | None
     if abs_tol is None:
         abs_tol = 1e-12 * max(diag, 1e-300)
     wanted = set(range(len(shell.faces))) if faces is None else set(int(f) for f in faces)
+    if pairing not in ("surface", "curve", "parameter"):
+        raise ValueError(f"pairing must be 'surface', 'curve' or 'parameter'; got {pairing!r}")
     edges, where = _build_edges(shell)
+    for e in edges:
+        for u in e.uses:
+            u.pairing = pairing
     if max_chord is not None and max_chord > 0:
         for e in edges:
             _densify(shell, e, float(max_chord))
@@ -370,6 +496,7 @@ def sample_boundaries(shell: Shell, *, rtol: float = 1e-2, abs_tol: float | None
     relevant = [k for k, e in enumerate(edges) if any(u.face in wanted for u in e.uses)]
 
     cache: dict = {}
+    corner_info: dict = {}
 
     def evaluate_all(ks):
         for k in ks:
@@ -381,7 +508,7 @@ def sample_boundaries(shell: Shell, *, rtol: float = 1e-2, abs_tol: float | None
     def face_l(f, full=True):
         """The face's loops and L: all pairs (O(k^2)), or during the rounds the start value raised by the
         local slopes (the near pairs, O(k), which is what refinement changes)."""
-        loops = _assemble_face(shell, edges, where, f, merge_tol[f], cache)
+        loops = _assemble_face(shell, edges, where, f, merge_tol[f], cache, corner_info)
         if full:
             return loops, loops_lipschitz([lp.uv for lp in loops], [lp.eps for lp in loops])
         local = np.zeros(3)
@@ -410,8 +537,8 @@ def sample_boundaries(shell: Shell, *, rtol: float = 1e-2, abs_tol: float | None
             for u in e.uses:
                 if u.face not in wanted:
                     continue
-                uv, _, _, eps = cache[(u.face, u.loop, u.seg)]
-                uvm, _, _, epsm = _eval_use(shell, e, u, tm, corners=False)
+                uv, _, _, eps, _ = cache[(u.face, u.loop, u.seg)]
+                uvm, _, _, epsm, _ = _eval_use(shell, e, u, tm, corners=False)
                 dev = np.abs(epsm - 0.5 * (eps[:-1] + eps[1:]))
                 h = np.linalg.norm(uv[1:] - uv[:-1], axis=1)
                 big_l = cur[u.face][1]
@@ -445,9 +572,55 @@ def sample_boundaries(shell: Shell, *, rtol: float = 1e-2, abs_tol: float | None
         if stable:
             break
 
+    tol = 1e-6 * diag if point_tolerance is None else float(point_tolerance)
+    final = {f: face_l(f) for f in wanted}
+    shared_k = [k for k in relevant if len(edges[k].uses) >= 2 and not edges[k].degenerate
+                and all(u.face in wanted for u in edges[k].uses)]
+    bcache = BoundsCache()
+    for gap_round in range(max_gap_rounds + 1):
+        changed = []
+        for k in shared_k:
+            e = edges[k]
+            fixed, rem = edge_interval_bounds(shell, e, cache, corner_info, {f: final[f][1] for f in final}, bcache)
+            b = fixed + rem
+            e.interval_bound, e.gap_bound, e.gap_tolerance = b, float(b.max(initial=0.0)), tol
+            # refinement reduces only the remainder (as the square of the interval), not a corner's mismatch
+            room_tol = np.maximum(tol - fixed, 0.25 * tol)
+            bad = (b > tol) & (rem > 0.25 * room_tol)
+            if gap_round == max_gap_rounds or not bad.any() or len(e.t) >= max_gap_samples_per_edge:
+                continue
+            pieces = np.minimum(np.ceil(np.sqrt(rem[bad] / (0.5 * room_tol[bad]))), 64).astype(np.int64)
+            t = e.t
+            i_bad = np.flatnonzero(bad)
+            extra = np.concatenate([t[i] + (t[i + 1] - t[i]) * np.arange(1, m) / m for i, m in zip(i_bad, pieces)])
+            room = max_gap_samples_per_edge - len(t)
+            if len(extra) > room:
+                extra = extra[np.linspace(0, len(extra) - 1, max(room, 0)).astype(np.int64)] if room > 0 else extra[:0]
+            if len(extra):
+                e.t = np.unique(np.r_[t, extra])
+                changed.append(k)
+        if not changed:
+            break
+        evaluate_all(changed)
+        for f in {u.face for k in changed for u in edges[k].uses if u.face in wanted}:
+            final[f] = face_l(f)
+    for e in edges:
+        e.tau, e.poly = {}, {}
+        for u in e.uses:
+            key = (u.face, u.loop, u.seg)
+            if key not in cache:
+                continue
+            e.tau[key] = cache[key][4]
+            uv = cache[key][0].copy()
+            for end_i, t_end in ((0, e.lo), (len(uv) - 1, e.hi)):
+                info = corner_info.get(key + (float(t_end),))
+                if info is not None:
+                    uv[end_i] = info[2]
+            e.poly[key] = uv           # the Whitney polygon's vertices along this edge (corners merged)
+
     out: list[FaceBoundary | None] = [None] * len(shell.faces)
     for f in sorted(wanted):
-        loops, big_l = face_l(f)            # all pairs, on the final samples
+        loops, big_l = final[f]             # all pairs, on the final samples
         if len(history[f]) > 1:
             history[f].append(big_l.tolist())
         ratio = 1.0
@@ -473,7 +646,7 @@ def sample_boundaries(shell: Shell, *, rtol: float = 1e-2, abs_tol: float | None
                     sel = np.flatnonzero((same & own) | last)
                     t_next = np.where(last[sel], t_end, lp.t[nxt[sel]])
                     tm = 0.5 * (lp.t[sel] + t_next)
-                    uvm, _, _, epsm = _eval_use(shell, e, use, tm, corners=False)
+                    uvm, _, _, epsm, _ = _eval_use(shell, e, use, tm, corners=False)
                     mids_uv[sel], mids_eps[sel] = uvm, epsm
                 uv2 = np.empty((2 * k, 2))
                 ep2 = np.empty((2 * k, 3))
@@ -486,9 +659,7 @@ def sample_boundaries(shell: Shell, *, rtol: float = 1e-2, abs_tol: float | None
             with np.errstate(divide="ignore", invalid="ignore"):
                 r = np.where(big_l > 0, fine_l / big_l, np.where(fine_l > abs_tol, np.inf, 1.0))
             ratio = 1.0 + float(np.max(fine_l - big_l)) / float(big_l.max()) if big_l.max() > 0 else float(np.max(r))
-            # the constants grow towards the true L as the sampling is refined (each halving closes at least
-            # half of the remaining gap where eps is smooth): extrapolate one step past the refined value
-            final_l = np.maximum(big_l, fine_l + np.maximum(fine_l - big_l, 0.0))
+            # informative only: L is exact for the data that defines G (see the module docstring)
         out[f] = FaceBoundary(f, loops, final_l, big_l, ratio, float(rel_change[f]), interp[f], n_rounds,
                               history[f])
     return out, edges, where

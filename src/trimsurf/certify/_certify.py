@@ -15,6 +15,7 @@ from ..quality._results import ResultMixin, jsonable
 from ..tolerance import Tolerance
 from ._boundary import sample_boundaries
 from ._face import FaceCertificate, face_certificate
+from ._gap import measure_edge_gaps
 from ._intersect import build_hierarchy, excluded_pair, excluded_self
 from ._mesh import well_defined_mesh
 from ._perturb import PerturbedFace
@@ -70,6 +71,19 @@ class ShellCertificate:
     settings: dict
     timings_s: dict
     _edges: list = field(default=None, repr=False)
+    edges: list = field(default_factory=list)
+    point_tolerance: float = 0.0
+
+    @property
+    def edge_gap_bound(self) -> float:
+        """Largest rigorous bound of the gap between the perturbed faces over all shared edges."""
+        return max((e["gap_bound"] for e in self.edges), default=0.0)
+
+    @property
+    def edge_gap_max(self) -> float | None:
+        """Largest gap measured at random points of the shared edges (None when not measured)."""
+        vals = [e["gap_max"] for e in self.edges if e.get("gap_max") is not None]
+        return max(vals) if vals else None
 
     @property
     def n_faces_certified(self) -> int:
@@ -81,13 +95,19 @@ class ShellCertificate:
 
     @property
     def certified(self) -> bool:
-        return all(f.certified for f in self.faces) and all(p.intersections_excluded for p in self.pairs)
+        return (all(f.certified for f in self.faces) and all(p.intersections_excluded for p in self.pairs)
+                and all(e["gap_bound"] <= e["tolerance"] for e in self.edges))
 
     def problems(self) -> list[str]:
         """One line per face or pair that is not certified, saying where."""
         out = []
         for f in self.faces:
             out += list(f.problems)
+        for e in self.edges:
+            if e["gap_bound"] > e["tolerance"]:
+                out.append(f"edge {e['shell_edge']} (faces {', '.join(map(str, e['faces']))}): the perturbed faces may be "
+                           f"up to {e['gap_bound']:.3g} apart between samples, above the point tolerance "
+                           f"{e['tolerance']:.3g}")
         for p in self.pairs:
             if not p.intersections_excluded:
                 w = p.where[0] if p.where else None
@@ -110,14 +130,18 @@ class ShellCertificate:
                 f"{sum(p.intersections_excluded for p in adj)}/{len(adj)} adjacent pairs and "
                 f"{sum(p.intersections_excluded for p in self.pairs if not p.adjacent)}/"
                 f"{sum(1 for p in self.pairs if not p.adjacent)} other close pairs free of extraneous intersections; "
-                f"max discrepancy {disc:.3g}, worst normal bound {worst:.3g} deg")
+                f"max discrepancy {disc:.3g}, worst normal bound {worst:.3g} deg; shared edges meet within "
+                f"{self.edge_gap_bound:.3g} (point tolerance {self.point_tolerance:.3g})")
 
     def as_dict(self) -> dict:
         """The JSON report (field names of the issue: max_discrepancy, lipschitz, normal_bound_deg, certified)."""
         return jsonable({"name": self.name, "certified": self.certified, "summary": self.summary(),
                          "n_faces": len(self.faces), "n_faces_certified": self.n_faces_certified,
                          "n_pairs": len(self.pairs), "n_pairs_excluded": self.n_pairs_excluded,
-                         "diagonal": self.diagonal, "settings": self.settings, "timings_s": self.timings_s,
+                         "diagonal": self.diagonal, "point_tolerance": self.point_tolerance,
+                         "edge_gap_bound": self.edge_gap_bound, "edge_gap_max": self.edge_gap_max,
+                         "n_edges_within_tolerance": sum(e["gap_bound"] <= e["tolerance"] for e in self.edges),
+                         "edges": self.edges, "settings": self.settings, "timings_s": self.timings_s,
                          "faces": [f.as_dict(arrays=True) for f in self.faces],
                          "pairs": [p.as_dict(arrays=True) for p in self.pairs],
                          "problems": self.problems()})
@@ -205,7 +229,8 @@ def _check_shell(shell) -> Shell:
 
 def certify_shell(shell: Shell, *, rtol: float = 1e-2, max_chord: float | None = None, n_domain: int = 40,
                   max_normal_angle_deg: float = 90.0, intersections: bool = True, budget: int = 20000,
-                  progress: Callable[[str, int], None] | None = None) -> ShellCertificate:
+                  progress: Callable[[str, int], None] | None = None, pairing: str = "surface",
+                  point_tolerance: float | None = None, gap_samples: int = 10000) -> ShellCertificate:
     """Make a trimmed B-rep well defined and certify it (whitney-well-definition.txt, Secs. 3-4).
 
     Parameters
@@ -225,6 +250,15 @@ def certify_shell(shell: Shell, *, rtol: float = 1e-2, max_chord: float | None =
         Node tests per face pair before the test gives up (reported as not excluded).
     progress : callable or None
         ``progress(stage, n)`` after each unit of work (stage "faces" or "pairs").
+    pairing : {"surface", "curve", "parameter"}
+        How the discrepancy pairs each edge curve with the face (`trimsurf.certify._boundary._eval_use`):
+        closest point of the surface (default), of the trim curve, or the same parameter (to compare).
+    point_tolerance : float or None
+        Shared edges are sampled until the rigorous bound of the gap between the perturbed faces is below
+        this (the model's point tolerance; default 1e-6 of the diagonal). An edge where it is not reached
+        is reported and the shell is not certified.
+    gap_samples : int
+        Random edge parameters per shared edge at which the gap is measured (0: not measured).
 
     Returns
     -------
@@ -250,7 +284,12 @@ def certify_shell(shell: Shell, *, rtol: float = 1e-2, max_chord: float | None =
     chord = diag / 100.0 if max_chord is None else float(max_chord)
     if not (np.isfinite(chord) and chord > 0):
         raise InputError(f"max_chord must be a positive number; got {max_chord!r}")
-    bounds, edges, _ = sample_boundaries(shell, rtol=rtol, max_chord=chord)
+    tol = 1e-6 * diag if point_tolerance is None else float(point_tolerance)
+    if not (np.isfinite(tol) and tol > 0):
+        raise InputError(f"point_tolerance must be a positive number; got {point_tolerance!r}")
+    if pairing not in ("surface", "curve", "parameter"):
+        raise InputError(f"pairing must be 'surface', 'curve' or 'parameter'; got {pairing!r}")
+    bounds, edges, _ = sample_boundaries(shell, rtol=rtol, max_chord=chord, pairing=pairing, point_tolerance=tol)
     t1 = time.perf_counter()
     faces: list[FaceCertificate] = []
     perturbed: list[PerturbedFace] = []
@@ -303,7 +342,19 @@ def certify_shell(shell: Shell, *, rtol: float = 1e-2, max_chord: float | None =
         for (i, j), es in sorted(shared.items()):
             pairs.append(PairCertificate((i, j), True, es, False, [{"reason": "intersection test not run"}]))
     t3 = time.perf_counter()
-    settings = {"rtol": rtol, "max_chord": chord, "n_domain": n_domain,
-                "max_normal_angle_deg": max_normal_angle_deg, "intersections": intersections, "budget": budget}
-    timings = {"boundary_sampling": t1 - t0, "faces": t2 - t1, "intersections": t3 - t2, "total": t3 - t0}
-    return ShellCertificate(shell.name, faces, pairs, perturbed, diag, settings, timings, edges)
+    measured = {m["edge"]: m for m in measure_edge_gaps(perturbed, edges, shell, n=gap_samples)} if gap_samples else {}
+    edge_rows = []
+    for k, e in enumerate(edges):
+        if e.interval_bound is None:
+            continue
+        m = measured.get(k)
+        edge_rows.append({"edge": k, "shell_edge": e.shell_edge, "faces": sorted({u.face for u in e.uses}),
+                          "n_samples": int(len(e.t)), "gap_bound": float(e.gap_bound),
+                          "gap_max": None if m is None else m["gap_max"], "tolerance": float(e.gap_tolerance)})
+    t4 = time.perf_counter()
+    settings = {"rtol": rtol, "max_chord": chord, "n_domain": n_domain, "pairing": pairing, "point_tolerance": tol,
+                "gap_samples": gap_samples, "max_normal_angle_deg": max_normal_angle_deg,
+                "intersections": intersections, "budget": budget}
+    timings = {"boundary_sampling": t1 - t0, "faces": t2 - t1, "intersections": t3 - t2, "gap_measurement": t4 - t3,
+               "total": t4 - t0}
+    return ShellCertificate(shell.name, faces, pairs, perturbed, diag, settings, timings, edges, edge_rows, tol)

@@ -1,0 +1,198 @@
+r"""Rigorous bounds on the derivatives of NURBS curves and surfaces from their Bézier control nets.
+
+Every knot span of a NURBS curve or surface is a rational Bézier piece with
+positive weights. Write the piece as ``F = P / w`` (P the weighted points, a
+polynomial, w > 0 the weight polynomial) and translate by a point c (the
+centre of the piece's control points; derivatives do not change), so that
+``F - c = (P - w c) / w``. By the convex-hull property of the Bernstein basis
+
+* ``|F - c| <= R = max_k |P_k / w_k - c|``  (a convex combination with weights w_k B_k / w),
+* ``w >= w_min = min_k w_k``,
+* ``|D P~| <= max |control points of D P~|`` for every derivative D of the
+  polynomial ``P~ = P - w c`` (and of w): the derivative of a Bézier
+  polynomial is a Bézier polynomial whose coefficients are scaled forward
+  differences of the control points.
+
+Differentiating ``P~ = w (F - c)`` (the quotient rule, solved for the derivatives of F):
+
+    F_u  = (P~_u - w_u (F - c)) / w
+    F_uu = (P~_uu - 2 w_u F_u - w_uu (F - c)) / w
+    F_uv = (P~_uv - w_u F_v - w_v F_u - w_uv (F - c)) / w
+
+so each norm is bounded by the same expression with every term replaced by
+its bound and w by w_min. For a polynomial piece (w = 1) these are the plain
+control-net bounds. The bounds hold over the whole piece; they are the
+building blocks of the gap bound between Whitney samples (`trimsurf.certify._gap`)
+and of the rigorous normal bound over a face (`trimsurf.certify._face`).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from ..geom import bezier_extract, bezier_extract_surface
+from ..model import NurbsCurve, NurbsSurface
+
+__all__ = ["CurveBounds", "SurfaceBounds", "curve_bounds", "surface_bounds", "max_over_spans", "max_over_boxes"]
+
+
+class CurveBounds(NamedTuple):
+    """Per Bézier span of a curve: sup of |C'| per component and of |C''| (norm)."""
+
+    breaks: np.ndarray      # (m + 1,)
+    d1: np.ndarray          # (m, dim) sup |C_i'| per component
+    d1_norm: np.ndarray     # (m,) sup |C'|
+    d2_norm: np.ndarray     # (m,) sup |C''|
+
+
+class SurfaceBounds(NamedTuple):
+    """Per Bézier piece (i, j) of a surface: sups of |F_u|, |F_v|, |F_uu|, |F_uv|, |F_vv|, stacked (m, n, 5)."""
+
+    u_breaks: np.ndarray
+    v_breaks: np.ndarray
+    values: np.ndarray
+
+
+def _diff(x: np.ndarray, axis: int, degree: int, h: float) -> np.ndarray:
+    """Control points of the derivative of a Bézier polynomial along `axis` (empty for degree 0)."""
+    if degree < 1:
+        shape = list(x.shape)
+        shape[axis] = 0
+        return np.zeros(shape)
+    return degree * np.diff(x, axis=axis) / h
+
+
+def _maxnorm(x: np.ndarray) -> float:
+    if x.size == 0:
+        return 0.0
+    return float(np.sqrt((x * x).sum(axis=-1)).max()) if x.ndim > 1 else float(np.abs(x).max())
+
+
+def _maxabs(x: np.ndarray) -> float:
+    return float(np.abs(x).max()) if x.size else 0.0
+
+
+def curve_bounds(curve: NurbsCurve) -> CurveBounds:
+    """Rigorous per-span bounds of |C'| (per component and norm) and |C''| (see the module docstring)."""
+    seg = bezier_extract(curve.degree, curve.knots, curve.control_points, curve.weights)
+    br = np.asarray(seg.breaks, float)
+    cp = np.asarray(seg.control_points, float)            # (m, p+1, dim)
+    m, n1, dim = cp.shape
+    p = n1 - 1
+    w = np.ones((m, n1)) if seg.weights is None else np.asarray(seg.weights, float)
+    d1 = np.zeros((m, dim))
+    d1n = np.zeros(m)
+    d2n = np.zeros(m)
+    for i in range(m):
+        h = br[i + 1] - br[i]
+        c = 0.5 * (cp[i].min(axis=0) + cp[i].max(axis=0))
+        rel = cp[i] - c
+        big_r = np.sqrt((rel * rel).sum(axis=1)).max()
+        rc = np.abs(rel).max(axis=0)
+        pw = rel * w[i][:, None]                            # P~ = P - w c, weighted
+        wmin = w[i].min()
+        p1, w1 = _diff(pw, 0, p, h), _diff(w[i], 0, p, h)
+        p2, w2 = _diff(p1, 0, p - 1, h), _diff(w1, 0, p - 1, h)
+        aw1, aw2 = _maxabs(w1), _maxabs(w2)
+        comp = (np.abs(p1).max(axis=0) if p1.size else np.zeros(dim)) + aw1 * rc
+        d1[i] = comp / wmin
+        d1n[i] = (_maxnorm(p1) + aw1 * big_r) / wmin
+        d2n[i] = (_maxnorm(p2) + 2 * aw1 * d1n[i] + aw2 * big_r) / wmin
+    return CurveBounds(br, d1, d1n, d2n)
+
+
+def surface_bounds(surface: NurbsSurface) -> SurfaceBounds:
+    """Rigorous per-piece bounds of |F_u|, |F_v|, |F_uu|, |F_uv|, |F_vv| (see the module docstring)."""
+    bez = bezier_extract_surface(surface.degree_u, surface.degree_v, surface.knots_u, surface.knots_v,
+                                 surface.control_points, surface.weights)
+    ub, vb = np.asarray(bez.u_breaks, float), np.asarray(bez.v_breaks, float)
+    cp = np.asarray(bez.control_points, float)            # (m, n, p+1, q+1, 3)
+    m, n, p1_, q1_, _ = cp.shape
+    p, q = p1_ - 1, q1_ - 1
+    w = np.ones(cp.shape[:-1]) if bez.weights is None else np.asarray(bez.weights, float)
+    hu = np.diff(ub)[:, None, None, None]
+    hv = np.diff(vb)[None, :, None, None]
+    lo, hi = cp.min(axis=(2, 3)), cp.max(axis=(2, 3))
+    c = 0.5 * (lo + hi)                                  # (m, n, 3)
+    rel = cp - c[:, :, None, None, :]
+    big_r = np.sqrt((rel * rel).sum(-1)).max(axis=(2, 3))
+    pw = rel * w[..., None]
+    wmin = w.min(axis=(2, 3))
+
+    def dif(x, axis, deg, h):
+        if deg < 1:
+            shape = list(x.shape)
+            shape[axis] = 0
+            return np.zeros(shape)
+        return deg * np.diff(x, axis=axis) / (h[..., None] if x.ndim == 5 else h)
+
+    def mx(x, vec):
+        if x.size == 0:
+            return np.zeros((m, n))
+        v = np.sqrt((x * x).sum(-1)) if vec else np.abs(x)
+        return v.max(axis=(2, 3))
+
+    pu, wu = dif(pw, 2, p, hu), dif(w, 2, p, hu)
+    pv, wv = dif(pw, 3, q, hv), dif(w, 3, q, hv)
+    puu, wuu = dif(pu, 2, p - 1, hu), dif(wu, 2, p - 1, hu)
+    pvv, wvv = dif(pv, 3, q - 1, hv), dif(wv, 3, q - 1, hv)
+    puv, wuv = dif(pu, 3, q, hv), dif(wu, 3, q, hv)
+    awu, awv, awuu, awvv, awuv = mx(wu, False), mx(wv, False), mx(wuu, False), mx(wvv, False), mx(wuv, False)
+    fu = (mx(pu, True) + awu * big_r) / wmin
+    fv = (mx(pv, True) + awv * big_r) / wmin
+    fuu = (mx(puu, True) + 2 * awu * fu + awuu * big_r) / wmin
+    fvv = (mx(pvv, True) + 2 * awv * fv + awvv * big_r) / wmin
+    fuv = (mx(puv, True) + awu * fv + awv * fu + awuv * big_r) / wmin
+    return SurfaceBounds(ub, vb, np.stack([fu, fv, fuu, fuv, fvv], axis=-1))
+
+
+def max_over_spans(cb: CurveBounds, t0: np.ndarray, t1: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Max of the span bounds over the spans meeting each [t0, t1] (clamped to the curve's breaks).
+
+    Returns d1 (n, dim), d1_norm (n,), d2_norm (n,)."""
+    a, b = np.minimum(t0, t1), np.maximum(t0, t1)
+    m = len(cb.breaks) - 1
+    i0 = np.clip(np.searchsorted(cb.breaks, a, side="right") - 1, 0, m - 1)
+    i1 = np.clip(np.searchsorted(cb.breaks, b, side="left") - 1, 0, m - 1)
+    i1 = np.maximum(i1, i0)
+    stack = np.concatenate([cb.d1, cb.d1_norm[:, None], cb.d2_norm[:, None]], axis=1)
+    out = _range_max_1d(np.ascontiguousarray(stack), i0.astype(np.int64), i1.astype(np.int64))
+    dim = cb.d1.shape[1]
+    return out[:, :dim], out[:, dim], out[:, dim + 1]
+
+
+def max_over_boxes(sb: SurfaceBounds, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Max of the piece bounds over the pieces meeting each (u, v) box [lo, hi] (clamped), shape (n, 5)."""
+    m, n = len(sb.u_breaks) - 1, len(sb.v_breaks) - 1
+    iu0 = np.clip(np.searchsorted(sb.u_breaks, lo[:, 0], side="right") - 1, 0, m - 1)
+    iu1 = np.maximum(np.clip(np.searchsorted(sb.u_breaks, hi[:, 0], side="left") - 1, 0, m - 1), iu0)
+    jv0 = np.clip(np.searchsorted(sb.v_breaks, lo[:, 1], side="right") - 1, 0, n - 1)
+    jv1 = np.maximum(np.clip(np.searchsorted(sb.v_breaks, hi[:, 1], side="left") - 1, 0, n - 1), jv0)
+    return _range_max_2d(np.ascontiguousarray(sb.values), iu0.astype(np.int64), iu1.astype(np.int64),
+                         jv0.astype(np.int64), jv1.astype(np.int64))
+
+
+@njit(cache=True, nogil=True)
+def _range_max_1d(vals, i0, i1):  # pragma: no cover - compiled
+    out = np.zeros((i0.shape[0], vals.shape[1]))
+    for k in range(i0.shape[0]):
+        for i in range(i0[k], i1[k] + 1):
+            for c in range(vals.shape[1]):
+                if vals[i, c] > out[k, c]:
+                    out[k, c] = vals[i, c]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _range_max_2d(vals, i0, i1, j0, j1):  # pragma: no cover - compiled
+    out = np.zeros((i0.shape[0], vals.shape[2]))
+    for k in range(i0.shape[0]):
+        for i in range(i0[k], i1[k] + 1):
+            for j in range(j0[k], j1[k] + 1):
+                for c in range(vals.shape[2]):
+                    if vals[i, j, c] > out[k, c]:
+                        out[k, c] = vals[i, j, c]
+    return out
