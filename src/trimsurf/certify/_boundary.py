@@ -44,6 +44,7 @@ times a brute-force value from 4000 boundary points.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -300,9 +301,40 @@ def _eval_use(shell: Shell, edge: _Edge, use: _Use, t: np.ndarray, *, corners: b
     return uv, fp, target, target - fp, tau
 
 
-def _closest_on_surface(surface, uv, fp, target, free, iterations: int = 12):
-    """Gauss-Newton foot points of the targets on F from uv (kept where closer than the start; ends fixed)."""
+def _feet_inside(shell: Shell, e: _Edge, use: _Use, n: int = 65) -> bool:
+    """Whether the feet of b on F lie inside F's domain along the whole use (probed at n parameters).
+
+    Where b runs beyond the surface's domain its feet would pile up on the domain's boundary (one foot
+    for several points of b: no Lipschitz constant); such a use keeps the same-parameter pairing."""
+    if use.bcurve is None:
+        return True
+    t = np.linspace(e.lo, e.hi, n)
+    surface = shell.faces[use.face].surface
+    (u0, u1), (v0, v1) = surface.domain
+    lo, hi = np.array([u0, v0]), np.array([u1, v1])
+    uv = use.pcurve.curve.evaluate(t)
+    target = _eval_use(shell, e, dataclasses.replace(use, pairing="parameter"), t)[2]
     cur = uv.copy()
+    for _ in range(12):
+        d = surface.derivatives(np.clip(cur, lo, hi), 1)
+        su, sv, r = d[1, 0], d[0, 1], target - d[0, 0]
+        ee, ff, gg = (np.einsum("ij,ij->i", a, b) for a, b in ((su, su), (su, sv), (sv, sv)))
+        ru, rv = np.einsum("ij,ij->i", r, su), np.einsum("ij,ij->i", r, sv)
+        det = ee * gg - ff * ff
+        ok = det > 1e-14 * np.maximum(ee * gg, 1e-300)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            du = np.where(ok, (gg * ru - ff * rv) / det, 0.0)
+            dv = np.where(ok, (ee * rv - ff * ru) / det, 0.0)
+        cur = cur + np.column_stack([du, dv])
+    slack = 1e-9 * (hi - lo)
+    return bool(np.all((cur >= lo - slack) & (cur <= hi + slack)))
+
+
+def _closest_on_surface(surface, uv, fp, target, free, iterations: int = 12):
+    """Gauss-Newton foot points of the targets on F from uv, within F's domain (kept where closer than uv)."""
+    cur = uv.copy()
+    (u0, u1), (v0, v1) = surface.domain
+    lo, hi = np.array([u0, v0]), np.array([u1, v1])
     for _ in range(iterations):
         d = surface.derivatives(cur, 1)
         su, sv, r = d[1, 0], d[0, 1], target - d[0, 0]
@@ -313,7 +345,9 @@ def _closest_on_surface(surface, uv, fp, target, free, iterations: int = 12):
         with np.errstate(divide="ignore", invalid="ignore"):
             du = np.where(ok, (g * ru - f * rv) / det, 0.0)
             dv = np.where(ok, (e * rv - f * ru) / det, 0.0)
-        cur = cur + np.column_stack([du, dv])
+        # projected Gauss-Newton: the foot stays on the surface's domain (a b beyond the face's boundary
+        # pairs with the boundary's nearest point)
+        cur = np.clip(cur + np.column_stack([du, dv]), lo, hi)
         if not np.any(np.abs(du) + np.abs(dv) > 1e-15 * (1.0 + np.abs(cur).max())):
             break
     cfp = surface.evaluate(cur)
@@ -345,6 +379,8 @@ def _closest_tau(surface, curve, t, uv, fp, target, lo, hi, iterations: int = 12
     tau[worse], cur_uv[worse], cur_fp[worse] = t[worse], uv[worse], fp[worse]
     if len(t) > 1 and np.all(np.diff(t) > 0) and not np.all(np.diff(tau) > 0):
         return t.copy(), uv, fp             # not monotone: keep the same-parameter pairing on this use
+    if np.any(~fixed & ((tau <= lo) | (tau >= hi))):
+        return t.copy(), uv, fp             # b runs beyond the trim curve's end: the same, for the same reason
     return tau, cur_uv, cur_fp
 
 
@@ -484,6 +520,8 @@ def sample_boundaries(shell: Shell, *, rtol: float = 1e-2, abs_tol: float | None
     for e in edges:
         for u in e.uses:
             u.pairing = pairing
+            if pairing == "surface" and not _feet_inside(shell, e, u):
+                u.pairing = "parameter"
     if max_chord is not None and max_chord > 0:
         for e in edges:
             _densify(shell, e, float(max_chord))
