@@ -273,8 +273,10 @@ def certify_shell(shell: Shell, *, rtol: float = 1e-2, max_chord: float | None =
     --------
     >>> from trimsurf.samples import build_sample
     >>> cert = certify_shell(build_sample("gap_pair"))
-    >>> cert.certified, [round(f.normal_bound_deg, 2) for f in cert.faces]
-    (True, [0.13, 0.26])
+    >>> cert.certified, [round(f.normal_bound_deg, 2) for f in cert.faces], {f.bound_kind for f in cert.faces}
+    (True, [0.15, 0.3], {'rigorous'})
+    >>> bool(cert.edge_gap_max <= cert.edge_gap_bound <= cert.point_tolerance)
+    True
     """
     shell = _check_shell(shell)
     if not (np.isfinite(rtol) and 0 < rtol < 1):

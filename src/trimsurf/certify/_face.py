@@ -1,16 +1,20 @@
 """Per-face certificate: discrepancy, Lipschitz constants, l <= u check, normal bound over the face.
 
-The normal bound of `trimsurf.certify._normal` is a pointwise bound; it is
-maximised over an ``n_domain x n_domain`` grid of the trimmed domain plus every
-boundary sample (where the discrepancy lives). Between grid points it is not
-rigorous: the first fundamental form varies smoothly there, and faces whose
-bound is close to the threshold should be rerun with a larger ``n_domain``.
-At a singular point of F (a pole: E G - F^2 = 0) the bound is 180 degrees
-unless L = 0: Sec. 4 needs a regular parametrization.
+The normal bound of `trimsurf.certify._normal` is a pointwise bound. Its
+maximum over the face is bounded rigorously (`rigorous_normal_bound`): over
+every Bézier piece of F meeting the trimmed (polygonal) domain, the control
+nets bound |F_u|, |F_v| from above and |F_u x F_v| from below, hence kappa,
+and the normal cone bounds L_n (`trimsurf.certify._intersect.bezier_piece_normal_bound`);
+pieces whose bound is loose are subdivided. ``bound_kind`` says "rigorous";
+it says "sampled" only for surfaces with more than 4096 Bézier pieces, whose
+bound is the maximum over an ``n_domain x n_domain`` grid plus the boundary
+samples (also reported for every face as ``normal_bound_sampled_deg``). At a
+singular point of F (a pole: E G - F^2 = 0) the bound is 180 degrees unless
+L = 0: Sec. 4 needs a regular parametrization.
 
 The l <= u check evaluates the lower and upper Whitney extensions at the grid
-points; where l > u (L too small for the data, e.g. from rounding) L is raised
-by 2 % steps until it holds.
+points. With L the exact constant of the data l <= u holds everywhere
+(Theorem 1); where rounding makes l > u, L is raised by 2 % steps until it holds.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geom import points_in_polygons
+from ..model import NurbsSurface
 from ..quality._results import ResultMixin
 from ._boundary import FaceBoundary
 from ._normal import normal_angle_bound
@@ -50,11 +55,10 @@ class FaceCertificate(ResultMixin):
     lipschitz_sampled : (3,) float64
         Before the final refinement check.
     lipschitz_check_ratio : float
-        1 + (largest increase of L after halving every sample interval once more) / max L.
+        1 + (largest increase of L after halving every sample interval once more) / max L: how far the
+        data's constant (exact for the data, hence for G) is from that of the continuous discrepancy.
     lipschitz_rel_change : float
         Relative change of L in the last refinement round.
-    lipschitz_raised : bool
-        L had to be raised (refinement check or l > u found).
     interp_error : float
         Largest distance of eps from its piecewise-linear interpolant at the last midpoints.
     min_bracket_gap : float
@@ -62,7 +66,13 @@ class FaceCertificate(ResultMixin):
     n_samples : int
         Boundary samples (Whitney data points).
     normal_bound_deg : float
-        Certified largest angle between the normals of F and G over the face (180 = no bound).
+        Largest angle between the normals of F and G over the face (180 = no bound): rigorous over the
+        whole face (control-net bounds on Bézier pieces) where ``bound_kind`` is "rigorous", the maximum
+        over the domain samples where it is "sampled".
+    normal_bound_sampled_deg : float
+        The pointwise bound's maximum over the domain samples (a lower estimate of the rigorous one).
+    bound_kind : str
+        "rigorous" or "sampled" (surfaces with too many Bézier pieces).
     normal_bound_first_order_deg : float
         arccos(1 - kappa^2 L_n^2 / 2), the corrected form of the paper's bound.
     normal_bound_paper_abs_deg : float
@@ -83,16 +93,93 @@ class FaceCertificate(ResultMixin):
     lipschitz_sampled: np.ndarray
     lipschitz_check_ratio: float
     lipschitz_rel_change: float
-    lipschitz_raised: bool
     interp_error: float
     min_bracket_gap: float
     n_samples: int
     normal_bound_deg: float
+    normal_bound_sampled_deg: float
+    bound_kind: str
     normal_bound_first_order_deg: float
     normal_bound_paper_abs_deg: float
     worst_uv: np.ndarray
     certified: bool
     problems: list
+
+
+def rect_meets_domain(rect, segs_a: np.ndarray, segs_b: np.ndarray, polys) -> bool:
+    """Whether the closed (u, v) rectangle meets the polygonal domain (exact): a boundary segment meets the
+    rectangle (Liang-Barsky clipping), or, when none does, the rectangle's centre is inside."""
+    u0, u1, v0, v1 = rect
+    d = segs_b - segs_a
+    t0 = np.zeros(len(d))
+    t1 = np.ones(len(d))
+    ok = np.ones(len(d), dtype=bool)
+    for p_, q_ in ((-d[:, 0], segs_a[:, 0] - u0), (d[:, 0], u1 - segs_a[:, 0]),
+                   (-d[:, 1], segs_a[:, 1] - v0), (d[:, 1], v1 - segs_a[:, 1])):
+        par = p_ == 0
+        ok &= ~(par & (q_ < 0))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r = np.where(par, 0.0, q_ / np.where(par, 1.0, p_))
+        t0 = np.where(~par & (p_ < 0), np.maximum(t0, r), t0)
+        t1 = np.where(~par & (p_ > 0), np.minimum(t1, r), t1)
+    if np.any(ok & (t0 <= t1)):
+        return True
+    return bool(points_in_polygons(np.array([[0.5 * (u0 + u1), 0.5 * (v0 + v1)]]), polys)[0])
+
+
+def rigorous_normal_bound(g: PerturbedFace, reference_rad: float, *, max_depth: int = 5, max_pieces: int = 4096,
+                          budget: int = 400) -> tuple[float, np.ndarray] | None:
+    """The largest normal bound of Sec. 4 over the whole trimmed face, from control nets (rigorous).
+
+    The surface's Bézier pieces that meet the face's (polygonal) domain (`rect_meets_domain`) each get the
+    bound of `trimsurf.certify._intersect.bezier_piece_normal_bound`, which holds at every point of the
+    piece; a piece whose bound is above 1.5 times `reference_rad` (the sampled maximum) or has no cone is
+    split in four by de Casteljau (up to `max_depth` times, `budget` pieces in all) and only the parts
+    meeting the domain are kept. Returns (phi_max, uv of the worst piece's centre), or None when the surface
+    has more than `max_pieces` pieces or is not a NURBS surface (then the bound stays sampled).
+    """
+    from ..geom import bezier_extract_surface
+    from ._intersect import _split_half, bezier_piece_normal_bound
+
+    s = g.face.surface
+    if not isinstance(s, NurbsSurface):     # e.g. a subdivision face's piecewise-linear surface
+        return None
+    bez = bezier_extract_surface(s.degree_u, s.degree_v, s.knots_u, s.knots_v, s.control_points, s.weights)
+    ub, vb = bez.u_breaks, bez.v_breaks
+    if (len(ub) - 1) * (len(vb) - 1) > max_pieces:
+        return None
+    w = np.ones(bez.control_points.shape[:-1]) if bez.weights is None else bez.weights
+    hom = np.concatenate([bez.control_points * w[..., None], w[..., None]], axis=-1)
+    polys = [lp.uv for lp in g.boundary.loops]
+    segs_a = np.concatenate(polys)
+    segs_b = np.concatenate([np.roll(p, -1, axis=0) for p in polys])
+    stack = []
+    for i in range(len(ub) - 1):
+        for j in range(len(vb) - 1):
+            rect = (float(ub[i]), float(ub[i + 1]), float(vb[j]), float(vb[j + 1]))
+            if rect_meets_domain(rect, segs_a, segs_b, polys):
+                stack.append((hom[i, j], rect, 0))
+    worst, where = 0.0, np.zeros(2)
+    target = 1.5 * reference_rad + 1e-12
+    used = 0
+    while stack:
+        h, rect, depth = stack.pop()
+        used += 1
+        res = bezier_piece_normal_bound(h, rect, g.lipschitz)
+        phi = np.pi if res is None else res[2]
+        if phi > target and depth < max_depth and used + 4 <= budget:
+            um, vm = 0.5 * (rect[0] + rect[1]), 0.5 * (rect[2] + rect[3])
+            left, right = _split_half(h, 0)
+            for hu, (a, b) in ((left, (rect[0], um)), (right, (um, rect[1]))):
+                bottom, top = _split_half(hu, 1)
+                for hv, (c, d) in ((bottom, (rect[2], vm)), (top, (vm, rect[3]))):
+                    r2 = (a, b, c, d)
+                    if rect_meets_domain(r2, segs_a, segs_b, polys):
+                        stack.append((hv, r2, depth + 1))
+            continue
+        if phi >= worst:
+            worst, where = phi, np.array([0.5 * (rect[0] + rect[1]), 0.5 * (rect[2] + rect[3])])
+    return float(worst), where
 
 
 def domain_samples(g: PerturbedFace, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -127,8 +214,8 @@ def check_bracket(g: PerturbedFace, uv: np.ndarray) -> tuple[PerturbedFace, floa
     return g, gap, raised
 
 
-def face_certificate(g: PerturbedFace, *, n_domain: int = 40, max_normal_angle_deg: float = 90.0,
-                     raised: bool = False) -> tuple[FaceCertificate, PerturbedFace]:
+def face_certificate(g: PerturbedFace, *, n_domain: int = 40,
+                     max_normal_angle_deg: float = 90.0) -> tuple[FaceCertificate, PerturbedFace]:
     """Discrepancy, Lipschitz, l <= u and the normal bound of one perturbed face.
 
     Returns the certificate and the (possibly L-raised) perturbed face.
@@ -136,8 +223,7 @@ def face_certificate(g: PerturbedFace, *, n_domain: int = 40, max_normal_angle_d
     fb: FaceBoundary = g.boundary
     inside, bnd = domain_samples(g, n_domain)
     uv = np.concatenate([inside, bnd])
-    g, gap, raised_b = check_bracket(g, inside if len(inside) else bnd[:1])
-    raised = raised or raised_b or fb.lipschitz_check_ratio > 1.0 + 1e-12
+    g, gap, _ = check_bracket(g, inside if len(inside) else bnd[:1])
     d = g.face.surface.derivatives(uv, 1)
     su, sv = d[1, 0], d[0, 1]
     nrm = np.cross(su, sv)
@@ -146,9 +232,18 @@ def face_certificate(g: PerturbedFace, *, n_domain: int = 40, max_normal_angle_d
         nrm = nrm / length[:, None]
     nb = normal_angle_bound(su, sv, nrm, g.lipschitz)
     worst = int(np.argmax(nb.phi_rad))
-    phi = float(np.degrees(nb.phi_rad[worst]))
+    phi_sampled = float(np.degrees(nb.phi_rad[worst]))
+    phi, kind = phi_sampled, "sampled"
     problems = []
-    if phi >= max_normal_angle_deg:
+    if phi_sampled < max_normal_angle_deg:
+        rig = rigorous_normal_bound(g, float(nb.phi_rad[worst]))
+        if rig is not None:
+            phi, kind = max(float(np.degrees(rig[0])), phi_sampled), "rigorous"
+            if phi >= max_normal_angle_deg:
+                problems.append(f"face {fb.face}: rigorous normal bound {phi:.3g} deg (control nets, near uv "
+                                f"({rig[1][0]:.6g}, {rig[1][1]:.6g})) not below {max_normal_angle_deg:g} deg "
+                                f"(sampled maximum {phi_sampled:.3g} deg)")
+    if phi_sampled >= max_normal_angle_deg:
         e, f_, g_ = (float(np.dot(a, b)) for a, b in ((su[worst], su[worst]), (su[worst], sv[worst]),
                                                        (sv[worst], sv[worst])))
         det_rel = (e * g_ - f_ * f_) / max((e + g_) ** 2, 1e-300)
@@ -156,7 +251,7 @@ def face_certificate(g: PerturbedFace, *, n_domain: int = 40, max_normal_angle_d
             why = f"F is singular there (a pole: EG - F^2 = {det_rel:.2g} (E + G)^2), Sec. 4 needs a regular patch"
         else:
             why = f"kappa*L = {nb.kappa_lf[worst]:.3g}" + (" >= 1" if nb.kappa_lf[worst] >= 1 else "")
-        problems.append(f"face {fb.face}: normal bound {phi:.3g} deg at uv ({uv[worst, 0]:.6g}, {uv[worst, 1]:.6g}) "
+        problems.append(f"face {fb.face}: normal bound {phi_sampled:.3g} deg at uv ({uv[worst, 0]:.6g}, {uv[worst, 1]:.6g}) "
                         f"not below {max_normal_angle_deg:g} deg ({why})")
     if gap < 0:
         problems.append(f"face {fb.face}: l > u by {-gap:.3g} after raising L")
@@ -165,8 +260,9 @@ def face_certificate(g: PerturbedFace, *, n_domain: int = 40, max_normal_angle_d
         max_discrepancy_bound=fb.max_discrepancy + fb.interp_error, perturbation_bound=g.perturbation_bound,
         lipschitz=g.lipschitz.copy(), lipschitz_sampled=fb.lipschitz_sampled.copy(),
         lipschitz_check_ratio=fb.lipschitz_check_ratio, lipschitz_rel_change=fb.lipschitz_rel_change,
-        lipschitz_raised=bool(raised), interp_error=fb.interp_error, min_bracket_gap=gap, n_samples=fb.n_samples,
-        normal_bound_deg=phi, normal_bound_first_order_deg=float(np.degrees(np.max(nb.phi_first_order_rad))),
+        interp_error=fb.interp_error, min_bracket_gap=gap, n_samples=fb.n_samples,
+        normal_bound_deg=phi, normal_bound_sampled_deg=phi_sampled, bound_kind=kind,
+        normal_bound_first_order_deg=float(np.degrees(np.max(nb.phi_first_order_rad))),
         normal_bound_paper_abs_deg=float(np.degrees(np.max(nb.phi_paper_abs_rad))), worst_uv=uv[worst].copy(),
         certified=not problems, problems=problems)
     return cert, g

@@ -19,8 +19,9 @@ node carries
 * a normal cone of G: the cone spanned by the Bézier coefficients of the
   normal polynomial N = (w P_u - w_u P) x (w P_v - w_v P) of the piece (it
   contains every normal of F there, for rational pieces too since w^4 > 0),
-  widened by the largest normal bound of Sec. 4 sampled on the piece (a piece
-  whose coefficient cone reaches 90 degrees is subdivided); grouped nodes take
+  widened by the normal bound of Sec. 4 bounded over the whole piece from its
+  control net (`bezier_piece_normal_bound`; a piece whose coefficient cone
+  reaches 90 degrees is subdivided); grouped nodes take
   the union of their children's cones; only for surfaces with more than
   `max_pieces` spans, normals sampled on a 5 x 5 grid widened by half the
   largest angle between neighbours;
@@ -40,9 +41,10 @@ boxes. Otherwise the larger node is split and the test recurses; a pair that
 is still undecided at the finest level is reported (faces, (u, v) boxes and a
 point in space).
 
-Soundness: boxes are rigorous; the cones of F are rigorous on Bézier pieces
-(sampled only for huge control nets), widened by the normal bound of Sec. 4 maximised
-over 5 x 5 samples of the piece; contours and overlaps are tested on sampled outlines
+Soundness: boxes are rigorous; the cones of G are rigorous on Bézier pieces
+(the cone of F's normal polynomial widened by the control-net bound of Sec. 4 over the
+piece; sampled on a 5 x 5 grid only for surfaces with more than `max_pieces` spans);
+contours and overlaps are tested on sampled outlines
 (piecewise-linear in (u, v), mapped exactly through G). The independent check
 (`validate_with_mesh`) tessellates the well-defined shell finely and runs the
 exact triangle-triangle test of `trimsurf.quality.self_intersections`.
@@ -225,22 +227,22 @@ class FaceHierarchy:
     def cone(self, node: _Node) -> tuple[np.ndarray, float]:
         """The normal cone of G over the node used by the test (computed when first needed).
 
-        Bézier pieces: the rigorous cone of the normal polynomial's coefficients widened by the largest
-        sampled normal bound of Sec. 4 (none, i.e. 180 degrees, where the coefficients reach 90 degrees:
-        the piece must be subdivided); grouped nodes: the union of their children's cones; pieces of
+        Bézier pieces: the rigorous cone of the normal polynomial's coefficients widened by the normal
+        bound of Sec. 4 over the whole piece from its control net (`bezier_piece_normal_bound`; none, i.e.
+        180 degrees, where the coefficients reach 90 degrees: the piece must be subdivided); grouped nodes: the union of their children's cones; pieces of
         surfaces with too many spans to extract: the sampled cone of `_finish`."""
         if node.cone is not None:
             return node.cone
         result = (node.axis, node.half)
         if node.hcp is not None:
-            exact = _bezier_normal_cone(node.hcp) if np.isfinite(node.phi_max) else None
-            if exact is None:      # the coefficients reach 90 degrees: no cone here, subdivide
+            exact = bezier_piece_normal_bound(node.hcp, node.rect, self.g.lipschitz)
+            if exact is None or exact[2] >= np.pi:   # no cone below 90 degrees, or no normal bound: subdivide
                 result = (node.axis, np.pi)
             else:
-                axis, half = exact
+                axis, half, phi = exact
                 if not self.g.face.same_sense:
                     axis = -axis
-                result = (axis, float(half + node.phi_max))
+                result = (axis, float(half + phi))
         elif node.hcp is None and node.children:
             result = _cone_union([self.cone(k) for k in node.children])
         node.cone = result
@@ -347,6 +349,10 @@ def _mul(x, y):
     return x * y
 
 
+def _dot(x, y):
+    return (x * y).sum(axis=-1, keepdims=True)
+
+
 def _bezier_normal_cone(h: np.ndarray) -> tuple[np.ndarray, float] | None:
     """A cone containing every normal of a rational Bézier patch (homogeneous control points (p+1, q+1, 4)).
 
@@ -382,6 +388,89 @@ def _bezier_normal_cone(h: np.ndarray) -> tuple[np.ndarray, float] | None:
     if half >= 0.5 * np.pi:
         return None
     return axis, half
+
+
+def _normal_coefficients(h: np.ndarray):
+    """Bézier coefficients (local parameters on [0, 1]^2) of A = w P_u - w_u P, B = w P_v - w_v P and
+    N = A x B for a rational Bézier patch (homogeneous control points (p+1, q+1, 4)); F_u = A / w^2 (local),
+    the normal of F is N / w^4. For a polynomial patch A, B are the derivative control points."""
+    pw, w = h[..., :3], h[..., 3]
+    p, q = pw.shape[0] - 1, pw.shape[1] - 1
+    if p < 1 or q < 1:
+        return None
+    du = p * (pw[1:] - pw[:-1])
+    dv = q * (pw[:, 1:] - pw[:, :-1])
+    if np.allclose(w, w.flat[0], rtol=1e-14, atol=0.0):
+        s = 1.0 / w.flat[0]
+        a, b = du * s, dv * s               # P / w exactly: A / w^2 = du / w with w constant
+        return a, b, _bprod(a, b, np.cross), 1.0, 1.0
+    wu = p * (w[1:] - w[:-1])
+    wv = q * (w[:, 1:] - w[:, :-1])
+    a = _bprod(w[..., None], du, _mul) - _bprod(wu[..., None], pw, _mul)
+    b = _bprod(w[..., None], dv, _mul) - _bprod(wv[..., None], pw, _mul)
+    return a, b, _bprod(a, b, np.cross), float(w.min()), float(w.max())
+
+
+def bezier_piece_normal_bound(h: np.ndarray, rect, lipschitz) -> tuple[np.ndarray, float, float] | None:
+    """Rigorous normal cone of F over a rational Bézier piece and the largest normal bound of Sec. 4 on it.
+
+    With a, b, c the Bézier coefficients of A, B and N = A x B (`_normal_coefficients`; local parameters,
+    rect sizes h_u, h_v), by the convex-hull property, over the whole piece:
+
+    * every normal N lies in the cone of the c_k (axis e, half-angle theta) and
+      ``|N| >= min_k c_k . e`` (a convex combination), so in global (u, v)
+      ``|F_u x F_v| >= min_k (c_k . e) / (w_max^4 h_u h_v)``;
+    * ``|F_u| <= max_k |a_k| / (w_min^2 h_u)``, ``|F_v| <= max_k |b_k| / (w_min^2 h_v)``;
+    * ``|F_u . F_v| <= max_k |d_k| / (w_min^4 h_u h_v)``, d the coefficients of A . B;
+    * ``lambda_min = |F_u x F_v|^2 / lambda_max`` and lambda_max = (E + G + sqrt((E - G)^2 + 4 F^2)) / 2
+      is increasing in E, G and |F|, so with their bounds ``kappa = 1 / sqrt(lambda_min) <=
+      sqrt(lambda_max bound) / |N|_min``;
+    * ``|n_i| <= min(1, |e_i| + sin theta)`` for a unit normal n in the cone, so
+      ``L_n <= min(L_F, sum_i min(1, |e_i| + sin theta) L_i)``;
+
+    and ``tan(phi) <= kappa L_n / (1 - kappa L_F)`` (`trimsurf.certify._normal`). Returns
+    (axis, half-angle, phi) with phi = pi where kappa L_F >= 1, or None when the coefficients do not lie
+    in an open half-space (no cone below 90 degrees: subdivide).
+    """
+    coef = _normal_coefficients(h)
+    if coef is None:
+        return None
+    a, b, c, wmin, wmax = coef
+    c = c.reshape(-1, 3)
+    n = np.linalg.norm(c, axis=1)
+    scale = n.max(initial=0.0)
+    if scale <= 0:
+        return None
+    axis = (c / np.where(n > 0, n, 1.0)[:, None])[n > 1e-14 * scale].mean(axis=0)
+    na = np.linalg.norm(axis)
+    if na < 1e-12:
+        return None
+    axis /= na
+    proj = c @ axis
+    nmin = float(proj.min())
+    if nmin <= 0:
+        return None
+    cosang = np.clip(proj / np.where(n > 0, n, 1.0), -1, 1)
+    half = float(np.arccos(cosang[n > 0]).max(initial=0.0))
+    if half >= 0.5 * np.pi:
+        return None
+    hu, hv = rect[1] - rect[0], rect[3] - rect[2]
+    fu = float(np.linalg.norm(a.reshape(-1, 3), axis=1).max()) / (wmin * wmin * hu)
+    fv = float(np.linalg.norm(b.reshape(-1, 3), axis=1).max()) / (wmin * wmin * hv)
+    ff = float(np.abs(_bprod(a, b, _dot)).max()) / (wmin ** 4 * hu * hv)     # |F_u . F_v|
+    nglob = nmin / (wmax ** 4 * hu * hv)
+    big_l = np.broadcast_to(np.asarray(lipschitz, float), (3,))
+    lf = float(np.linalg.norm(big_l))
+    if lf == 0:
+        return axis, half, 0.0
+    # lambda_max = (E + G + sqrt((E - G)^2 + 4 F^2)) / 2 grows with E, G and |F|: bounded by their bounds
+    e2, g2 = fu * fu, fv * fv
+    lam_max = 0.5 * (e2 + g2 + np.sqrt((e2 - g2) ** 2 + 4.0 * ff * ff))
+    kappa = np.sqrt(lam_max) / nglob
+    ln = min(lf, float(np.minimum(1.0, np.abs(axis) + np.sin(half)) @ big_l))
+    if kappa * lf >= 1:
+        return axis, half, float(np.pi)
+    return axis, half, float(np.arctan(kappa * ln / (1.0 - kappa * lf)))
 
 
 def _split_half(h: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
