@@ -627,7 +627,8 @@ def sample_boundaries(shell: Shell, *, rtol: float = 1e-2, abs_tol: float | None
             bad = (b > tol) & (rem > 0.25 * room_tol)
             if gap_round == max_gap_rounds or not bad.any() or len(e.t) >= max_gap_samples_per_edge:
                 continue
-            pieces = np.minimum(np.ceil(np.sqrt(rem[bad] / (0.5 * room_tol[bad]))), 64).astype(np.int64)
+            # the remainder shrinks as the square of the interval: aim at 0.8 of the room left
+            pieces = np.minimum(np.ceil(np.sqrt(rem[bad] / (0.8 * room_tol[bad]))), 64).astype(np.int64)
             t = e.t
             i_bad = np.flatnonzero(bad)
             extra = np.concatenate([t[i] + (t[i + 1] - t[i]) * np.arange(1, m) / m for i, m in zip(i_bad, pieces)])

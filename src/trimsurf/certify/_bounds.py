@@ -75,9 +75,30 @@ def _maxabs(x: np.ndarray) -> float:
     return float(np.abs(x).max()) if x.size else 0.0
 
 
-def curve_bounds(curve: NurbsCurve) -> CurveBounds:
-    """Rigorous per-span bounds of |C'| (per component and norm) and |C''| (see the module docstring)."""
-    seg = bezier_extract(curve.degree, curve.knots, curve.control_points, curve.weights)
+def _split_knots(knots: np.ndarray, degree: int, parts: int) -> np.ndarray:
+    """Knots splitting every non-empty span of the domain into `parts` equal parts."""
+    br = np.unique(np.asarray(knots, float)[degree:len(knots) - degree])
+    if parts <= 1 or len(br) < 2:
+        return np.zeros(0)
+    f = np.arange(1, parts) / parts
+    return (br[:-1, None] + (br[1:] - br[:-1])[:, None] * f[None, :]).ravel()
+
+
+def curve_bounds(curve: NurbsCurve, *, parts: int = 8, max_spans: int = 4096) -> CurveBounds:
+    """Rigorous per-span bounds of |C'| (per component and norm) and |C''| (see the module docstring).
+
+    Every span is first split into `parts` (knot refinement, the curve unchanged): the quotient bounds of
+    rational spans tighten as the spans shrink (at most `max_spans` spans in all)."""
+    kn, cp, w = curve.knots, curve.control_points, curve.weights
+    n_spans = max(len(np.unique(kn[curve.degree:len(kn) - curve.degree])) - 1, 1)
+    parts = int(max(1, min(parts, max_spans // n_spans)))
+    extra = _split_knots(kn, curve.degree, parts)
+    if len(extra):
+        from ..geom import refine_knots
+
+        r = refine_knots(curve.degree, kn, cp, w, extra)
+        kn, cp, w = r.knots, r.control_points, r.weights
+    seg = bezier_extract(curve.degree, kn, cp, w)
     br = np.asarray(seg.breaks, float)
     cp = np.asarray(seg.control_points, float)            # (m, p+1, dim)
     m, n1, dim = cp.shape
@@ -104,10 +125,26 @@ def curve_bounds(curve: NurbsCurve) -> CurveBounds:
     return CurveBounds(br, d1, d1n, d2n)
 
 
-def surface_bounds(surface: NurbsSurface) -> SurfaceBounds:
-    """Rigorous per-piece bounds of |F_u|, |F_v|, |F_uu|, |F_uv|, |F_vv| (see the module docstring)."""
-    bez = bezier_extract_surface(surface.degree_u, surface.degree_v, surface.knots_u, surface.knots_v,
-                                 surface.control_points, surface.weights)
+def surface_bounds(surface: NurbsSurface, *, parts: int = 4, max_pieces: int = 16384) -> SurfaceBounds:
+    """Rigorous per-piece bounds of |F_u|, |F_v|, |F_uu|, |F_uv|, |F_vv| (see the module docstring).
+
+    Every knot span is first split into `parts` in each direction (knot refinement, the surface unchanged;
+    fewer where that would make more than `max_pieces` pieces): the bounds tighten as the pieces shrink."""
+    from ..geom import refine_knots
+
+    ku, kv, cp, w = surface.knots_u, surface.knots_v, surface.control_points, surface.weights
+    pu_, pv_ = surface.degree_u, surface.degree_v
+    m0 = max(len(np.unique(ku[pu_:len(ku) - pu_])) - 1, 1)
+    n0 = max(len(np.unique(kv[pv_:len(kv) - pv_])) - 1, 1)
+    parts = int(max(1, min(parts, int(np.sqrt(max_pieces / (m0 * n0))))))
+    eu, ev = _split_knots(ku, pu_, parts), _split_knots(kv, pv_, parts)
+    if len(eu):
+        r = refine_knots(pu_, ku, cp, w, eu, axis=0)
+        ku, cp, w = r.knots, r.control_points, r.weights
+    if len(ev):
+        r = refine_knots(pv_, kv, cp, w, ev, axis=1)
+        kv, cp, w = r.knots, r.control_points, r.weights
+    bez = bezier_extract_surface(pu_, pv_, ku, kv, cp, w)
     ub, vb = np.asarray(bez.u_breaks, float), np.asarray(bez.v_breaks, float)
     cp = np.asarray(bez.control_points, float)            # (m, n, p+1, q+1, 3)
     m, n, p1_, q1_, _ = cp.shape
