@@ -21,14 +21,14 @@ def file_point_tolerance(path) -> float | None:
 
     Examples
     --------
-    >>> import tempfile, os
-    >>> text = "#5=( LENGTH_UNIT() NAMED_UNIT(*) SI_UNIT(.MILLI.,.METRE.) );\\n" \\
-    ...        "#6=UNCERTAINTY_MEASURE_WITH_UNIT(LENGTH_MEASURE(1.E-06),#5,'distance_accuracy_value','');\\n"
+    >>> import tempfile
+    >>> text = ("#5=( LENGTH_UNIT() NAMED_UNIT(*) CONVERSION_BASED_UNIT('INCH',#4) );\\n"
+    ...         "#6=UNCERTAINTY_MEASURE_WITH_UNIT(LENGTH_MEASURE(1.E-06),#5,'distance_accuracy_value','');\\n")
     >>> with tempfile.TemporaryDirectory() as d:
-    ...     p = os.path.join(d, "a.step")
-    ...     _ = open(p, "w").write(text)
-    ...     file_point_tolerance(p)
-    1e-06
+    ...     p = Path(d) / "a.step"
+    ...     _ = p.write_text(text)
+    ...     round(file_point_tolerance(p), 12)
+    2.54e-05
     """
     p = Path(path)
     if p.suffix.lower() not in (".step", ".stp"):
