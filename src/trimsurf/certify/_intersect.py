@@ -342,7 +342,9 @@ def _bprod(a: np.ndarray, b: np.ndarray, op) -> np.ndarray:
     su = _product_weights(a.shape[0] - 1, b.shape[0] - 1)
     sv = _product_weights(a.shape[1] - 1, b.shape[1] - 1)
     vals = op(a[:, :, None, None, :], b[None, None, :, :, :])      # (ma+1, na+1, mb+1, nb+1, d)
-    return np.einsum("rik,sjl,ijkld->rsd", su, sv, vals, optimize=True)
+    # sum_{i,k} su[r,i,k] sum_{j,l} sv[s,j,l] vals[i,j,k,l,:] as two tensordots (no einsum path search)
+    t1 = np.tensordot(su, vals, axes=([1, 2], [0, 2]))            # (r, na+1, nb+1, d)
+    return np.moveaxis(np.tensordot(sv, t1, axes=([1, 2], [1, 2])), 0, 1)   # (r, s, d)
 
 
 def _mul(x, y):
