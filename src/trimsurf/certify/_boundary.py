@@ -75,6 +75,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import TrimLoopError
+from ..geom import polyline_self_intersections
 from ..geom.whitney import boundary_data, lipschitz_loops
 from ._gap import BoundsCache, interval_bounds, polygon_remainder, use_remainder
 from ..model import NurbsCurve, PCurve, Shell, TrimmedFace
@@ -136,6 +137,7 @@ class FaceBoundary:
     interp_error: float                   # max |eps - PL interpolant| at the last midpoints
     n_rounds: int
     history: list[list[float]] = field(default_factory=list)
+    crossings: np.ndarray = None          # (k, 2) uv points where a loop's Whitney polygon crosses itself
 
     @property
     def n_samples(self) -> int:
@@ -724,6 +726,17 @@ def sample_boundaries(shell: Shell, *, rtol: float = 1e-2, abs_tol: float | None
                 r = np.where(big_l > 0, fine_l / big_l, np.where(fine_l > abs_tol, np.inf, 1.0))
             ratio = 1.0 + float(np.max(fine_l - big_l)) / float(big_l.max()) if big_l.max() > 0 else float(np.max(r))
             # informative only: L is exact for the data that defines G (see the module docstring)
+        # a loop whose polygon crosses itself (e.g. a p-curve running past the corner where the next one
+        # starts) has two values at the crossing: no Lipschitz constant, the extension does not interpolate
+        cross = []
+        for lp in loops:
+            hits = polyline_self_intersections(lp.uv)
+            cross += [0.5 * (lp.uv[i] + lp.uv[(i + 1) % len(lp.uv)]) for i in hits[:, 0]]
         out[f] = FaceBoundary(f, loops, final_l, big_l, ratio, float(rel_change[f]), interp[f], n_rounds,
-                              history[f])
+                              history[f], np.array(cross).reshape(-1, 2))
+    for k in shared_k:
+        e = edges[k]
+        if any(out[u.face] is not None and len(out[u.face].crossings) for u in e.uses):
+            e.gap_bound = float("inf")           # the faces' extensions are not certified to interpolate
+            e.interval_bound = np.full(max(len(e.t) - 1, 0), np.inf)
     return out, edges, where

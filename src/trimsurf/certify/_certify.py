@@ -104,7 +104,10 @@ class ShellCertificate:
         for f in self.faces:
             out += list(f.problems)
         for e in self.edges:
-            if e["gap_bound"] > e["tolerance"]:
+            if not np.isfinite(e["gap_bound"]):
+                out.append(f"edge {e['shell_edge']} (faces {', '.join(map(str, e['faces']))}): no bound on the gap "
+                           "between the perturbed faces (a face's trim polygon crosses itself)")
+            elif e["gap_bound"] > e["tolerance"]:
                 out.append(f"edge {e['shell_edge']} (faces {', '.join(map(str, e['faces']))}): the perturbed faces may be "
                            f"up to {e['gap_bound']:.3g} apart between samples, above the point tolerance "
                            f"{e['tolerance']:.3g}")
@@ -352,7 +355,8 @@ def certify_shell(shell: Shell, *, rtol: float = 1e-2, max_chord: float | None =
         m = measured.get(k)
         edge_rows.append({"edge": k, "shell_edge": e.shell_edge, "faces": sorted({u.face for u in e.uses}),
                           "n_samples": int(len(e.t)), "gap_bound": float(e.gap_bound),
-                          "gap_max": None if m is None else m["gap_max"], "tolerance": float(e.gap_tolerance)})
+                          "gap_max": None if m is None else m["gap_max"], "tolerance": float(e.gap_tolerance),
+                          "bound_valid": bool(np.isfinite(e.gap_bound))})
     t4 = time.perf_counter()
     settings = {"rtol": rtol, "max_chord": chord, "n_domain": n_domain, "pairing": pairing, "point_tolerance": tol,
                 "gap_samples": gap_samples, "max_normal_angle_deg": max_normal_angle_deg,

@@ -301,6 +301,10 @@ def face_certificate(g: PerturbedFace, *, n_domain: int = 40,
             why = f"kappa*L = {nb.kappa_lf[worst]:.3g}" + (" >= 1" if nb.kappa_lf[worst] >= 1 else "")
         problems.append(f"face {fb.face}: normal bound {phi_sampled:.3g} deg at uv ({uv[worst, 0]:.6g}, {uv[worst, 1]:.6g}) "
                         f"not below {max_normal_angle_deg:g} deg ({why})")
+    if fb.crossings is not None and len(fb.crossings):
+        c0 = fb.crossings[0]
+        problems.append(f"face {fb.face}: its trim polygon crosses itself ({len(fb.crossings)} crossing(s), first near "
+                        f"uv ({c0[0]:.6g}, {c0[1]:.6g})): the boundary data has no Lipschitz constant there")
     if gap < 0:
         problems.append(f"face {fb.face}: l > u by {-gap:.3g} after raising L")
     cert = FaceCertificate(

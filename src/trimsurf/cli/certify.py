@@ -93,8 +93,8 @@ def load_model(name: str):
     return io.read_shell(path)
 
 
-def _fmt(x: float) -> str:
-    return f"{x:.3g}"
+def _fmt(x: float | None) -> str:
+    return "unbounded" if x is None else f"{x:.3g}"
 
 
 def format_certificate(report: dict, *, max_rows: int = 40) -> str:
