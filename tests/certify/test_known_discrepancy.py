@@ -75,3 +75,24 @@ def test_gap_pair_discrepancy_scales_with_the_gap():
     for fs, fl in zip(small.faces, large.faces):
         assert fl.max_discrepancy == pytest.approx(10 * fs.max_discrepancy, rel=0.02)
         assert fl.normal_bound_deg == pytest.approx(10 * fs.normal_bound_deg, rel=0.05)
+
+
+def test_trim_polygon_crossing_itself_is_not_certified():
+    # the bottom p-curve runs past the corner where the right one starts (a 0.07 gap, far above the merge
+    # tolerance): the loop's polygon crosses itself, so the data has two values at one point and no
+    # Lipschitz constant; the face must not be certified (and say where)
+    from trimsurf.model import Loop, PCurve, TrimmedFace
+    from trimsurf.samples._build import assemble_shell, line
+
+    from ._faces import bicubic
+
+    s = bicubic()
+    pts = [((0.1, 0.1), (0.95, 0.1)), ((0.9, 0.05), (0.9, 0.9)), ((0.9, 0.9), (0.1, 0.9)), ((0.1, 0.9), (0.1, 0.1))]
+    segs = tuple(PCurve(line(a, b), 0.0, 1.0) for a, b in pts)
+    shell = assemble_shell([TrimmedFace(s, (Loop(segs),), name="crossing")], name="crossing")
+    cert = certify_shell(shell, intersections=False)
+    f = cert.faces[0]
+    assert not f.certified
+    assert any("crosses itself" in p for p in f.problems), f.problems
+    crossings = cert.perturbed[0].boundary.crossings
+    assert len(crossings) == 1 and np.abs(crossings[0] - [0.9, 0.1]).max() < 0.01
