@@ -75,8 +75,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import TrimLoopError
-from ..geom import polyline_self_intersections
 from ..geom.whitney import boundary_data, lipschitz_loops
+from ._crossing import polygon_crossings
 from ._gap import BoundsCache, interval_bounds, polygon_remainder, use_remainder
 from ..model import NurbsCurve, PCurve, Shell, TrimmedFace
 
@@ -642,6 +642,8 @@ def sample_boundaries(shell: Shell, *, rtol: float = 1e-2, abs_tol: float | None
     shared_k = [k for k in relevant if len(edges[k].uses) >= 2 and not edges[k].degenerate
                 and all(u.face in wanted for u in edges[k].uses)]
     bcache = BoundsCache()
+    needs_l = {u.face for e in edges for u in e.uses if u.pairing != "surface"}
+    stale: set = set()
     for gap_round in range(max_gap_rounds + 1):
         changed = []
         for k in shared_k:
@@ -651,7 +653,7 @@ def sample_boundaries(shell: Shell, *, rtol: float = 1e-2, abs_tol: float | None
             e.interval_bound, e.gap_bound, e.gap_tolerance = b, float(b.max(initial=0.0)), tol
             # refinement reduces only the remainder (as the square of the interval), not a corner's mismatch
             room_tol = np.maximum(tol - fixed, 0.25 * tol)
-            bad = (b > tol) & (rem > 0.25 * room_tol)
+            bad = (b > tol) & (rem > 0.25 * room_tol) & np.isfinite(rem)    # unbounded: refinement cannot help
             if gap_round == max_gap_rounds or not bad.any() or len(e.t) >= max_gap_samples_per_edge:
                 continue
             # the remainder shrinks as the square of the interval: aim at 0.8 of the room left
@@ -668,8 +670,16 @@ def sample_boundaries(shell: Shell, *, rtol: float = 1e-2, abs_tol: float | None
         if not changed:
             break
         evaluate_all(changed)
-        for f in {u.face for k in changed for u in edges[k].uses if u.face in wanted}:
-            final[f] = face_l(f)
+        touched = {u.face for k in changed for u in edges[k].uses if u.face in wanted}
+        stale |= touched
+        # L enters the bound only for uses not paired on the surface: recompute it (O(k m), pruned) for
+        # those faces now, for the others once after the rounds
+        for f in touched:
+            if f in needs_l:
+                final[f] = face_l(f)
+                stale.discard(f)
+    for f in stale:
+        final[f] = face_l(f)
     for e in edges:
         e.tau, e.poly = {}, {}
         for u in e.uses:
@@ -730,7 +740,7 @@ def sample_boundaries(shell: Shell, *, rtol: float = 1e-2, abs_tol: float | None
         # starts) has two values at the crossing: no Lipschitz constant, the extension does not interpolate
         cross = []
         for lp in loops:
-            hits = polyline_self_intersections(lp.uv)
+            hits = polygon_crossings(lp.uv)
             cross += [0.5 * (lp.uv[i] + lp.uv[(i + 1) % len(lp.uv)]) for i in hits[:, 0]]
         out[f] = FaceBoundary(f, loops, final_l, big_l, ratio, float(rel_change[f]), interp[f], n_rounds,
                               history[f], np.array(cross).reshape(-1, 2))

@@ -106,7 +106,8 @@ class ShellCertificate:
         for e in self.edges:
             if not np.isfinite(e["gap_bound"]):
                 out.append(f"edge {e['shell_edge']} (faces {', '.join(map(str, e['faces']))}): no bound on the gap "
-                           "between the perturbed faces (a face's trim polygon crosses itself)")
+                           "between the perturbed faces (a face's trim polygon crosses itself, or a "
+                           "sample lies outside a surface's domain)")
             elif e["gap_bound"] > e["tolerance"]:
                 out.append(f"edge {e['shell_edge']} (faces {', '.join(map(str, e['faces']))}): the perturbed faces may be "
                            f"up to {e['gap_bound']:.3g} apart between samples, above the point tolerance "

@@ -33,7 +33,13 @@ The sups are the rigorous control-net bounds of `trimsurf.certify._bounds`:
 |p'| per component and |p''| over the p-curve's Bézier spans meeting the
 interval, the derivatives of F over the surface's Bézier pieces meeting a box
 that contains p([tau_i, tau_i+1]) (the end points widened by sup|p'| sigma / 2).
-Rounding is not accounted for (the bounds are evaluated in floating point).
+Samples beyond the surface's domain (by more than 1e-9 of it: F is
+extrapolated there) make the interval's bound unbounded. Not proven: that a
+p-curve whose samples lie in the domain stays in it between them (p-curves
+along the domain's boundary are common; the derivative bounds are looked up
+over the box clipped to the domain). Rounding: the bound
+adds 1e-13 times the largest coordinate (`interval_bounds`); the bounds
+themselves are evaluated in floating point.
 """
 
 from __future__ import annotations
@@ -81,7 +87,9 @@ def use_remainder(surface, curve, uv: np.ndarray, tau: np.ndarray, big_l: np.nda
     pu, pv = d1c[:, 0], d1c[:, 1]
     m2 = fuu * pu * pu + 2.0 * fuv * pu * pv + fvv * pv * pv + grad * d2n
     lx = float(np.linalg.norm(big_l))
-    return sigma * sigma / 8.0 * (m2 + lx * d2n) + sh * (grad + lx)
+    out = sigma * sigma / 8.0 * (m2 + lx * d2n) + sh * (grad + lx)
+    ends_lo, ends_hi = np.minimum(uv[:-1], uv[1:]), np.maximum(uv[:-1], uv[1:])
+    return np.where(_outside(surface, ends_lo, ends_hi), np.inf, out)
 
 
 def polygon_remainder(surface, uv: np.ndarray, cache: BoundsCache) -> np.ndarray:
@@ -95,9 +103,19 @@ def polygon_remainder(surface, uv: np.ndarray, cache: BoundsCache) -> np.ndarray
     h = np.linalg.norm(vec, axis=1)
     with np.errstate(divide="ignore", invalid="ignore"):
         d = np.where(h[:, None] > 0, np.abs(vec) / np.where(h > 0, h, 1.0)[:, None], 0.0)
-    fb = max_over_boxes(cache.surface(surface), np.minimum(uv[:-1], uv[1:]), np.maximum(uv[:-1], uv[1:]))
+    lo, hi = np.minimum(uv[:-1], uv[1:]), np.maximum(uv[:-1], uv[1:])
+    fb = max_over_boxes(cache.surface(surface), lo, hi)
     m2 = fb[:, 2] * d[:, 0] ** 2 + 2.0 * fb[:, 3] * d[:, 0] * d[:, 1] + fb[:, 4] * d[:, 1] ** 2
-    return h * h / 8.0 * m2
+    return np.where(_outside(surface, lo, hi), np.inf, h * h / 8.0 * m2)
+
+
+def _outside(surface, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Boxes reaching beyond the surface's domain by more than 1e-9 of its size: there F is extrapolated
+    and the control-net bounds do not hold (the interval's bound is then unbounded)."""
+    (u0, u1), (v0, v1) = surface.domain
+    dlo, dhi = np.array([u0, v0]), np.array([u1, v1])
+    slack = 1e-9 * (dhi - dlo)
+    return np.any((lo < dlo - slack) | (hi > dhi + slack), axis=1)
 
 
 def interval_bounds(remainders: list[np.ndarray], targets: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
