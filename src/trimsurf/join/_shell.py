@@ -78,6 +78,10 @@ class JoinResult:
         return not self.bad_faces
 
 
+# boundary slopes (dimensionless heights per unit of (u, v) distance) at or below this are rounding
+SLOPE_ROUNDING = 1e-9
+
+
 def _check_inputs(shell: Shell, meshes: Sequence[TriMesh]) -> None:
     if not isinstance(shell, Shell):
         raise InputError(f"join_shell: expected a Shell; got {type(shell).__name__}")
@@ -520,7 +524,7 @@ def _summary(shell: Shell, res: JoinResult, measure: bool = True) -> dict:
     joined = [e for e in res.edges if e.joined]
     joint_ids = np.unique(np.concatenate([e.gid for e in joined])) if joined else np.zeros(0, dtype=np.int64)
     on_joint = np.zeros(res.mesh.n_vertices, dtype=bool)
-    abs_after, slope_after, slope_ratio = 0.0, 0.0, 0.0
+    abs_after, slope_after, slope_ratio = 0.0, 0.0, float("nan")   # nan: no face with L above rounding
     for i, r in enumerate(res.patches):
         if r is None:
             continue
@@ -534,8 +538,8 @@ def _summary(shell: Shell, res: JoinResult, measure: bool = True) -> dict:
         abs_after = max(abs_after, float(np.abs(eta).max()))
         sl = corner_slopes(pr.uv, eta, r.triangles, r.scale)
         slope_after = max(slope_after, float(sl.max()))
-        if r.lipschitz > 0:
-            slope_ratio = max(slope_ratio, float(sl.max()) / r.lipschitz)
+        if r.lipschitz > SLOPE_ROUNDING:   # a ratio to L at rounding level (L ~ 1e-14) says nothing
+            slope_ratio = np.nanmax([slope_ratio, float(sl.max()) / r.lipschitz])
     ok = [f for f in res.faces if f.status == "joined"]
     # boundary edges between two joint vertices: only triangles with two joint corners can have one
     t = res.mesh.triangles
