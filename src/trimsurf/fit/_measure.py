@@ -1,0 +1,412 @@
+"""The written face measured: the STEP file read back through Open CASCADE and compared with the mesh.
+
+What a fit reports must be what a user opens. `measure_written_face` reads
+the file with Open CASCADE's STEP reader and measures the face as read:
+
+* ``step_valid``: ``BRepCheck_Analyzer`` on the shape read back (not on the
+  shape before writing);
+* ``area``: the trimmed face's area by ``BRepGProp::SurfaceProperties``
+  (adaptive Gauss integration over the region inside the trims), and its
+  ratio to the mesh's area;
+* a tessellation of the trimmed face by ``BRepMesh_IncrementalMesh`` at a
+  deflection tied to the tolerance (`deflection_for`), each triangle split in
+  (u, v) until its 3D edges are shorter than the sample spacing;
+* ``hausdorff_face_to_mesh``: exact distances to the mesh of points of the
+  read-back surface S(u, v) at the tessellation's (u, v) nodes and triangle
+  centroids (all inside the trims);
+* ``hausdorff_mesh_to_face``: each mesh vertex to the
+  tessellation, then projected onto S from there (Newton from the
+  tessellation's (u, v)); the projection is kept where its foot lies inside
+  the trimmed region and is nearer, so the figure is exact there and within
+  the tessellation's deflection elsewhere;
+* ``self_intersections``: intersecting triangle pairs of the tessellation
+  (sheets of the face closer than the deflection may count).
+
+The maxima are sampled, not proven: between samples a distance can exceed
+the sampled maximum by up to the sample spacing (both reported). The sample
+counts follow the face's area over the spacing squared and the mesh's vertex
+and triangle counts (linear), never their product.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..model import TriMesh
+
+__all__ = ["WrittenFace", "measure_written_face", "deflection_for"]
+
+
+@dataclass(frozen=True, eq=False)
+class WrittenFace:
+    """Figures of the face read back from a STEP file, against the mesh it was fitted to (model units).
+
+    Attributes
+    ----------
+    path : str
+    readable : bool
+        Open CASCADE read a shape with at least one face.
+    n_faces : int
+    step_valid : bool
+        ``BRepCheck_Analyzer`` accepts the shape read back.
+    area, mesh_area, area_ratio : float
+        Trimmed face area (BRepGProp), mesh area, face / mesh.
+    hausdorff : float
+        max of the two one-sided maxima below (sampled).
+    hausdorff_mesh_to_face, hausdorff_face_to_mesh : float
+    rms_mesh_to_face : float
+        RMS over the mesh samples.
+    where_mesh_to_face, where_face_to_mesh : (3,) float64
+        Where each maximum was found.
+    boundary_deviation : float
+        Two-sided distance between the mesh's boundary loops and the face's
+        boundary (the tessellation's border edges: the trim curves within the
+        deflection), both sampled at a quarter of the mesh's mean boundary edge.
+    self_intersections : int
+        Intersecting triangle pairs of the tessellation of the face.
+    deflection, deflection_measured : float
+        BRepMesh's linear deflection and the largest distance found between the
+        tessellation and the surface (at the triangle centroids).
+    sample_spacing : float
+        Longest 3D edge of the sampled face triangles: a face point is at most
+        this far from a sample.
+    n_face_samples, n_mesh_samples, n_tessellation_triangles : int
+    error : str
+        Why the file could not be measured ("" when it could).
+    seconds : dict
+    tessellation : TriMesh or None
+        BRepMesh's triangles of the face read back (for pictures).
+    """
+
+    path: str
+    readable: bool
+    n_faces: int
+    step_valid: bool
+    area: float
+    mesh_area: float
+    area_ratio: float
+    hausdorff: float
+    hausdorff_mesh_to_face: float
+    hausdorff_face_to_mesh: float
+    rms_mesh_to_face: float
+    where_mesh_to_face: np.ndarray
+    where_face_to_mesh: np.ndarray
+    boundary_deviation: float
+    self_intersections: int
+    deflection: float
+    deflection_measured: float
+    sample_spacing: float
+    n_face_samples: int
+    n_mesh_samples: int
+    n_tessellation_triangles: int
+    error: str = ""
+    seconds: dict = field(default_factory=dict)
+    tessellation: TriMesh | None = None
+
+    def as_dict(self) -> dict:
+        """JSON-ready figures (NaN -> None)."""
+        def clean(v):
+            if isinstance(v, np.ndarray):
+                return [clean(x) for x in v.tolist()]
+            if isinstance(v, float) and not math.isfinite(v):
+                return None
+            return v
+        keys = ("readable", "n_faces", "step_valid", "area", "mesh_area", "area_ratio", "hausdorff",
+                "hausdorff_mesh_to_face", "hausdorff_face_to_mesh", "rms_mesh_to_face", "where_mesh_to_face",
+                "where_face_to_mesh", "boundary_deviation", "self_intersections", "deflection", "deflection_measured", "sample_spacing",
+                "n_face_samples", "n_mesh_samples", "n_tessellation_triangles", "error")
+        out = {k: clean(getattr(self, k)) for k in keys}
+        out["seconds"] = {k: float(v) for k, v in self.seconds.items()}
+        return out
+
+
+def deflection_for(tolerance: float, diagonal: float) -> float:
+    """BRepMesh deflection for measuring against `tolerance`: a tenth of it, at most 2e-4 of the diagonal.
+
+    The mesh -> face distances are exact where the projection onto S lands
+    inside the trims; the deflection bounds their error elsewhere and sets the
+    resolution of the self-intersection count.
+    """
+    return float(min(0.1 * tolerance, 2e-4 * diagonal))
+
+
+def _failed(path, mesh: TriMesh, error: str, *, readable=False, n_faces=0, valid=False, seconds=None) -> WrittenFace:
+    nan = float("nan")
+    return WrittenFace(str(path), readable, n_faces, valid, nan, mesh.area(), nan, nan, nan, nan, nan,
+                       np.full(3, nan), np.full(3, nan), nan, -1, nan, nan, nan, 0, 0, 0, error, seconds or {})
+
+
+def _read(path):
+    """(shape, error) of a STEP file read with Open CASCADE, quietly."""
+    from OCP.IFSelect import IFSelect_RetDone
+    from OCP.STEPControl import STEPControl_Reader
+
+    from ..io._occ import quiet_occ
+
+    shape, error = None, ""
+    with quiet_occ():
+        try:
+            reader = STEPControl_Reader()
+            status = reader.ReadFile(str(path))
+            if status == IFSelect_RetDone:          # TransferRoots after a failed read crashes the process
+                reader.TransferRoots()
+                shape = reader.OneShape()
+            else:
+                error = f"Open CASCADE cannot read it (status {getattr(status, 'name', status)})"
+        except Exception as exc:  # noqa: BLE001 - Open CASCADE's Standard_Failure
+            error = f"Open CASCADE cannot read it ({type(exc).__name__}: {exc})"
+    if shape is not None and shape.IsNull():
+        shape, error = None, "Open CASCADE read an empty shape"
+    return shape, error
+
+
+def _faces(shape) -> list:
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    out, ex = [], TopExp_Explorer(shape, TopAbs_FACE)
+    while ex.More():
+        out.append(TopoDS.Face(ex.Current()))
+        ex.Next()
+    return out
+
+
+def _triangulation(face):
+    """(points (k, 3), uv (k, 2), triangles (m, 3)) of a meshed face, location applied."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopLoc import TopLoc_Location
+
+    loc = TopLoc_Location()
+    tri = BRep_Tool.Triangulation_s(face, loc)
+    if tri is None or tri.NbTriangles() == 0 or not tri.HasUVNodes():
+        return None
+    trsf = loc.Transformation()
+    nn, nt = tri.NbNodes(), tri.NbTriangles()
+    pts = np.array([tri.Node(i).Transformed(trsf).Coord() for i in range(1, nn + 1)], dtype=np.float64)
+    uv = np.array([tri.UVNode(i).Coord() for i in range(1, nn + 1)], dtype=np.float64)
+    tris = np.array([tri.Triangle(i).Get() for i in range(1, nt + 1)], dtype=np.int64) - 1
+    return pts, uv, tris
+
+
+def _split_long(uv: np.ndarray, tris: np.ndarray, pts: np.ndarray, surface, spacing: float, max_levels: int = 4):
+    """Midpoint-split (1 to 4 in (u, v)) every triangle whose longest 3D edge exceeds `spacing`, a few levels.
+
+    New points are evaluated on the surface. Returns (uv, pts, tris) of the
+    samples: the triangles are for sampling only (they may hang)."""
+    for _ in range(max_levels):
+        p = pts[tris]
+        longest = np.max(np.linalg.norm(p - np.roll(p, -1, axis=1), axis=2), axis=1)
+        big = longest > spacing
+        if not big.any():
+            break
+        t = tris[big]
+        n = len(uv)
+        e = np.stack([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]], axis=1).reshape(-1, 2)
+        e = np.sort(e, axis=1)
+        key = e[:, 0] * n + e[:, 1]
+        uniq, inv = np.unique(key, return_inverse=True)
+        mid_uv = 0.5 * (uv[uniq // n] + uv[uniq % n])
+        mid_pts = surface.evaluate(mid_uv)
+        m = (n + inv).reshape(-1, 3)
+        a, b, c = t[:, 0], t[:, 1], t[:, 2]
+        new = np.concatenate([np.c_[a, m[:, 0], m[:, 2]], np.c_[m[:, 0], b, m[:, 1]],
+                              np.c_[m[:, 2], m[:, 1], c], np.c_[m[:, 0], m[:, 1], m[:, 2]]])
+        uv = np.vstack([uv, mid_uv])
+        pts = np.vstack([pts, mid_pts])
+        tris = np.vstack([tris[~big], new])
+    return uv, pts, tris
+
+
+def _segment_samples(a: np.ndarray, b: np.ndarray, step: float) -> np.ndarray:
+    n = np.maximum(np.ceil(np.linalg.norm(b - a, axis=1) / step).astype(np.int64), 1)
+    idx = np.repeat(np.arange(len(a)), n)
+    t = (np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)) / np.repeat(n, n)
+    return a[idx] + t[:, None] * (b[idx] - a[idx])
+
+
+def _distance_to_segments(points: np.ndarray, a: np.ndarray, b: np.ndarray, k: int = 8) -> np.ndarray:
+    """Distance of each point to the nearest segment [a_j, b_j] (exact over the k segments with the nearest
+    midpoints)."""
+    from scipy.spatial import cKDTree
+
+    from ..quality import point_segment_closest
+
+    k = int(min(k, len(a)))
+    _, idx = cKDTree(0.5 * (a + b)).query(points, k=k)
+    idx = np.asarray(idx).reshape(len(points), k)
+    q = np.repeat(points, k, axis=0)
+    c, _ = point_segment_closest(q, a[idx.ravel()], b[idx.ravel()])
+    return np.linalg.norm(c - q, axis=1).reshape(len(points), k).min(axis=1)
+
+
+def _boundary_deviation(mesh: TriMesh, tess: TriMesh) -> float:
+    """Two-sided sampled distance between the border edges of two meshes."""
+    em, et = mesh.boundary_edges(), tess.boundary_edges()
+    if not len(em) or not len(et):
+        return float("nan")
+    am, bm = mesh.vertices[em[:, 0]], mesh.vertices[em[:, 1]]
+    at, bt = tess.vertices[et[:, 0]], tess.vertices[et[:, 1]]
+    step = float(np.linalg.norm(bm - am, axis=1).mean()) / 4
+    d1 = _distance_to_segments(_segment_samples(am, bm, step), at, bt)
+    d2 = _distance_to_segments(_segment_samples(at, bt, step), am, bm)
+    return float(max(d1.max(), d2.max()))
+
+
+def measure_written_face(path, mesh: TriMesh, *, tolerance: float | None = None, sample_spacing: float | None = None,
+                         self_intersections: bool = True) -> WrittenFace:
+    """Read the STEP file `path` back through Open CASCADE and measure its face against `mesh`.
+
+    Parameters
+    ----------
+    path : str or Path
+        A STEP file written by `trimsurf.io.write_shell` (one face).
+    mesh : TriMesh
+        The mesh the face was fitted to.
+    tolerance : float or None
+        The deviation the caller will hold the face to (model units); sets the
+        tessellation deflection (`deflection_for`). Default 1% of the mesh's
+        diagonal.
+    sample_spacing : float or None
+        Longest 3D edge of a sampled face triangle; default the tolerance,
+        at least 1/300 of the diagonal, so the face samples number about
+        area / spacing^2 whatever the mesh's size.
+    self_intersections : bool
+        Count intersecting pairs of the tessellation's triangles.
+
+    Returns
+    -------
+    WrittenFace
+        ``readable`` False (and NaN figures, ``error`` set) when Open CASCADE
+        cannot read the file, it holds no face, or the face cannot be meshed.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from trimsurf.fit import fit_trimmed_face
+    >>> from trimsurf.io import write_shell
+    >>> from trimsurf.samples import holed_sheet
+    >>> mesh = holed_sheet(max_area=600.0)
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "sheet.step"
+    >>> write_shell(fit_trimmed_face(mesh, embed_method="lscm", grid_shape=(10, 8)).face, path)
+    >>> w = measure_written_face(path, mesh)
+    >>> w.step_valid, abs(w.area_ratio - 1) < 0.01, w.hausdorff < 0.005 * mesh.diagonal()
+    (True, True, True)
+    """
+    from OCP.BRepCheck import BRepCheck_Analyzer
+    from OCP.BRepGProp import BRepGProp
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+    from OCP.BRepTools import BRepTools
+    from OCP.BRep import BRep_Tool
+    from OCP.GProp import GProp_GProps
+
+    from ..geom.projection import project_to_surface
+    from ..io._occ import quiet_occ, surface_from_occ
+    from ..quality import closest_points_on_mesh
+    from ..quality import self_intersections as self_int
+    from ._grid import locate
+
+    secs: dict = {}
+    t = time.perf_counter()
+    diag = mesh.diagonal()
+    tol = 0.01 * diag if tolerance is None else float(tolerance)
+    spacing = max(tol, diag / 300.0) if sample_spacing is None else float(sample_spacing)
+    shape, error = _read(path) if Path(path).is_file() else (None, "no such file")
+    secs["read"] = time.perf_counter() - t
+    if shape is None:
+        return _failed(path, mesh, error, seconds=secs)
+    faces = _faces(shape)
+    if not faces:
+        return _failed(path, mesh, "the file holds no face", readable=True, seconds=secs)
+    t = time.perf_counter()
+    with quiet_occ():
+        valid = bool(BRepCheck_Analyzer(shape).IsValid())
+    secs["check"] = time.perf_counter() - t
+    t = time.perf_counter()
+    props = GProp_GProps()
+    with quiet_occ():
+        BRepGProp.SurfaceProperties_s(shape, props, 1e-6)
+    area = float(props.Mass())
+    secs["area"] = time.perf_counter() - t
+    t = time.perf_counter()
+    defl = deflection_for(tol, diag)
+    with quiet_occ():
+        try:
+            BRepMesh_IncrementalMesh(shape, defl, False, 0.5, False)
+        except Exception as exc:  # noqa: BLE001
+            return _failed(path, mesh, f"BRepMesh cannot mesh the face ({type(exc).__name__})", readable=True,
+                           n_faces=len(faces), valid=valid, seconds=secs)
+    # every face of the file, each with its own surface (a fit writes one)
+    tess_pts, tess_tris, sample_tris = [], [], []
+    n_tess = 0
+    for f in faces:
+        tri = _triangulation(f)
+        if tri is None:
+            continue
+        pts, uv, tris = tri
+        u0, u1, v0, v1 = BRepTools.UVBounds_s(f)
+        with quiet_occ():
+            surface = surface_from_occ(BRep_Tool.Surface_s(f), np.array([u0, v0]), np.array([u1, v1]))
+        tess_pts.append(pts)
+        tess_tris.append(tris + sum(len(p) for p in tess_pts[:-1]))
+        n_tess += len(tris)
+        suv, spts, stris = _split_long(uv, tris, surface.evaluate(uv), surface, spacing)
+        sample_tris.append((surface, suv, spts, stris, uv, tris, pts))
+    secs["tessellate"] = time.perf_counter() - t
+    if not tess_pts:
+        return _failed(path, mesh, "BRepMesh left the face without triangles", readable=True, n_faces=len(faces),
+                       valid=valid, seconds=secs)
+    t = time.perf_counter()
+    tess = TriMesh(np.vstack(tess_pts), np.vstack(tess_tris))
+    # face -> mesh: exact surface points at the sample nodes and the centroids of the sample triangles
+    fpts, defl_meas, spacing_meas = [], 0.0, 0.0
+    for surface, suv, spts, stris, uv, tris, pts in sample_tris:
+        cen_uv = suv[stris].mean(axis=1)
+        fpts.append(spts)
+        fpts.append(surface.evaluate(cen_uv))
+        p = spts[stris]
+        spacing_meas = max(spacing_meas, float(np.max(np.linalg.norm(p - np.roll(p, -1, axis=1), axis=2))))
+        # deflection of BRepMesh's own triangles, at their centroids
+        tc = surface.evaluate(uv[tris].mean(axis=1))
+        defl_meas = max(defl_meas, float(np.max(np.linalg.norm(tc - pts[tris].mean(axis=1), axis=1))))
+    fpts = np.vstack(fpts)
+    d_face = closest_points_on_mesh(fpts, mesh).distance
+    secs["face_to_mesh"] = time.perf_counter() - t
+    t = time.perf_counter()
+    # mesh -> face: vertices and triangle centroids to the tessellation, refined by projection onto S
+    mv = mesh.vertices
+    mpts = mv
+    cp = closest_points_on_mesh(mpts, tess)
+    d_mesh = cp.distance.copy()
+    offset = 0
+    for surface, _suv, _spts, _stris, uv, tris, pts in sample_tris:
+        sel = (cp.triangle >= offset) & (cp.triangle < offset + len(tris))
+        if sel.any():
+            local = cp.triangle[sel] - offset
+            uv0 = np.einsum("kj,kjd->kd", cp.barycentric[sel], uv[tris[local]])
+            proj = project_to_surface(mpts[sel], surface.degree_u, surface.degree_v, surface.knots_u,
+                                      surface.knots_v, surface.control_points, surface.weights, uv0=uv0,
+                                      retry=False, max_iter=20)
+            inside = locate(uv, tris, proj.uv, k=6)[0] >= 0
+            better = inside & proj.converged & (proj.distance < d_mesh[sel])
+            idx = np.flatnonzero(sel)[better]
+            d_mesh[idx] = proj.distance[better]
+        offset += len(tris)
+    secs["mesh_to_face"] = time.perf_counter() - t
+    t = time.perf_counter()
+    n_si = int(self_int(tess).n_pairs) if self_intersections else -1
+    secs["self_intersections"] = time.perf_counter() - t
+    t = time.perf_counter()
+    bd = _boundary_deviation(mesh, tess)
+    secs["boundary"] = time.perf_counter() - t
+    km, kf = int(np.argmax(d_mesh)), int(np.argmax(d_face))
+    h_mf, h_fm = float(d_mesh[km]), float(d_face[kf])
+    m_area = mesh.area()
+    return WrittenFace(str(path), True, len(faces), valid, area, m_area, area / m_area if m_area > 0 else float("nan"),
+                       max(h_mf, h_fm), h_mf, h_fm, float(np.sqrt(np.mean(d_mesh ** 2))), mpts[km].copy(),
+                       fpts[kf].copy(), bd, n_si, defl, defl_meas, spacing_meas, len(fpts), len(mpts), n_tess, "", secs, tess)
