@@ -9,16 +9,18 @@ the file with Open CASCADE's STEP reader and measures the face as read:
   (adaptive Gauss integration over the region inside the trims), and its
   ratio to the mesh's area;
 * a tessellation of the trimmed face by ``BRepMesh_IncrementalMesh`` at a
-  deflection tied to the tolerance (`deflection_for`), each triangle split in
-  (u, v) until its 3D edges are shorter than the sample spacing;
+  deflection tied to the tolerance (`deflection_for`);
 * ``hausdorff_face_to_mesh``: exact distances to the mesh of points of the
   read-back surface S(u, v) at the tessellation's (u, v) nodes and triangle
-  centroids (all inside the trims);
+  centroids, and on a (u, v) grid of about the sample spacing in 3D kept
+  where it falls inside the trim loops;
 * ``hausdorff_mesh_to_face``: each mesh vertex to the
   tessellation, then projected onto S from there (Newton from the
   tessellation's (u, v)); the projection is kept where its foot lies inside
-  the trimmed region and is nearer, so the figure is exact there and within
-  the tessellation's deflection elsewhere;
+  the face's trim loops (its p-curves read back, even-odd rule); a foot
+  outside them is replaced by the nearest trim point q in (u, v) and the
+  distance to S(q) (an upper bound, exact for a mesh border vertex on the
+  trim); the smaller of that and the tessellation's distance is kept;
 * ``self_intersections``: intersecting triangle pairs of the tessellation
   (sheets of the face closer than the deflection may count).
 
@@ -65,16 +67,16 @@ class WrittenFace:
         Where each maximum was found.
     boundary_deviation : float
         Two-sided distance between the mesh's boundary loops and the face's
-        boundary (the tessellation's border edges: the trim curves within the
-        deflection), both sampled at a quarter of the mesh's mean boundary edge.
+        trim curves S(lambda) (its p-curves read back, mapped by S), both
+        sampled at about a quarter of the mesh's mean boundary edge.
     self_intersections : int
         Intersecting triangle pairs of the tessellation of the face.
     deflection, deflection_measured : float
         BRepMesh's linear deflection and the largest distance found between the
         tessellation and the surface (at the triangle centroids).
     sample_spacing : float
-        Longest 3D edge of the sampled face triangles: a face point is at most
-        this far from a sample.
+        3D step of the face sample grid (at most; from the largest |S_u|,
+        |S_v| at the tessellation's nodes).
     n_face_samples, n_mesh_samples, n_tessellation_triangles : int
     error : str
         Why the file could not be measured ("" when it could).
@@ -126,13 +128,17 @@ class WrittenFace:
 
 
 def deflection_for(tolerance: float, diagonal: float) -> float:
-    """BRepMesh deflection for measuring against `tolerance`: a tenth of it, at most 2e-4 of the diagonal.
+    """BRepMesh deflection for measuring against `tolerance`: a tenth of it (at most 1e-3 of the diagonal).
 
     The mesh -> face distances are exact where the projection onto S lands
     inside the trims; the deflection bounds their error elsewhere and sets the
     resolution of the self-intersection count.
     """
-    return float(min(0.1 * tolerance, 2e-4 * diagonal))
+    return float(min(0.1 * tolerance, 1e-3 * diagonal))
+
+
+#: Face samples aimed at when the tolerance would ask for more: the spacing grows to keep about this many.
+MAX_FACE_SAMPLES = 20000
 
 
 def _failed(path, mesh: TriMesh, error: str, *, readable=False, n_faces=0, valid=False, seconds=None) -> WrittenFace:
@@ -194,33 +200,89 @@ def _triangulation(face):
     return pts, uv, tris
 
 
-def _split_long(uv: np.ndarray, tris: np.ndarray, pts: np.ndarray, surface, spacing: float, max_levels: int = 4):
-    """Midpoint-split (1 to 4 in (u, v)) every triangle whose longest 3D edge exceeds `spacing`, a few levels.
+def _trim_polygons(face) -> list[np.ndarray]:
+    """The face's trim loops in (u, v) as closed polygons: every wire's p-curves, sampled at their knots
+    (exact for polylines) and at 32 points each."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepTools import BRepTools_WireExplorer
+    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_WIRE
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
 
-    New points are evaluated on the surface. Returns (uv, pts, tris) of the
-    samples: the triangles are for sampling only (they may hang)."""
-    for _ in range(max_levels):
-        p = pts[tris]
-        longest = np.max(np.linalg.norm(p - np.roll(p, -1, axis=1), axis=2), axis=1)
-        big = longest > spacing
-        if not big.any():
-            break
-        t = tris[big]
-        n = len(uv)
-        e = np.stack([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]], axis=1).reshape(-1, 2)
-        e = np.sort(e, axis=1)
-        key = e[:, 0] * n + e[:, 1]
-        uniq, inv = np.unique(key, return_inverse=True)
-        mid_uv = 0.5 * (uv[uniq // n] + uv[uniq % n])
-        mid_pts = surface.evaluate(mid_uv)
-        m = (n + inv).reshape(-1, 3)
-        a, b, c = t[:, 0], t[:, 1], t[:, 2]
-        new = np.concatenate([np.c_[a, m[:, 0], m[:, 2]], np.c_[m[:, 0], b, m[:, 1]],
-                              np.c_[m[:, 2], m[:, 1], c], np.c_[m[:, 0], m[:, 1], m[:, 2]]])
-        uv = np.vstack([uv, mid_uv])
-        pts = np.vstack([pts, mid_pts])
-        tris = np.vstack([tris[~big], new])
-    return uv, pts, tris
+    from ..io._occ import curve_from_occ
+
+    fwd = TopoDS.Face(face.Oriented(TopAbs_FORWARD))
+    out = []
+    wires = TopExp_Explorer(fwd, TopAbs_WIRE)
+    while wires.More():
+        pieces = []
+        ex = BRepTools_WireExplorer(TopoDS.Wire(wires.Current()), fwd)
+        while ex.More():
+            edge = ex.Current()
+            pc = BRep_Tool.CurveOnSurface_s(edge, fwd, 0.0, 0.0)
+            if pc is not None:
+                a, b = BRep_Tool.Range_s(edge, fwd)
+                c = curve_from_occ(pc, a, b, 2)
+                k = c.knots[(c.knots > a) & (c.knots < b)]
+                t = np.unique(np.r_[np.linspace(a, b, 33), k])
+                p = c.evaluate(t)
+                if edge.Orientation() != TopAbs_FORWARD:
+                    p = p[::-1]
+                pieces.append(p[:-1])
+            ex.Next()
+        if pieces:
+            out.append(np.vstack(pieces))
+        wires.Next()
+    return out
+
+
+def _inside_trims(points: np.ndarray, polygons: list[np.ndarray], uv: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """Whether each (u, v) point lies inside the trim polygons (even-odd rule), fast.
+
+    A point farther from every polygon edge than the longest border edge of
+    the (u, v) tessellation (whose border nodes lie on the polygons, so its
+    border is within that of them) is inside exactly when a tessellation
+    triangle holds it; the rest get the exact polygon test.
+    """
+    from ..geom.predicates import points_in_polygons
+    from ..model import TriMesh as _TriMesh
+    from ._grid import locate
+
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    if not len(pts):
+        return np.zeros(0, dtype=bool)
+    be = _TriMesh(np.c_[uv, np.zeros(len(uv))], tris).boundary_edges()
+    margin = float(np.linalg.norm(uv[be[:, 1]] - uv[be[:, 0]], axis=1).max()) if len(be) else np.inf
+    pa = np.vstack(polygons)
+    pb = np.vstack([np.roll(pg, -1, axis=0) for pg in polygons])
+    near = _closest_on_segments(pts, pa, pb)[0] <= margin
+    out = locate(uv, tris, pts, k=6)[0] >= 0
+    if near.any():
+        out[near] = points_in_polygons(pts[near], polygons)
+    return out
+
+
+def _grid_samples(uv: np.ndarray, tris: np.ndarray, surface, spacing: float, max_samples: int,
+                  polygons) -> np.ndarray:
+    """(u, v) of a grid inside the tessellated region whose 3D steps are at most about `spacing`.
+
+    The (u, v) steps are `spacing` over the largest |S_u| and |S_v| at the
+    tessellation's nodes (grown when the grid would exceed 4 `max_samples`
+    points over the (u, v) box)."""
+    d = surface.derivatives(uv, 1)
+    su = float(np.max(np.linalg.norm(d[1, 0], axis=1)))
+    sv = float(np.max(np.linalg.norm(d[0, 1], axis=1)))
+    lo, hi = uv.min(axis=0), uv.max(axis=0)
+    ext = np.maximum(hi - lo, 1e-300)
+    h = np.array([spacing / max(su, 1e-300), spacing / max(sv, 1e-300)])
+    n = np.ceil(ext / h)
+    if n[0] * n[1] > 4 * max_samples:
+        n = np.maximum(np.floor(n * np.sqrt(4 * max_samples / (n[0] * n[1]))), 1)
+    gu = np.linspace(lo[0], hi[0], int(n[0]) + 1)
+    gv = np.linspace(lo[1], hi[1], int(n[1]) + 1)
+    uu, vv = np.meshgrid(gu, gv, indexing="ij")
+    g = np.column_stack([uu.ravel(), vv.ravel()])
+    return g[_inside_trims(g, polygons, uv, tris)]
 
 
 def _segment_samples(a: np.ndarray, b: np.ndarray, step: float) -> np.ndarray:
@@ -230,9 +292,10 @@ def _segment_samples(a: np.ndarray, b: np.ndarray, step: float) -> np.ndarray:
     return a[idx] + t[:, None] * (b[idx] - a[idx])
 
 
-def _distance_to_segments(points: np.ndarray, a: np.ndarray, b: np.ndarray, k: int = 8) -> np.ndarray:
-    """Distance of each point to the nearest segment [a_j, b_j] (exact over the k segments with the nearest
-    midpoints)."""
+def _closest_on_segments(points: np.ndarray, a: np.ndarray, b: np.ndarray, k: int = 8
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """(distance, closest point) of each point on the segments [a_j, b_j] (exact over the k segments with the
+    nearest midpoints), any dimension."""
     from scipy.spatial import cKDTree
 
     from ..quality import point_segment_closest
@@ -242,20 +305,39 @@ def _distance_to_segments(points: np.ndarray, a: np.ndarray, b: np.ndarray, k: i
     idx = np.asarray(idx).reshape(len(points), k)
     q = np.repeat(points, k, axis=0)
     c, _ = point_segment_closest(q, a[idx.ravel()], b[idx.ravel()])
-    return np.linalg.norm(c - q, axis=1).reshape(len(points), k).min(axis=1)
+    d = np.linalg.norm(c - q, axis=1).reshape(len(points), k)
+    best = np.argmin(d, axis=1)
+    return d[np.arange(len(points)), best], c.reshape(len(points), k, -1)[np.arange(len(points)), best]
 
 
-def _boundary_deviation(mesh: TriMesh, tess: TriMesh) -> float:
-    """Two-sided sampled distance between the border edges of two meshes."""
-    em, et = mesh.boundary_edges(), tess.boundary_edges()
-    if not len(em) or not len(et):
+def _distance_to_segments(points: np.ndarray, a: np.ndarray, b: np.ndarray, k: int = 8) -> np.ndarray:
+    return _closest_on_segments(points, a, b, k)[0]
+
+
+def _boundary_deviation(mesh: TriMesh, trims_3d: list[np.ndarray]) -> float:
+    """Two-sided sampled distance between the mesh's border edges and the face's trim curves (closed polylines
+    of points on them)."""
+    em = mesh.boundary_edges()
+    if not len(em) or not trims_3d:
         return float("nan")
     am, bm = mesh.vertices[em[:, 0]], mesh.vertices[em[:, 1]]
-    at, bt = tess.vertices[et[:, 0]], tess.vertices[et[:, 1]]
+    at = np.vstack(trims_3d)
+    bt = np.vstack([np.roll(p, -1, axis=0) for p in trims_3d])
     step = float(np.linalg.norm(bm - am, axis=1).mean()) / 4
     d1 = _distance_to_segments(_segment_samples(am, bm, step), at, bt)
     d2 = _distance_to_segments(_segment_samples(at, bt, step), am, bm)
     return float(max(d1.max(), d2.max()))
+
+
+def _trims_3d(surface, polygons: list[np.ndarray], step: float) -> list[np.ndarray]:
+    """The trim curves S(lambda) as closed 3D polylines, their (u, v) polygons resampled so that 3D steps are
+    at most about `step`."""
+    out = []
+    for pg in polygons:
+        d = surface.derivatives(pg, 1)
+        speed = float(max(np.linalg.norm(d[1, 0], axis=1).max(), np.linalg.norm(d[0, 1], axis=1).max(), 1e-300))
+        out.append(surface.evaluate(_segment_samples(pg, np.roll(pg, -1, axis=0), step / speed)))
+    return out
 
 
 def measure_written_face(path, mesh: TriMesh, *, tolerance: float | None = None, sample_spacing: float | None = None,
@@ -274,8 +356,9 @@ def measure_written_face(path, mesh: TriMesh, *, tolerance: float | None = None,
         diagonal.
     sample_spacing : float or None
         Longest 3D edge of a sampled face triangle; default the tolerance,
-        at least 1/300 of the diagonal, so the face samples number about
-        area / spacing^2 whatever the mesh's size.
+        at least 1/300 of the diagonal and enough for about
+        `MAX_FACE_SAMPLES` samples over the face's area, so the face samples
+        number about area / spacing^2 whatever the mesh's size.
     self_intersections : bool
         Count intersecting pairs of the tessellation's triangles.
 
@@ -309,13 +392,10 @@ def measure_written_face(path, mesh: TriMesh, *, tolerance: float | None = None,
     from ..io._occ import quiet_occ, surface_from_occ
     from ..quality import closest_points_on_mesh
     from ..quality import self_intersections as self_int
-    from ._grid import locate
-
     secs: dict = {}
     t = time.perf_counter()
     diag = mesh.diagonal()
     tol = 0.01 * diag if tolerance is None else float(tolerance)
-    spacing = max(tol, diag / 300.0) if sample_spacing is None else float(sample_spacing)
     shape, error = _read(path) if Path(path).is_file() else (None, "no such file")
     secs["read"] = time.perf_counter() - t
     if shape is None:
@@ -333,6 +413,10 @@ def measure_written_face(path, mesh: TriMesh, *, tolerance: float | None = None,
         BRepGProp.SurfaceProperties_s(shape, props, 1e-6)
     area = float(props.Mass())
     secs["area"] = time.perf_counter() - t
+    if sample_spacing is None:
+        spacing = max(tol, math.sqrt(max(abs(area), 0.0) / (0.43 * MAX_FACE_SAMPLES)), diag / 300.0)
+    else:
+        spacing = float(sample_spacing)
     t = time.perf_counter()
     defl = deflection_for(tol, diag)
     with quiet_occ():
@@ -355,25 +439,25 @@ def measure_written_face(path, mesh: TriMesh, *, tolerance: float | None = None,
         tess_pts.append(pts)
         tess_tris.append(tris + sum(len(p) for p in tess_pts[:-1]))
         n_tess += len(tris)
-        suv, spts, stris = _split_long(uv, tris, surface.evaluate(uv), surface, spacing)
-        sample_tris.append((surface, suv, spts, stris, uv, tris, pts))
+        polygons = _trim_polygons(f)
+        sample_tris.append((surface, _grid_samples(uv, tris, surface, spacing, MAX_FACE_SAMPLES, polygons), uv, tris, pts,
+                            polygons))
     secs["tessellate"] = time.perf_counter() - t
     if not tess_pts:
         return _failed(path, mesh, "BRepMesh left the face without triangles", readable=True, n_faces=len(faces),
                        valid=valid, seconds=secs)
     t = time.perf_counter()
     tess = TriMesh(np.vstack(tess_pts), np.vstack(tess_tris))
-    # face -> mesh: exact surface points at the sample nodes and the centroids of the sample triangles
+    # face -> mesh: exact surface points at the tessellation's nodes, its triangles' centroids and a (u, v) grid
     fpts, defl_meas, spacing_meas = [], 0.0, 0.0
-    for surface, suv, spts, stris, uv, tris, pts in sample_tris:
-        cen_uv = suv[stris].mean(axis=1)
-        fpts.append(spts)
-        fpts.append(surface.evaluate(cen_uv))
-        p = spts[stris]
-        spacing_meas = max(spacing_meas, float(np.max(np.linalg.norm(p - np.roll(p, -1, axis=1), axis=2))))
-        # deflection of BRepMesh's own triangles, at their centroids
+    for surface, guv, uv, tris, pts, _polygons in sample_tris:
         tc = surface.evaluate(uv[tris].mean(axis=1))
+        fpts.extend([pts, tc, surface.evaluate(guv)])
+        # deflection of BRepMesh's own triangles, at their centroids
         defl_meas = max(defl_meas, float(np.max(np.linalg.norm(tc - pts[tris].mean(axis=1), axis=1))))
+        p = pts[tris]
+        longest = np.max(np.linalg.norm(p - np.roll(p, -1, axis=1), axis=2), axis=1)
+        spacing_meas = max(spacing_meas, min(float(longest.max()), spacing))
     fpts = np.vstack(fpts)
     d_face = closest_points_on_mesh(fpts, mesh).distance
     secs["face_to_mesh"] = time.perf_counter() - t
@@ -384,7 +468,7 @@ def measure_written_face(path, mesh: TriMesh, *, tolerance: float | None = None,
     cp = closest_points_on_mesh(mpts, tess)
     d_mesh = cp.distance.copy()
     offset = 0
-    for surface, _suv, _spts, _stris, uv, tris, pts in sample_tris:
+    for surface, _guv, uv, tris, pts, polygons in sample_tris:
         sel = (cp.triangle >= offset) & (cp.triangle < offset + len(tris))
         if sel.any():
             local = cp.triangle[sel] - offset
@@ -392,17 +476,27 @@ def measure_written_face(path, mesh: TriMesh, *, tolerance: float | None = None,
             proj = project_to_surface(mpts[sel], surface.degree_u, surface.degree_v, surface.knots_u,
                                       surface.knots_v, surface.control_points, surface.weights, uv0=uv0,
                                       retry=False, max_iter=20)
-            inside = locate(uv, tris, proj.uv, k=6)[0] >= 0
-            better = inside & proj.converged & (proj.distance < d_mesh[sel])
-            idx = np.flatnonzero(sel)[better]
-            d_mesh[idx] = proj.distance[better]
+            inside = _inside_trims(proj.uv, polygons, uv, tris) & proj.converged
+            d = np.where(inside, proj.distance, np.inf)
+            if (~inside).any():
+                # foot outside the trims (or on them): the nearest trim point q in (u, v); S(q) is a point of the
+                # face, so |x - S(q)| bounds the distance from above (exact for a mesh border vertex on the trim)
+                pa = np.vstack(polygons)
+                pb = np.vstack([np.roll(pg, -1, axis=0) for pg in polygons])
+                _, q = _closest_on_segments(proj.uv[~inside], pa, pb)
+                d[~inside] = np.linalg.norm(surface.evaluate(q) - mpts[sel][~inside], axis=1)
+            idx = np.flatnonzero(sel)
+            d_mesh[idx] = np.minimum(d_mesh[idx], d)
         offset += len(tris)
     secs["mesh_to_face"] = time.perf_counter() - t
     t = time.perf_counter()
     n_si = int(self_int(tess).n_pairs) if self_intersections else -1
     secs["self_intersections"] = time.perf_counter() - t
     t = time.perf_counter()
-    bd = _boundary_deviation(mesh, tess)
+    mstep = float(np.linalg.norm(np.diff(mesh.vertices[mesh.boundary_edges()], axis=1), axis=2).mean()) / 4 \
+        if len(mesh.boundary_edges()) else diag
+    bd = _boundary_deviation(mesh, [t3 for surface, _g, _uv, _t, _p, polygons in sample_tris
+                                    for t3 in _trims_3d(surface, polygons, mstep)])
     secs["boundary"] = time.perf_counter() - t
     km, kf = int(np.argmax(d_mesh)), int(np.argmax(d_face))
     h_mf, h_fm = float(d_mesh[km]), float(d_face[kf])
