@@ -355,3 +355,32 @@ def test_fit_with_the_exact_layout(s_cone):
     # normalised by a rigid motion only: the layout is already isometric (up to the 1% shorter chords)
     assert _procrustes(r.uv, exact) < 0.01
     assert fit_quality(r, mesh, density=2).hausdorff_rel < 0.005
+
+
+# ----------------------------------------------------------------------------- the Hessian kernel, eq. (4)-(6)
+
+
+@pytest.mark.parametrize("turned", [False, True])
+def test_hessian_kernel_integrates_the_squared_hessian(turned):
+    """psi^T K psi = int_M ||H(psi)||_F^2 (eq. (6)) on a flat mesh: 4 A for u^2 and v^2, 2 A for uv, 0 for linear psi.
+
+    The local quadratic fit is exact for quadratic psi and the quadrature weights are the vertex areas (summing
+    to A), so the identity holds to rounding; `turned` lays the sheet in a tilted plane of R^3.
+    """
+    from trimsurf.fit import hessian_matrix
+
+    h = holed_sheet()
+    x = np.c_[h.uv, np.zeros(len(h.uv))]
+    if turned:
+        rot = np.linalg.qr(np.random.default_rng(1).standard_normal((3, 3)))[0]
+        x = x @ rot.T + [5.0, -3.0, 2.0]
+    mesh = TriMesh(x, h.triangles)
+    K = hessian_matrix(mesh)
+    A = mesh.area()
+    u, v = h.uv[:, 0], h.uv[:, 1]
+    np.testing.assert_allclose((u * u) @ K @ (u * u), 4 * A, rtol=1e-9)
+    np.testing.assert_allclose((v * v) @ K @ (v * v), 4 * A, rtol=1e-9)
+    np.testing.assert_allclose((u * v) @ K @ (u * v), 2 * A, rtol=1e-9)
+    lin = 3.0 + 2.0 * u - 5.0 * v                                  # same magnitude as u^2 / 100 here
+    assert abs(lin @ K @ lin) < 1e-9 * A
+    assert abs(np.ones(len(u)) @ K @ np.ones(len(u))) < 1e-9 * A

@@ -75,13 +75,16 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--diagnostics", action="store_true",
                         help="also report the in-memory figures (the back-map on the mesh's parameter "
                              "triangulation before writing)")
+    parser.add_argument("--extrapolation-degree", type=int, choices=(1, 3), default=3,
+                        help="--backmap nurbs: degree of the surface S_i that extrapolates the control net ring by "
+                             "ring (3, default: the paper's cubic; 1: bilinear, measures better, see RESULTS.md)")
     parser.add_argument("--report", type=Path, default=None, help="write the figures as JSON to this file")
     parser.add_argument("--png", type=Path, default=None,
                         help="render the evaluated trimmed face, coloured by its distance to the mesh")
     parser.add_argument("--json", action="store_true", help="print the report as JSON on stdout")
 
 
-def _fit_auto(mesh, *, backmap, grid, trim_degree, name, tell):
+def _fit_auto(mesh, *, backmap, grid, trim_degree, name, tell, backmap_options=None):
     """The first of hlle, lscm, harmonic whose forward map neither folds nor crosses its loops (else hlle)."""
     from ..fit import DEVELOPABLE_LIMIT, embed, embedding_quality, fit_trimmed_face, mesh_brep
 
@@ -102,12 +105,13 @@ def _fit_auto(mesh, *, backmap, grid, trim_degree, name, tell):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", TrimsurfWarning)
         return fit_trimmed_face(mesh, embed_method=chosen, backmap_method=backmap, grid_shape=grid,
-                                trim_degree=trim_degree, name=name, progress=tell)
+                                trim_degree=trim_degree, name=name, progress=tell, backmap_options=backmap_options)
 
 
 def fit_mesh(mesh, output: Path, *, embed: str = "auto", backmap: str = "lsq", grid=None, trim_degree: int = 1,
              name: str = "fit", png: Path | None = None, tell=None, max_deviation: float | None = None,
-             area_window: tuple[float, float] = AREA_WINDOW, diagnostics: bool = False) -> tuple[dict, object]:
+             area_window: tuple[float, float] = AREA_WINDOW, diagnostics: bool = False,
+             extrapolation_degree: int = 3) -> tuple[dict, object]:
     """Fit, write the STEP file, read it back and measure it; returns (report dict, FitResult).
 
     The headline figures (``hausdorff``, ``area_ratio``, ``step_valid``,
@@ -135,12 +139,14 @@ def fit_mesh(mesh, output: Path, *, embed: str = "auto", backmap: str = "lsq", g
     if not (0 <= lo < hi):
         raise InputError(f"--area-ratio needs 0 <= LO < HI; got {lo:g} {hi:g}")
     tell = tell or (lambda _s: None)
+    options = {"extrapolation_degree": extrapolation_degree} if backmap == "nurbs" else None
     t0 = time.perf_counter()
     if embed == "auto":
-        result = _fit_auto(mesh, backmap=backmap, grid=grid, trim_degree=trim_degree, name=name, tell=tell)
+        result = _fit_auto(mesh, backmap=backmap, grid=grid, trim_degree=trim_degree, name=name, tell=tell,
+                           backmap_options=options)
     else:
         result = fit_trimmed_face(mesh, embed_method=embed, backmap_method=backmap, grid_shape=grid,
-                                  trim_degree=trim_degree, name=name, progress=tell)
+                                  trim_degree=trim_degree, name=name, progress=tell, backmap_options=options)
     seconds_fit = time.perf_counter() - t0
     tell("write STEP")
     t = time.perf_counter()
@@ -164,6 +170,7 @@ def fit_mesh(mesh, output: Path, *, embed: str = "auto", backmap: str = "lsq", g
         "embed": result.embed_method,
         "backmap": result.backmap_method,
         "written_surface": WRITTEN_SURFACE.get(result.backmap_method, "cubic B-spline"),
+        **({"extrapolation_degree": extrapolation_degree} if result.backmap_method == "nurbs" else {}),
         "grid": list(result.grid.shape),
         "flipped_in_embedding": result.embedding.n_flipped,
         "boundary_crossings_in_embedding": result.embedding.n_boundary_crossings,
@@ -266,7 +273,8 @@ def run(args: argparse.Namespace) -> int:
         report, _ = fit_mesh(mesh, args.output, embed=args.embed, backmap=args.backmap, grid=args.grid,
                              trim_degree=args.trim_degree, name=args.mesh.name, png=args.png,
                              tell=lambda s: bar.advance(description=s), max_deviation=args.max_deviation,
-                             area_window=tuple(args.area_ratio), diagnostics=args.diagnostics)
+                             area_window=tuple(args.area_ratio), diagnostics=args.diagnostics,
+                             extrapolation_degree=args.extrapolation_degree)
     if args.report is not None:
         write_json(report, args.report)
     if args.json:

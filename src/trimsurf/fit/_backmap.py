@@ -268,9 +268,15 @@ def _largest_inside_block(inside: np.ndarray) -> tuple[int, int, int, int]:
     return int(i0), int(i1), int(j0), int(j1)
 
 
-def nurbs_extrapolation(mesh: TriMesh, uv: np.ndarray, grid: ParameterGrid, *, extrapolation_degree: int = 1
+def nurbs_extrapolation(mesh: TriMesh, uv: np.ndarray, grid: ParameterGrid, *, extrapolation_degree: int = 3
                         ) -> BackMap:
     """Sec. 4.2.1: the control polyhedron grown by iterative extrapolation (Fig. 3).
+
+    S_i, the surface extrapolated at each ring, is the B-spline of degree
+    `extrapolation_degree` on the control net P_i so far (its Greville
+    abscissae at W_i's grid points), continued beyond its domain by its end
+    polynomial pieces: 3 is the paper's cubic NURBS (eq. (9)); 1 (bilinear)
+    is kept as an option (benchmarks/RESULTS.md compares the two).
 
     1. W_0: a block of W inside phi(M) (the largest square of grid points
        inside, grown while it stays inside); 2. its control points
@@ -280,6 +286,8 @@ def nurbs_extrapolation(mesh: TriMesh, uv: np.ndarray, grid: ParameterGrid, *, e
        the extrapolation S_i(w); 6. repeat until W_i = W; 7. S: the cubic
        NURBS (eq. (9)) on P.
     """
+    if extrapolation_degree not in (1, 2, 3):
+        raise InputError(f"extrapolation_degree must be 1, 2 or 3; got {extrapolation_degree!r}")
     pts = grid.points()
     nu, nv = grid.shape
     tri, bary = locate(uv, mesh.triangles, pts.reshape(-1, 2))

@@ -56,7 +56,7 @@ class FitResult:
 
 def fit_trimmed_face(mesh: TriMesh, *, embed_method: str = "hlle", backmap_method: str = "lsq",
                      grid_shape: tuple[int, int] | None = None, trim_degree: int = 1, name: str = "fit",
-                     uv: np.ndarray | None = None, progress=None) -> FitResult:
+                     uv: np.ndarray | None = None, progress=None, backmap_options: dict | None = None) -> FitResult:
     """Fit a trimmed NURBS face to a disk-like mesh with holes (the paper's Fig. 2 pipeline).
 
     Parameters
@@ -79,6 +79,9 @@ def fit_trimmed_face(mesh: TriMesh, *, embed_method: str = "hlle", backmap_metho
         flat layout of a developable mesh); it is normalised the same way.
     progress : callable or None
         Called with the name of each step as it starts.
+    backmap_options : dict or None
+        Keyword options of the back-map (e.g. ``{"extrapolation_degree": 1}``
+        for ``nurbs``).
 
     Returns
     -------
@@ -125,7 +128,7 @@ def fit_trimmed_face(mesh: TriMesh, *, embed_method: str = "hlle", backmap_metho
     e1, e2 = t_uv[:, 1] - t_uv[:, 0], t_uv[:, 2] - t_uv[:, 0]
     uv_area = 0.5 * float(np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum())
     grid = parameter_grid(U, grid_shape, n_vertices=mesh.n_vertices, area=uv_area)
-    S = backmap(mesh, U, grid, backmap_method)
+    S = backmap(mesh, U, grid, backmap_method, **(backmap_options or {}))
     secs["backmap"] = time.perf_counter() - t
     t = time.perf_counter()
     tell("trim loops")
@@ -186,9 +189,9 @@ class FitQuality:
     seconds: float
 
 
-def _polyline_samples(p: np.ndarray, step: float) -> np.ndarray:
+def _polyline_samples(p: np.ndarray, step: float, max_per_segment: int = 256) -> np.ndarray:
     q = np.roll(p, -1, axis=0)
-    n = np.maximum(np.ceil(np.linalg.norm(q - p, axis=1) / step).astype(int), 1)
+    n = np.clip(np.ceil(np.linalg.norm(q - p, axis=1) / step), 1, max_per_segment).astype(np.int64)
     idx = np.repeat(np.arange(len(p)), n)
     t = (np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)) / np.repeat(n, n)
     return p[idx] + t[:, None] * (q[idx] - p[idx])

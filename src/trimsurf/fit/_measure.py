@@ -9,7 +9,9 @@ the file with Open CASCADE's STEP reader and measures the face as read:
   (adaptive Gauss integration over the region inside the trims), and its
   ratio to the mesh's area;
 * a tessellation of the trimmed face by ``BRepMesh_IncrementalMesh`` at a
-  deflection tied to the tolerance (`deflection_for`);
+  deflection tied to the tolerance (`deflection_for`), and no finer than
+  1e-3 of the square root of the face's area (so a runaway face does not
+  get millions of triangles);
 * ``hausdorff_face_to_mesh``: exact distances to the mesh of points of the
   read-back surface S(u, v) at the tessellation's (u, v) nodes and triangle
   centroids, and on a (u, v) grid of about the sample spacing in 3D kept
@@ -70,7 +72,8 @@ class WrittenFace:
         trim curves S(lambda) (its p-curves read back, mapped by S), both
         sampled at about a quarter of the mesh's mean boundary edge.
     self_intersections : int
-        Intersecting triangle pairs of the tessellation of the face.
+        Intersecting triangle pairs of the tessellation of the face; -1 when
+        not counted (a runaway face, see `RUNAWAY_AREA_RATIO`).
     deflection, deflection_measured : float
         BRepMesh's linear deflection and the largest distance found between the
         tessellation and the surface (at the triangle centroids).
@@ -136,6 +139,11 @@ def deflection_for(tolerance: float, diagonal: float) -> float:
     """
     return float(min(0.1 * tolerance, 1e-3 * diagonal))
 
+
+#: A face whose area exceeds the mesh's this many times is a runaway (an extrapolation gone wild): it is
+#: tessellated on a (u, v) grid instead of by BRepMesh (which can take minutes on it) and its
+#: self-intersections are not counted (-1).
+RUNAWAY_AREA_RATIO = 10.0
 
 #: Face samples aimed at when the tolerance would ask for more: the spacing grows to keep about this many.
 MAX_FACE_SAMPLES = 20000
@@ -262,6 +270,30 @@ def _inside_trims(points: np.ndarray, polygons: list[np.ndarray], uv: np.ndarray
     return out
 
 
+def _grid_tessellation(surface, polygons: list[np.ndarray], n: int = 96):
+    """(points, uv, triangles) of an n x n (u, v) grid over the trims' box, triangles whose centroid lies inside
+    the trims (a jagged border: for runaway faces only)."""
+    from ..geom.predicates import points_in_polygons
+
+    allp = np.vstack(polygons)
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    gu, gv = np.linspace(lo[0], hi[0], n + 1), np.linspace(lo[1], hi[1], n + 1)
+    uu, vv = np.meshgrid(gu, gv, indexing="ij")
+    uv = np.column_stack([uu.ravel(), vv.ravel()])
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    a = (i * (n + 1) + j).ravel()
+    b, c, d = a + (n + 1), a + (n + 2), a + 1
+    tris = np.concatenate([np.c_[a, b, c], np.c_[a, c, d]])
+    tris = tris[points_in_polygons(uv[tris].mean(axis=1), polygons)]
+    if not len(tris):
+        return None
+    used = np.unique(tris)
+    remap = np.full(len(uv), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    uv = uv[used]
+    return surface.evaluate(uv), uv, remap[tris]
+
+
 def _grid_samples(uv: np.ndarray, tris: np.ndarray, surface, spacing: float, max_samples: int,
                   polygons) -> np.ndarray:
     """(u, v) of a grid inside the tessellated region whose 3D steps are at most about `spacing`.
@@ -285,8 +317,58 @@ def _grid_samples(uv: np.ndarray, tris: np.ndarray, surface, spacing: float, max
     return g[_inside_trims(g, polygons, uv, tris)]
 
 
-def _segment_samples(a: np.ndarray, b: np.ndarray, step: float) -> np.ndarray:
-    n = np.maximum(np.ceil(np.linalg.norm(b - a, axis=1) / step).astype(np.int64), 1)
+def _longest_edge(mesh: TriMesh) -> float:
+    p = mesh.vertices[mesh.triangles]
+    return float(np.max(np.linalg.norm(p - np.roll(p, -1, axis=1), axis=2)))
+
+
+def _max_relevant_distances(points: np.ndarray, mesh: TriMesh) -> np.ndarray:
+    """Distances of points to a mesh: exact where a point may hold the maximum, else to the nearest vertex.
+
+    A point's distance to the mesh lies between its distance to the nearest
+    vertex d_v and d_v - e (e: the longest edge), so only points with
+    d_v >= max d_v - e can hold the maximum; they get the exact closest
+    point. This keeps far-off samples (a face that leaves the mesh) from
+    visiting every triangle.
+    """
+    from scipy.spatial import cKDTree
+
+    from ..quality import closest_points_on_mesh
+
+    d_v, _ = cKDTree(mesh.vertices).query(points)
+    cand = d_v >= d_v.max() - _longest_edge(mesh)
+    out = d_v.copy()
+    out[cand] = closest_points_on_mesh(points[cand], mesh).distance
+    return out
+
+
+def _nearest_on_tessellation(points: np.ndarray, tess: TriMesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(distance, triangle, barycentric) of each point's nearest point on the tessellation: exact where it may
+    hold the maximum (as in `_max_relevant_distances`), else the nearest node (one of its triangles)."""
+    from scipy.spatial import cKDTree
+
+    from ..quality import closest_points_on_mesh
+
+    d_v, node = cKDTree(tess.vertices).query(points)
+    t = tess.triangles
+    # a triangle of each node and the node's corner in it
+    owner = np.full(len(tess.vertices), -1, dtype=np.int64)
+    corner = np.zeros(len(tess.vertices), dtype=np.int64)
+    for c in range(3):
+        owner[t[:, c]] = np.arange(len(t))
+        corner[t[:, c]] = c
+    tri = owner[node]
+    bary = np.zeros((len(points), 3))
+    bary[np.arange(len(points)), corner[node]] = 1.0
+    cand = (d_v >= d_v.max() - _longest_edge(tess)) | (tri < 0)
+    if cand.any():
+        cp = closest_points_on_mesh(points[cand], tess)
+        d_v[cand], tri[cand], bary[cand] = cp.distance, cp.triangle, cp.barycentric
+    return d_v, tri, bary
+
+
+def _segment_samples(a: np.ndarray, b: np.ndarray, step: float, max_per_segment: int = 64) -> np.ndarray:
+    n = np.clip(np.ceil(np.linalg.norm(b - a, axis=1) / step), 1, max_per_segment).astype(np.int64)
     idx = np.repeat(np.arange(len(a)), n)
     t = (np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)) / np.repeat(n, n)
     return a[idx] + t[:, None] * (b[idx] - a[idx])
@@ -325,18 +407,21 @@ def _boundary_deviation(mesh: TriMesh, trims_3d: list[np.ndarray]) -> float:
     bt = np.vstack([np.roll(p, -1, axis=0) for p in trims_3d])
     step = float(np.linalg.norm(bm - am, axis=1).mean()) / 4
     d1 = _distance_to_segments(_segment_samples(am, bm, step), at, bt)
-    d2 = _distance_to_segments(_segment_samples(at, bt, step), am, bm)
+    d2 = _distance_to_segments(at, am, bm)            # the trim points are already sampled at about `step`
     return float(max(d1.max(), d2.max()))
 
 
-def _trims_3d(surface, polygons: list[np.ndarray], step: float) -> list[np.ndarray]:
-    """The trim curves S(lambda) as closed 3D polylines, their (u, v) polygons resampled so that 3D steps are
-    at most about `step`."""
+def _trims_3d(surface, polygons: list[np.ndarray], step: float, max_per_edge: int = 64) -> list[np.ndarray]:
+    """The trim curves S(lambda) as closed 3D polylines: each (u, v) polygon edge cut into pieces whose 3D
+    chords are at most about `step` (at most `max_per_edge` pieces)."""
     out = []
     for pg in polygons:
-        d = surface.derivatives(pg, 1)
-        speed = float(max(np.linalg.norm(d[1, 0], axis=1).max(), np.linalg.norm(d[0, 1], axis=1).max(), 1e-300))
-        out.append(surface.evaluate(_segment_samples(pg, np.roll(pg, -1, axis=0), step / speed)))
+        a, b = pg, np.roll(pg, -1, axis=0)
+        chord = np.linalg.norm(surface.evaluate(b) - surface.evaluate(a), axis=1)
+        n = np.clip(np.ceil(chord / step), 1, max_per_edge).astype(np.int64)
+        idx = np.repeat(np.arange(len(a)), n)
+        t = (np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)) / np.repeat(n, n)
+        out.append(surface.evaluate(a[idx] + t[:, None] * (b[idx] - a[idx])))
     return out
 
 
@@ -418,30 +503,33 @@ def measure_written_face(path, mesh: TriMesh, *, tolerance: float | None = None,
     else:
         spacing = float(sample_spacing)
     t = time.perf_counter()
-    defl = deflection_for(tol, diag)
-    with quiet_occ():
-        try:
-            BRepMesh_IncrementalMesh(shape, defl, False, 0.5, False)
-        except Exception as exc:  # noqa: BLE001
-            return _failed(path, mesh, f"BRepMesh cannot mesh the face ({type(exc).__name__})", readable=True,
-                           n_faces=len(faces), valid=valid, seconds=secs)
+    defl = max(deflection_for(tol, diag), 1e-3 * math.sqrt(max(abs(area), 0.0)))
+    m_area = mesh.area()
+    runaway = m_area > 0 and abs(area) > RUNAWAY_AREA_RATIO * m_area
+    if not runaway:
+        with quiet_occ():
+            try:
+                BRepMesh_IncrementalMesh(shape, defl, False, 0.5, False)
+            except Exception as exc:  # noqa: BLE001
+                return _failed(path, mesh, f"BRepMesh cannot mesh the face ({type(exc).__name__})", readable=True,
+                               n_faces=len(faces), valid=valid, seconds=secs)
     # every face of the file, each with its own surface (a fit writes one)
     tess_pts, tess_tris, sample_tris = [], [], []
     n_tess = 0
     for f in faces:
-        tri = _triangulation(f)
-        if tri is None:
-            continue
-        pts, uv, tris = tri
         u0, u1, v0, v1 = BRepTools.UVBounds_s(f)
         with quiet_occ():
             surface = surface_from_occ(BRep_Tool.Surface_s(f), np.array([u0, v0]), np.array([u1, v1]))
+        polygons = _trim_polygons(f)
+        tri = _grid_tessellation(surface, polygons) if runaway else _triangulation(f)
+        if tri is None:
+            continue
+        pts, uv, tris = tri
         tess_pts.append(pts)
         tess_tris.append(tris + sum(len(p) for p in tess_pts[:-1]))
         n_tess += len(tris)
-        polygons = _trim_polygons(f)
-        sample_tris.append((surface, _grid_samples(uv, tris, surface, spacing, MAX_FACE_SAMPLES, polygons), uv, tris, pts,
-                            polygons))
+        sample_tris.append((surface, _grid_samples(uv, tris, surface, spacing, MAX_FACE_SAMPLES, polygons), uv, tris,
+                            pts, polygons))
     secs["tessellate"] = time.perf_counter() - t
     if not tess_pts:
         return _failed(path, mesh, "BRepMesh left the face without triangles", readable=True, n_faces=len(faces),
@@ -459,20 +547,19 @@ def measure_written_face(path, mesh: TriMesh, *, tolerance: float | None = None,
         longest = np.max(np.linalg.norm(p - np.roll(p, -1, axis=1), axis=2), axis=1)
         spacing_meas = max(spacing_meas, min(float(longest.max()), spacing))
     fpts = np.vstack(fpts)
-    d_face = closest_points_on_mesh(fpts, mesh).distance
+    d_face = _max_relevant_distances(fpts, mesh)
     secs["face_to_mesh"] = time.perf_counter() - t
     t = time.perf_counter()
-    # mesh -> face: vertices and triangle centroids to the tessellation, refined by projection onto S
-    mv = mesh.vertices
-    mpts = mv
-    cp = closest_points_on_mesh(mpts, tess)
-    d_mesh = cp.distance.copy()
+    # mesh -> face: each vertex to the tessellation (nearest node; exact closest point where it may be the
+    # largest), refined by projection onto S from there
+    mpts = mesh.vertices
+    d_mesh, tri_of, bary_of = _nearest_on_tessellation(mpts, tess)
     offset = 0
     for surface, _guv, uv, tris, pts, polygons in sample_tris:
-        sel = (cp.triangle >= offset) & (cp.triangle < offset + len(tris))
+        sel = (tri_of >= offset) & (tri_of < offset + len(tris))
         if sel.any():
-            local = cp.triangle[sel] - offset
-            uv0 = np.einsum("kj,kjd->kd", cp.barycentric[sel], uv[tris[local]])
+            local = tri_of[sel] - offset
+            uv0 = np.einsum("kj,kjd->kd", bary_of[sel], uv[tris[local]])
             proj = project_to_surface(mpts[sel], surface.degree_u, surface.degree_v, surface.knots_u,
                                       surface.knots_v, surface.control_points, surface.weights, uv0=uv0,
                                       retry=False, max_iter=20)
@@ -490,7 +577,7 @@ def measure_written_face(path, mesh: TriMesh, *, tolerance: float | None = None,
         offset += len(tris)
     secs["mesh_to_face"] = time.perf_counter() - t
     t = time.perf_counter()
-    n_si = int(self_int(tess).n_pairs) if self_intersections else -1
+    n_si = int(self_int(tess).n_pairs) if self_intersections and not runaway else -1
     secs["self_intersections"] = time.perf_counter() - t
     t = time.perf_counter()
     mstep = float(np.linalg.norm(np.diff(mesh.vertices[mesh.boundary_edges()], axis=1), axis=2).mean()) / 4 \
@@ -500,7 +587,6 @@ def measure_written_face(path, mesh: TriMesh, *, tolerance: float | None = None,
     secs["boundary"] = time.perf_counter() - t
     km, kf = int(np.argmax(d_mesh)), int(np.argmax(d_face))
     h_mf, h_fm = float(d_mesh[km]), float(d_face[kf])
-    m_area = mesh.area()
     return WrittenFace(str(path), True, len(faces), valid, area, m_area, area / m_area if m_area > 0 else float("nan"),
                        max(h_mf, h_fm), h_mf, h_fm, float(np.sqrt(np.mean(d_mesh ** 2))), mpts[km].copy(),
                        fpts[kf].copy(), bd, n_si, defl, defl_meas, spacing_meas, len(fpts), len(mpts), n_tess, "", secs, tess)
