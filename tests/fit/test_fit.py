@@ -384,3 +384,54 @@ def test_hessian_kernel_integrates_the_squared_hessian(turned):
     lin = 3.0 + 2.0 * u - 5.0 * v                                  # same magnitude as u^2 / 100 here
     assert abs(lin @ K @ lin) < 1e-9 * A
     assert abs(np.ones(len(u)) @ K @ np.ones(len(u))) < 1e-9 * A
+
+
+# ----------------------------------------------------------------------------- the written face, read back
+
+
+@pytest.fixture(scope="module")
+def flat_face_file(flat_sheet, tmp_path_factory):
+    """The holed sheet laid flat, fitted (its face is the plane z = 0 up to rounding) and written to STEP."""
+    mesh, uv = flat_sheet
+    path = tmp_path_factory.mktemp("flat") / "flat.step"
+    write_shell(fit_trimmed_face(mesh, uv=uv, grid_shape=(12, 10)).face, path)
+    return mesh, path
+
+
+def test_written_face_against_a_lifted_mesh(flat_face_file):
+    """The flat face against the same mesh lifted by 0.5: both one-sided distances are 0.5, the areas agree."""
+    from trimsurf.fit import measure_written_face
+
+    mesh, path = flat_face_file
+    w0 = measure_written_face(path, mesh)
+    assert w0.step_valid and w0.hausdorff < 1e-6 * mesh.diagonal() and abs(w0.area_ratio - 1) < 1e-6
+    lifted = TriMesh(mesh.vertices + [0.0, 0.0, 0.5], mesh.triangles)
+    w = measure_written_face(path, lifted)
+    assert w.hausdorff_mesh_to_face == pytest.approx(0.5, abs=1e-6)
+    assert w.hausdorff_face_to_mesh == pytest.approx(0.5, abs=1e-6)
+    assert w.self_intersections == 0 and w.n_faces == 1
+
+
+def test_written_face_against_half_the_mesh(flat_face_file):
+    """Against half of the mesh the face is twice the area and reaches far beyond it (face -> mesh), while every
+    mesh point lies on it (mesh -> face ~ 0): the two directions are measured separately."""
+    from trimsurf.fit import measure_written_face
+
+    mesh, path = flat_face_file
+    c = mesh.vertices[mesh.triangles].mean(axis=1)
+    half = mesh.submesh(c[:, 0] < np.median(c[:, 0]))
+    w = measure_written_face(path, half)
+    assert w.hausdorff_mesh_to_face < 1e-6 * mesh.diagonal()
+    assert w.hausdorff_face_to_mesh > 0.3 * np.ptp(mesh.vertices[:, 0])
+    assert 1.8 < w.area_ratio < 2.2
+
+
+def test_written_face_unreadable_file(tmp_path, flat_sheet):
+    from trimsurf.fit import measure_written_face
+
+    mesh, _ = flat_sheet
+    bad = tmp_path / "bad.step"
+    bad.write_text("ISO-10303-21;\nHEADER;\nnot a step file\n")
+    w = measure_written_face(bad, mesh)
+    assert not w.readable and not w.step_valid and w.error and np.isnan(w.hausdorff)
+    assert measure_written_face(tmp_path / "missing.step", mesh).error == "no such file"

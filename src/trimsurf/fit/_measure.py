@@ -15,14 +15,15 @@ the file with Open CASCADE's STEP reader and measures the face as read:
 * ``hausdorff_face_to_mesh``: exact distances to the mesh of points of the
   read-back surface S(u, v) at the tessellation's (u, v) nodes and triangle
   centroids, and on a (u, v) grid of about the sample spacing in 3D kept
-  where it falls inside the trim loops;
+  where it falls in the tessellated region;
 * ``hausdorff_mesh_to_face``: each mesh vertex to the
   tessellation, then projected onto S from there (Newton from the
-  tessellation's (u, v)); the projection is kept where its foot lies inside
-  the face's trim loops (its p-curves read back, even-odd rule); a foot
-  outside them is replaced by the nearest trim point q in (u, v) and the
-  distance to S(q) (an upper bound, exact for a mesh border vertex on the
-  trim); the smaller of that and the tessellation's distance is kept;
+  tessellation's (u, v)); the projection is kept where its foot lies in the
+  tessellated region (Open CASCADE's reading of the face); a foot outside it
+  is replaced by the nearest point q of the trim loops (the p-curves read
+  back) in (u, v) and the distance to S(q) (an upper bound, exact for a mesh
+  border vertex on the trim); the smaller of that and the tessellation's
+  distance is kept;
 * ``self_intersections``: intersecting triangle pairs of the tessellation
   (sheets of the face closer than the deflection may count).
 
@@ -244,54 +245,15 @@ def _trim_polygons(face) -> list[np.ndarray]:
     return out
 
 
-def _inside_trims(points: np.ndarray, polygons: list[np.ndarray], uv: np.ndarray, tris: np.ndarray) -> np.ndarray:
-    """Whether each (u, v) point lies inside the trim polygons (even-odd rule), fast.
-
-    A point farther from every polygon edge than the longest border edge of
-    the (u, v) tessellation (whose border nodes lie on the polygons, so its
-    border is within that of them) is inside exactly when a tessellation
-    triangle holds it; the rest get the exact polygon test.
-    """
-    from ..geom.predicates import points_in_polygons
-    from ..model import TriMesh as _TriMesh
+def _in_tessellation(points: np.ndarray, uv: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """Whether each (u, v) point lies in a triangle of the face's (u, v) tessellation: the region Open CASCADE
+    takes as the face (for a face whose loops cross, the even-odd reading of the loops can differ from it)."""
     from ._grid import locate
 
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     if not len(pts):
         return np.zeros(0, dtype=bool)
-    be = _TriMesh(np.c_[uv, np.zeros(len(uv))], tris).boundary_edges()
-    margin = float(np.linalg.norm(uv[be[:, 1]] - uv[be[:, 0]], axis=1).max()) if len(be) else np.inf
-    pa = np.vstack(polygons)
-    pb = np.vstack([np.roll(pg, -1, axis=0) for pg in polygons])
-    near = _closest_on_segments(pts, pa, pb)[0] <= margin
-    out = locate(uv, tris, pts, k=6)[0] >= 0
-    if near.any():
-        out[near] = points_in_polygons(pts[near], polygons)
-    return out
-
-
-def _grid_tessellation(surface, polygons: list[np.ndarray], n: int = 96):
-    """(points, uv, triangles) of an n x n (u, v) grid over the trims' box, triangles whose centroid lies inside
-    the trims (a jagged border: for runaway faces only)."""
-    from ..geom.predicates import points_in_polygons
-
-    allp = np.vstack(polygons)
-    lo, hi = allp.min(axis=0), allp.max(axis=0)
-    gu, gv = np.linspace(lo[0], hi[0], n + 1), np.linspace(lo[1], hi[1], n + 1)
-    uu, vv = np.meshgrid(gu, gv, indexing="ij")
-    uv = np.column_stack([uu.ravel(), vv.ravel()])
-    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    a = (i * (n + 1) + j).ravel()
-    b, c, d = a + (n + 1), a + (n + 2), a + 1
-    tris = np.concatenate([np.c_[a, b, c], np.c_[a, c, d]])
-    tris = tris[points_in_polygons(uv[tris].mean(axis=1), polygons)]
-    if not len(tris):
-        return None
-    used = np.unique(tris)
-    remap = np.full(len(uv), -1, dtype=np.int64)
-    remap[used] = np.arange(len(used))
-    uv = uv[used]
-    return surface.evaluate(uv), uv, remap[tris]
+    return locate(uv, tris, pts, k=8)[0] >= 0
 
 
 def _grid_samples(uv: np.ndarray, tris: np.ndarray, surface, spacing: float, max_samples: int,
@@ -314,7 +276,7 @@ def _grid_samples(uv: np.ndarray, tris: np.ndarray, surface, spacing: float, max
     gv = np.linspace(lo[1], hi[1], int(n[1]) + 1)
     uu, vv = np.meshgrid(gu, gv, indexing="ij")
     g = np.column_stack([uu.ravel(), vv.ravel()])
-    return g[_inside_trims(g, polygons, uv, tris)]
+    return g[_in_tessellation(g, uv, tris)]
 
 
 def _longest_edge(mesh: TriMesh) -> float:
@@ -563,7 +525,7 @@ def measure_written_face(path, mesh: TriMesh, *, tolerance: float | None = None,
             proj = project_to_surface(mpts[sel], surface.degree_u, surface.degree_v, surface.knots_u,
                                       surface.knots_v, surface.control_points, surface.weights, uv0=uv0,
                                       retry=False, max_iter=20)
-            inside = _inside_trims(proj.uv, polygons, uv, tris) & proj.converged
+            inside = _in_tessellation(proj.uv, uv, tris) & proj.converged
             d = np.where(inside, proj.distance, np.inf)
             if (~inside).any():
                 # foot outside the trims (or on them): the nearest trim point q in (u, v); S(q) is a point of the
