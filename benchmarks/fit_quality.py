@@ -152,8 +152,10 @@ def _fmt(row) -> str:
         return f"| {row['mesh']} | {row['embed']} | {row['backmap']} | error: {row['error']} |"
     return (f"| {row['mesh']} | {row['vertices']} | {row['loops']} | {row['abs_curvature']:.2f} | {row['embed']} | "
             f"{row['backmap']} | {row['seconds']:.2f} | {row['flipped']} | {row['crossings']} | "
-            f"{100 * row['hausdorff_rel']:.3g} | {row['area_ratio']:.3f} | {100 * row['rms_rel']:.3g} | "
-            f"{100 * row['boundary_rel']:.3g} | {row['self_intersections']} | {'yes' if row['step_valid'] else 'NO'} |")
+            f"{100 * row['hausdorff_rel']:.3g} | {row['area_ratio']:.3g} | {100 * row['rms_rel']:.3g} | "
+            f"{100 * row['boundary_rel']:.3g} | "
+            f"{row['self_intersections'] if row['self_intersections'] >= 0 else 'not counted'} | "
+            f"{'yes' if row['step_valid'] else 'NO'} |")
 
 
 def extrapolation_table(quick: bool) -> int:
@@ -174,8 +176,8 @@ def extrapolation_table(quick: bool) -> int:
                     r = fit_trimmed_face(mesh, embed_method=emb, backmap_method="nurbs", name=name,
                                          backmap_options={"extrapolation_degree": degree})
                 w = written(mesh, r, name)
-                cells += [f"{100 * w.hausdorff / mesh.diagonal():.3g}", f"{w.area_ratio:.3f}",
-                          str(w.self_intersections)]
+                cells += [f"{100 * w.hausdorff / mesh.diagonal():.3g}", f"{w.area_ratio:.3g}",
+                          str(w.self_intersections) if w.self_intersections >= 0 else "not counted"]
             print(f"| {name} | {mesh.n_vertices} | {emb} ({r.embedding.n_flipped} flipped) | "
                   + " | ".join(cells) + " |", flush=True)
     return 0

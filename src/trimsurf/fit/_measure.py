@@ -14,12 +14,14 @@ the file with Open CASCADE's STEP reader and measures the face as read:
   get millions of triangles);
 * ``hausdorff_face_to_mesh``: exact distances to the mesh of points of the
   read-back surface S(u, v) at the tessellation's (u, v) nodes and triangle
-  centroids, and on a (u, v) grid of about the sample spacing in 3D kept
-  where it falls in the tessellated region;
+  centroids, on a (u, v) grid of about the sample spacing in 3D kept where
+  it falls on the face, and along the trim curves S(lambda) (the p-curves
+  read back) at a quarter of the mesh's mean border edge;
 * ``hausdorff_mesh_to_face``: each mesh vertex to the
   tessellation, then projected onto S from there (Newton from the
   tessellation's (u, v)); the projection is kept where its foot lies in the
-  tessellated region (Open CASCADE's reading of the face); a foot outside it
+  tessellated region (Open CASCADE's reading of the face) or, for a face
+  BRepCheck accepts, inside its trim loops (even-odd); a foot outside
   is replaced by the nearest point q of the trim loops (the p-curves read
   back) in (u, v) and the distance to S(q) (an upper bound, exact for a mesh
   border vertex on the trim); the smaller of that and the tessellation's
@@ -74,7 +76,8 @@ class WrittenFace:
         sampled at about a quarter of the mesh's mean boundary edge.
     self_intersections : int
         Intersecting triangle pairs of the tessellation of the face; -1 when
-        not counted (a runaway face, see `RUNAWAY_AREA_RATIO`).
+        not counted (a runaway face, see `RUNAWAY_AREA_RATIO`: it fails the
+        deviation and area checks anyway).
     deflection, deflection_measured : float
         BRepMesh's linear deflection and the largest distance found between the
         tessellation and the surface (at the triangle centroids).
@@ -143,7 +146,7 @@ def deflection_for(tolerance: float, diagonal: float) -> float:
 
 #: A face whose area exceeds the mesh's this many times is a runaway (an extrapolation gone wild): it is
 #: tessellated on a (u, v) grid instead of by BRepMesh (which can take minutes on it) and its
-#: self-intersections are not counted (-1).
+#: self-intersections are not counted (-1); so is a face whose bounding box is this many times the mesh's.
 RUNAWAY_AREA_RATIO = 10.0
 
 #: Face samples aimed at when the tolerance would ask for more: the spacing grows to keep about this many.
@@ -500,15 +503,26 @@ def measure_written_face(path, mesh: TriMesh, *, tolerance: float | None = None,
     tess = TriMesh(np.vstack(tess_pts), np.vstack(tess_tris))
     # face -> mesh: exact surface points at the tessellation's nodes, its triangles' centroids and a (u, v) grid
     fpts, defl_meas, spacing_meas = [], 0.0, 0.0
-    for surface, guv, uv, tris, pts, _polygons in sample_tris:
-        tc = surface.evaluate(uv[tris].mean(axis=1))
-        fpts.extend([pts, tc, surface.evaluate(guv)])
+    for surface, guv, uv, tris, pts, polygons in sample_tris:
+        cuv = uv[tris].mean(axis=1)
+        tc = surface.evaluate(cuv)
+        # samples off the nodes: in the tessellated region, and for a valid face inside its loops too (the chords
+        # of a concave stretch of a trim leave the face)
+        suv = np.vstack([cuv, guv])
+        if valid:
+            from ..geom.predicates import points_in_polygons
+            suv = suv[points_in_polygons(suv, polygons)]
+        fpts.extend([pts, surface.evaluate(suv)])
         # deflection of BRepMesh's own triangles, at their centroids
         defl_meas = max(defl_meas, float(np.max(np.linalg.norm(tc - pts[tris].mean(axis=1), axis=1))))
         p = pts[tris]
         longest = np.max(np.linalg.norm(p - np.roll(p, -1, axis=1), axis=2), axis=1)
         spacing_meas = max(spacing_meas, min(float(longest.max()), spacing))
-    fpts = np.vstack(fpts)
+    # and the trim curves S(lambda), sampled at a quarter of the mesh's mean border edge
+    be = mesh.boundary_edges()
+    mstep = float(np.linalg.norm(np.diff(mesh.vertices[be], axis=1), axis=2).mean()) / 4 if len(be) else spacing
+    trims = [t3 for surface, _g, _uv, _t, _p, polygons in sample_tris for t3 in _trims_3d(surface, polygons, mstep)]
+    fpts = np.vstack(fpts + trims)
     d_face = _max_relevant_distances(fpts, mesh)
     secs["face_to_mesh"] = time.perf_counter() - t
     t = time.perf_counter()
@@ -525,7 +539,13 @@ def measure_written_face(path, mesh: TriMesh, *, tolerance: float | None = None,
             proj = project_to_surface(mpts[sel], surface.degree_u, surface.degree_v, surface.knots_u,
                                       surface.knots_v, surface.control_points, surface.weights, uv0=uv0,
                                       retry=False, max_iter=20)
-            inside = _in_tessellation(proj.uv, uv, tris) & proj.converged
+            inside = _in_tessellation(proj.uv, uv, tris)
+            if valid and not inside.all():
+                # near the border the tessellation's chords cut the trims: there the loops decide (a valid
+                # face's loops do not cross, so their even-odd reading is Open CASCADE's)
+                from ..geom.predicates import points_in_polygons
+                inside[~inside] = points_in_polygons(proj.uv[~inside], polygons)
+            inside &= proj.converged
             d = np.where(inside, proj.distance, np.inf)
             if (~inside).any():
                 # foot outside the trims (or on them): the nearest trim point q in (u, v); S(q) is a point of the
@@ -539,13 +559,12 @@ def measure_written_face(path, mesh: TriMesh, *, tolerance: float | None = None,
         offset += len(tris)
     secs["mesh_to_face"] = time.perf_counter() - t
     t = time.perf_counter()
+    # a face reaching far beyond the mesh is a runaway too: its long triangles would make every pair a candidate
+    runaway = runaway or tess.diagonal() > RUNAWAY_AREA_RATIO * diag
     n_si = int(self_int(tess).n_pairs) if self_intersections and not runaway else -1
     secs["self_intersections"] = time.perf_counter() - t
     t = time.perf_counter()
-    mstep = float(np.linalg.norm(np.diff(mesh.vertices[mesh.boundary_edges()], axis=1), axis=2).mean()) / 4 \
-        if len(mesh.boundary_edges()) else diag
-    bd = _boundary_deviation(mesh, [t3 for surface, _g, _uv, _t, _p, polygons in sample_tris
-                                    for t3 in _trims_3d(surface, polygons, mstep)])
+    bd = _boundary_deviation(mesh, trims)
     secs["boundary"] = time.perf_counter() - t
     km, kf = int(np.argmax(d_mesh)), int(np.argmax(d_face))
     h_mf, h_fm = float(d_mesh[km]), float(d_face[kf])
