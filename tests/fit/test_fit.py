@@ -465,3 +465,27 @@ def test_written_face_agrees_with_a_fine_brute_force(s_cone, tmp_path):
     brute_fm = closest_points_on_mesh(pts, mesh).distance.max()
     assert abs(w.hausdorff_mesh_to_face - brute_mf) <= fine + 0.03 * brute_mf
     assert abs(w.hausdorff_face_to_mesh - brute_fm) <= fine + 0.03 * brute_fm
+
+
+def test_written_face_runaway_extrapolation(s_cone, tmp_path):
+    """Sec. 4.2.1 with the paper's cubic S_i on the S strip: the ring-by-ring polynomial extrapolation runs away
+    (control points ~1e9 x the diagonal). The measure stays bounded in time and memory (a (u, v)-grid
+    tessellation, no self-intersection count) and reports the runaway plainly; the bilinear S_i stays near."""
+    import time
+
+    from trimsurf.fit import measure_written_face
+
+    mesh, _ = s_cone
+    out = {}
+    for degree in (3, 1):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", TrimsurfWarning)
+            r = fit_trimmed_face(mesh, embed_method="hlle", backmap_method="nurbs",
+                                 backmap_options={"extrapolation_degree": degree})
+            write_shell(r.face, tmp_path / f"n{degree}.step")
+        t = time.perf_counter()
+        out[degree] = measure_written_face(tmp_path / f"n{degree}.step", mesh)
+        assert time.perf_counter() - t < 30
+    assert out[3].area_ratio > 10 and out[3].hausdorff > mesh.diagonal() and out[3].self_intersections == -1
+    assert 0.5 < out[1].area_ratio < 1.5 and out[1].hausdorff < 0.1 * mesh.diagonal()
+    assert out[1].self_intersections >= 0

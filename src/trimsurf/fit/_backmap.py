@@ -186,9 +186,9 @@ def lsq_fit(mesh: TriMesh, uv: np.ndarray, grid: ParameterGrid, *, f: RBFInterpo
     per knot span over H(W) with values phi^-1(w) (the mesh point, by
     barycentric coordinates) where w lies in phi(M), and the RBF
     extrapolation f(w) of M elsewhere (holes, concavities, the margin of W).
-    So every knot span has data however the mesh is spread. A small thin-plate (second-difference) penalty `smooth`, relative
-    to the data term, keeps control points without data defined. Solved by
-    sparse normal equations.
+    So every knot span has data however the mesh is spread. A small thin-plate
+    (second-difference) penalty `smooth`, relative to the data term, keeps
+    control points without data defined. Solved by sparse normal equations.
     """
     f = rbf_map(mesh, uv) if f is None else f
     base = _nurbs_on_grid(grid, np.zeros((*grid.shape, 3)))

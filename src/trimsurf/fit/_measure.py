@@ -127,7 +127,8 @@ class WrittenFace:
             return v
         keys = ("readable", "n_faces", "step_valid", "area", "mesh_area", "area_ratio", "hausdorff",
                 "hausdorff_mesh_to_face", "hausdorff_face_to_mesh", "rms_mesh_to_face", "where_mesh_to_face",
-                "where_face_to_mesh", "boundary_deviation", "self_intersections", "deflection", "deflection_measured", "sample_spacing",
+                "where_face_to_mesh", "boundary_deviation", "self_intersections", "deflection", "deflection_measured",
+                "sample_spacing",
                 "n_face_samples", "n_mesh_samples", "n_tessellation_triangles", "error")
         out = {k: clean(getattr(self, k)) for k in keys}
         out["seconds"] = {k: float(v) for k, v in self.seconds.items()}
@@ -257,6 +258,30 @@ def _in_tessellation(points: np.ndarray, uv: np.ndarray, tris: np.ndarray) -> np
     if not len(pts):
         return np.zeros(0, dtype=bool)
     return locate(uv, tris, pts, k=8)[0] >= 0
+
+
+def _grid_tessellation(surface, polygons: list[np.ndarray], n: int = 96):
+    """(points, uv, triangles) of an n x n (u, v) grid over the trims' box, triangles whose centroid lies inside
+    the trims (a jagged border: for runaway faces only)."""
+    from ..geom.predicates import points_in_polygons
+
+    allp = np.vstack(polygons)
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    gu, gv = np.linspace(lo[0], hi[0], n + 1), np.linspace(lo[1], hi[1], n + 1)
+    uu, vv = np.meshgrid(gu, gv, indexing="ij")
+    uv = np.column_stack([uu.ravel(), vv.ravel()])
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    a = (i * (n + 1) + j).ravel()
+    b, c, d = a + (n + 1), a + (n + 2), a + 1
+    tris = np.concatenate([np.c_[a, b, c], np.c_[a, c, d]])
+    tris = tris[points_in_polygons(uv[tris].mean(axis=1), polygons)]
+    if not len(tris):
+        return None
+    used = np.unique(tris)
+    remap = np.full(len(uv), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    uv = uv[used]
+    return surface.evaluate(uv), uv, remap[tris]
 
 
 def _grid_samples(uv: np.ndarray, tris: np.ndarray, surface, spacing: float, max_samples: int,
@@ -570,4 +595,5 @@ def measure_written_face(path, mesh: TriMesh, *, tolerance: float | None = None,
     h_mf, h_fm = float(d_mesh[km]), float(d_face[kf])
     return WrittenFace(str(path), True, len(faces), valid, area, m_area, area / m_area if m_area > 0 else float("nan"),
                        max(h_mf, h_fm), h_mf, h_fm, float(np.sqrt(np.mean(d_mesh ** 2))), mpts[km].copy(),
-                       fpts[kf].copy(), bd, n_si, defl, defl_meas, spacing_meas, len(fpts), len(mpts), n_tess, "", secs, tess)
+                       fpts[kf].copy(), bd, n_si, defl, defl_meas, spacing_meas, len(fpts), len(mpts), n_tess, "", secs,
+                       tess)
