@@ -215,8 +215,7 @@ def fit_mesh(mesh, output: Path, *, embed: str = "auto", backmap: str = "lsq", g
             "seconds": q.seconds}
     if png is not None:
         tell("render")
-        render_fit_png(w, mesh, png, title=f"{name}: {result.embed_method} + {result.backmap_method}, read back: "
-                                           f"Hausdorff {100 * w.hausdorff / diag:.3g}% of the diagonal, "
+        render_fit_png(w, mesh, png, title=f"{name}, read back: Hausdorff {100 * w.hausdorff / diag:.3g}%, "
                                            f"area x {w.area_ratio:.3g}")
         report["png"] = str(png)
     return report, result

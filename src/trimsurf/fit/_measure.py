@@ -289,7 +289,7 @@ def _grid_samples(uv: np.ndarray, tris: np.ndarray, surface, spacing: float, max
     """(u, v) of a grid inside the tessellated region whose 3D steps are at most about `spacing`.
 
     The (u, v) steps are `spacing` over the largest |S_u| and |S_v| at the
-    tessellation's nodes (grown when the grid would exceed 4 `max_samples`
+    tessellation's nodes (grown when the grid would exceed 2 `max_samples`
     points over the (u, v) box)."""
     d = surface.derivatives(uv, 1)
     su = float(np.max(np.linalg.norm(d[1, 0], axis=1)))
@@ -298,8 +298,8 @@ def _grid_samples(uv: np.ndarray, tris: np.ndarray, surface, spacing: float, max
     ext = np.maximum(hi - lo, 1e-300)
     h = np.array([spacing / max(su, 1e-300), spacing / max(sv, 1e-300)])
     n = np.ceil(ext / h)
-    if n[0] * n[1] > 4 * max_samples:
-        n = np.maximum(np.floor(n * np.sqrt(4 * max_samples / (n[0] * n[1]))), 1)
+    if n[0] * n[1] > 2 * max_samples:
+        n = np.maximum(np.floor(n * np.sqrt(2 * max_samples / (n[0] * n[1]))), 1)
     gu = np.linspace(lo[0], hi[0], int(n[0]) + 1)
     gv = np.linspace(lo[1], hi[1], int(n[1]) + 1)
     uu, vv = np.meshgrid(gu, gv, indexing="ij")
