@@ -46,15 +46,15 @@ EMBED_ORDER = ("hlle", "isomap", "laplacian", "lscm", "harmonic")
 BACKMAP_ORDER = ("nurbs", "rbf", "hybrid", "greville", "lsq")
 
 
-def meshes(quick: bool):
+def meshes(quick: bool, no_big: bool = False):
     for path in sorted(DATA.iterdir()):
         if path.suffix.lower() in (".off", ".obj", ".ply", ".stl"):
-            if quick and path.stat().st_size > 300_000:
+            if quick and not no_big and path.stat().st_size > 300_000:
                 continue
             yield path.name, (lambda p=path: read_mesh(p))
     yield "sample:s_cone", s_cone
     yield "sample:holed_sheet", holed_sheet
-    if not quick:
+    if not quick and not no_big:
         yield "s_cone_20k", lambda: s_cone(max_area=BIG_MAX_AREA)
 
 
@@ -191,6 +191,9 @@ def main(argv=None) -> int:
                         help="only the side-by-side forward maps against scikit-learn")
     parser.add_argument("--end-to-end-only", action="store_true",
                         help="only the 20K-vertex mesh with the default pipeline (hlle + lsq), timed end to end")
+    parser.add_argument("--embeds", default=",".join(EMBED_ORDER),
+                        help="comma-separated forward maps of the main table (default all)")
+    parser.add_argument("--no-big", action="store_true", help="leave the 20K-vertex strip out of the main table")
     parser.add_argument("--extrapolation", action="store_true",
                         help="only the NURBS extrapolation back-map, cubic vs bilinear extrapolating surface")
     args = parser.parse_args(argv)
@@ -203,8 +206,9 @@ def main(argv=None) -> int:
         ref = []
     else:
         rows = []
-        for name, build in meshes(args.quick):
-            rows.extend(fit_rows(name, build))
+        embeds = tuple(e for e in args.embeds.split(",") if e)
+        for name, build in meshes(args.quick, args.no_big):
+            rows.extend(fit_rows(name, build, embeds=embeds))
         ref = sklearn_rows(args.quick)
     if rows:
         print("| mesh | V | loops | int abs K / 2pi | embed | backmap | fit s | flipped | loop crossings | "

@@ -93,19 +93,24 @@ def _fit_auto(mesh, *, backmap, grid, trim_degree, name, tell, backmap_options=N
         warnings.warn(f"{name}: far from developable (total |Gaussian curvature| / 2 pi = "
                       f"{brep.total_abs_curvature:.2f} > {DEVELOPABLE_LIMIT}): outside the method's assumption, "
                       "expect distortion", TrimsurfWarning, stacklevel=2)
-    chosen = _AUTO_ORDER[0]
+    chosen, chosen_uv = _AUTO_ORDER[0], None
     for method in _AUTO_ORDER:
         tell(f"try forward map {method}")
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", TrimsurfWarning)
-            q = embedding_quality(mesh, embed(mesh, method, brep=brep), brep)
+            uv = embed(mesh, method, brep=brep)
+            q = embedding_quality(mesh, uv, brep)
+        if method == _AUTO_ORDER[0]:
+            chosen_uv = uv
         if q.n_flipped == 0 and q.n_boundary_crossings == 0:
-            chosen = method
+            chosen, chosen_uv = method, uv
             break
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", TrimsurfWarning)
-        return fit_trimmed_face(mesh, embed_method=chosen, backmap_method=backmap, grid_shape=grid,
-                                trim_degree=trim_degree, name=name, progress=tell, backmap_options=backmap_options)
+        # the chosen layout is passed on, not computed twice
+        return fit_trimmed_face(mesh, embed_method=chosen, uv=chosen_uv, normalize_uv=False, backmap_method=backmap,
+                                grid_shape=grid, trim_degree=trim_degree, name=name, progress=tell,
+                                backmap_options=backmap_options)
 
 
 def fit_mesh(mesh, output: Path, *, embed: str = "auto", backmap: str = "lsq", grid=None, trim_degree: int = 1,

@@ -56,7 +56,8 @@ class FitResult:
 
 def fit_trimmed_face(mesh: TriMesh, *, embed_method: str = "hlle", backmap_method: str = "lsq",
                      grid_shape: tuple[int, int] | None = None, trim_degree: int = 1, name: str = "fit",
-                     uv: np.ndarray | None = None, progress=None, backmap_options: dict | None = None) -> FitResult:
+                     uv: np.ndarray | None = None, progress=None, backmap_options: dict | None = None,
+                     normalize_uv: bool = True) -> FitResult:
     """Fit a trimmed NURBS face to a disk-like mesh with holes (the paper's Fig. 2 pipeline).
 
     Parameters
@@ -77,6 +78,10 @@ def fit_trimmed_face(mesh: TriMesh, *, embed_method: str = "hlle", backmap_metho
     uv : (n, 2) float64 or None
         A given parameterization U instead of computing phi (e.g. the exact
         flat layout of a developable mesh); it is normalised the same way.
+    normalize_uv : bool
+        False for a `uv` that `embed` returned with `embed_method` (already
+        normalised): it is used as is and the result keeps `embed_method`'s
+        name (instead of "given").
     progress : callable or None
         Called with the name of each step as it starts.
     backmap_options : dict or None
@@ -116,10 +121,14 @@ def fit_trimmed_face(mesh: TriMesh, *, embed_method: str = "hlle", backmap_metho
     tell(f"forward map ({embed_method})")
     if uv is None:
         U = embed(mesh, embed_method, brep=brep)
-    else:
+    elif normalize_uv:
         from ._embed import normalize_parameters
         U = normalize_parameters(mesh, uv)
         embed_method = "given"
+    else:
+        U = np.ascontiguousarray(uv, dtype=np.float64)
+        if U.shape != (mesh.n_vertices, 2) or not np.all(np.isfinite(U)):
+            raise InputError(f"uv must be finite with shape ({mesh.n_vertices}, 2); got {U.shape}")
     quality = embedding_quality(mesh, U, brep)
     secs["embed"] = time.perf_counter() - t
     t = time.perf_counter()
