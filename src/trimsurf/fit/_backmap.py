@@ -179,22 +179,37 @@ def _lsq_control_points(grid: ParameterGrid, base: NurbsSurface, pts: np.ndarray
 
 
 def lsq_fit(mesh: TriMesh, uv: np.ndarray, grid: ParameterGrid, *, f: RBFInterpolator | None = None,
-            oversample: int = 3, smooth: float = 1e-6) -> BackMap:
+            oversample: int = 3, smooth: float = 1e-6, far_keep: int | None = 1) -> BackMap:
     """Least-squares cubic B-spline on W's knots through the mesh vertices and a dense RBF sample around them.
 
     Data: every vertex (u_i, x_i), and a regular grid of `oversample` points
     per knot span over H(W) with values phi^-1(w) (the mesh point, by
     barycentric coordinates) where w lies in phi(M), and the RBF
     extrapolation f(w) of M elsewhere (holes, concavities, the margin of W).
-    So every knot span has data however the mesh is spread. A small thin-plate
-    (second-difference) penalty `smooth`, relative to the data term, keeps
-    control points without data defined. Solved by sparse normal equations.
+    So every knot span has data however the mesh is spread. Outside phi(M)
+    and more than two knot spans from every vertex the grid is thinned to
+    `far_keep` points per knot span (None: all); only control points without
+    data of their own rest on those. A small thin-plate (second-difference)
+    penalty `smooth`, relative to the data term, keeps control points
+    without data defined. Solved by sparse normal equations.
     """
     f = rbf_map(mesh, uv) if f is None else f
     base = _nurbs_on_grid(grid, np.zeros((*grid.shape, 3)))
     dense = _dense_grid(grid, base, oversample)
     tri, bary = locate(uv, mesh.triangles, dense)
     inside = tri >= 0
+    if far_keep is not None and oversample > far_keep:
+        # outside phi(M) and more than two knot spans from every vertex: only control points without data of
+        # their own rest on these RBF values; keep `far_keep` per knot span there (the RBF is the costly part)
+        from scipy.spatial import cKDTree
+
+        h = max(grid.u[1] - grid.u[0], grid.v[1] - grid.v[0])
+        far = ~inside & (cKDTree(uv).query(dense, distance_upper_bound=2 * h)[0] > 2 * h)
+        ns = oversample * (grid.shape[1] - base.degree_v) + 1
+        iu, iv = np.divmod(np.arange(len(dense)), ns)
+        step = oversample // far_keep
+        drop = far & ((iu % step != 0) | (iv % step != 0))
+        dense, tri, bary, inside = dense[~drop], tri[~drop], bary[~drop], inside[~drop]
     dense_vals = np.empty((len(dense), 3))
     dense_vals[inside] = np.einsum("kj,kjd->kd", bary[inside], mesh.vertices[mesh.triangles[tri[inside]]])
     if (~inside).any():

@@ -223,9 +223,13 @@ def _distance_to_polylines(points: np.ndarray, polylines: list[np.ndarray], k: i
 
 def fit_quality(result: FitResult, mesh: TriMesh, *, density: int | None = None, levels: int | None = None,
                 self_intersections: bool = True) -> FitQuality:
-    """Hausdorff, RMS and boundary deviation of the fitted face from the mesh, and self-intersections of the face.
+    """In-memory diagnostic: Hausdorff, RMS and boundary deviation of the back-map S from the mesh before writing.
 
-    The face is evaluated on the subdivided parameter triangulation
+    Not the figures of the written face: S is evaluated on the mesh's own
+    parameter triangulation, so the trims never enter it (the ``rbf``
+    back-map's S is the RBF, not the B-spline written); the face as written is
+    measured by `trimsurf.fit.measure_written_face`. The face is evaluated on
+    the subdivided parameter triangulation
     (`evaluated_face_mesh`) and compared with the mesh by
     `trimsurf.quality.mesh_deviation` (exact closest points on triangles,
     `density` samples per triangle edge, both ways).
