@@ -439,10 +439,10 @@ def measure_written_face(path, mesh: TriMesh, *, tolerance: float | None = None,
         tessellation deflection (`deflection_for`). Default 1% of the mesh's
         diagonal.
     sample_spacing : float or None
-        Longest 3D edge of a sampled face triangle; default the tolerance,
-        at least 1/300 of the diagonal and enough for about
-        `MAX_FACE_SAMPLES` samples over the face's area, so the face samples
-        number about area / spacing^2 whatever the mesh's size.
+        3D step of the face's (u, v) sample grid; default the tolerance, at
+        least 1/300 of the diagonal and enough for about `MAX_FACE_SAMPLES`
+        samples over the face's area, so the face samples number about
+        area / spacing^2 whatever the mesh's size.
     self_intersections : bool
         Count intersecting pairs of the tessellation's triangles.
 
