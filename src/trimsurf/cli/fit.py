@@ -29,8 +29,9 @@ forward maps (--embed): hlle (Hessian LLE, the paper's best), isomap, laplacian,
 lscm and harmonic (libigl), auto (hlle, then lscm, then harmonic: the first without
 folds). back-maps (--backmap): lsq (least-squares B-spline on the mesh and an RBF
 extrapolation, default), hybrid (RBF control polyhedron + NURBS, the paper's),
-rbf (thin-plate spline), nurbs (iterative extrapolation), greville (hybrid at
-Greville abscissae).
+rbf (thin-plate spline, written as its least-squares B-spline conversion),
+nurbs (iterative extrapolation, cubic S_i as in the paper or bilinear with
+--extrapolation-degree 1), greville (hybrid at Greville abscissae).
 
 The written file is read back through Open CASCADE and its face measured
 against the mesh: Hausdorff distance both ways (sampled inside the trims),
@@ -80,7 +81,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                              "ring (3, default: the paper's cubic; 1: bilinear, measures better, see RESULTS.md)")
     parser.add_argument("--report", type=Path, default=None, help="write the figures as JSON to this file")
     parser.add_argument("--png", type=Path, default=None,
-                        help="render the evaluated trimmed face, coloured by its distance to the mesh")
+                        help="render the face read back from the file (its tessellation), coloured by its "
+                             "distance to the mesh")
     parser.add_argument("--json", action="store_true", help="print the report as JSON on stdout")
 
 
