@@ -102,6 +102,8 @@ def fit_rows(name, build, *, backmaps=BACKMAP_ORDER, embeds=EMBED_ORDER, options
                            rms_rel=w.rms_mesh_to_face / d, boundary_rel=w.boundary_deviation / d,
                            area_ratio=w.area_ratio, self_intersections=w.self_intersections,
                            step_valid=w.step_valid, measure_seconds=sum(w.seconds.values()))
+                if w.error:
+                    row["error"] = f"read back, not measured: {w.error}"
             except Exception as exc:  # noqa: BLE001 - a benchmark row records the failure
                 row["error"] = f"{type(exc).__name__}: {exc}"
             rows.append(row)

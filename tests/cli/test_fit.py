@@ -203,3 +203,17 @@ def test_fit_max_deviation_and_area_window(meshes, tmp_path, capsys):
     assert "area is" in err and "deviates" not in err
     assert main(["fit", src, "-o", out, "--area-ratio", "1.1", "0.9"]) == 2
     assert main(["fit", src, "-o", out, "--max-deviation", "-1"]) == 2
+
+
+def test_fit_file_without_a_face_is_not_measured(meshes, tmp_path, capsys):
+    """Laplacian Eigenmaps fold the S strip and the cubic extrapolation runs away: what reaches the STEP file
+    holds no face at all. The report says so (no figures), exit 1, one line."""
+    out = tmp_path / "l.step"
+    rc = cli("fit", str(meshes / "s_cone_v451.off"), "-o", str(out), "--embed", "laplacian", "--backmap", "nurbs",
+             "--json")
+    cap = capsys.readouterr()
+    r = json.loads(cap.out)
+    assert rc == 1 and r["measure"]["n_faces"] == 0 and r["measure"]["error"] == "the file holds no face"
+    assert r["hausdorff"] is None and r["area_ratio"] is None
+    warn = [ln for ln in cap.err.splitlines() if "not trustworthy" in ln]
+    assert len(warn) == 1 and "cannot be measured: the file holds no face" in warn[0] and "nan" not in warn[0]

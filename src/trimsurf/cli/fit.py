@@ -232,8 +232,10 @@ def problems_of(r: dict) -> list[str]:
     """Why the written face is not trustworthy (empty when it is), from a `fit_mesh` report."""
     d = r["diagonal"]
     out = []
-    if not r["measure"]["readable"]:
-        out.append(f"Open CASCADE cannot measure the written file ({r['measure']['error']})")
+    if r["measure"]["error"]:
+        out.append(f"the face read back cannot be measured: {r['measure']['error']}")
+        if r["measure"]["readable"] and not r["step_valid"]:
+            out.append("BRepCheck_Analyzer rejects the shape read back")
     else:
         if not r["step_valid"]:
             out.append("BRepCheck_Analyzer rejects the face read back")
@@ -307,7 +309,7 @@ def format_report(r: dict) -> str:
                          f"{r['written_surface']})"],
             ["read back (OCCT)", f"{r['measure']['n_faces']} face(s), "
                                  f"BRepCheck {'valid' if r['step_valid'] else 'INVALID'}"
-             if r["measure"]["readable"] else f"NOT READABLE: {r['measure']['error']}"],
+             + (f"; NOT MEASURED: {r['measure']['error']}" if r["measure"]["error"] else "")],
             ["Hausdorff", f"{pct(r['hausdorff'])}, max {100 * r['max_deviation'] / d:.3g}%"],
             ["  mesh -> face", pct(r["hausdorff_mesh_to_face"])],
             ["  face -> mesh", pct(r["hausdorff_face_to_mesh"])],
