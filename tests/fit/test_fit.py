@@ -355,3 +355,137 @@ def test_fit_with_the_exact_layout(s_cone):
     # normalised by a rigid motion only: the layout is already isometric (up to the 1% shorter chords)
     assert _procrustes(r.uv, exact) < 0.01
     assert fit_quality(r, mesh, density=2).hausdorff_rel < 0.005
+
+
+# ----------------------------------------------------------------------------- the Hessian kernel, eq. (4)-(6)
+
+
+@pytest.mark.parametrize("turned", [False, True])
+def test_hessian_kernel_integrates_the_squared_hessian(turned):
+    """psi^T K psi = int_M ||H(psi)||_F^2 (eq. (6)) on a flat mesh: 4 A for u^2 and v^2, 2 A for uv, 0 for linear psi.
+
+    The local quadratic fit is exact for quadratic psi and the quadrature weights are the vertex areas (summing
+    to A), so the identity holds to rounding; `turned` lays the sheet in a tilted plane of R^3.
+    """
+    from trimsurf.fit import hessian_matrix
+
+    h = holed_sheet()
+    x = np.c_[h.uv, np.zeros(len(h.uv))]
+    if turned:
+        rot = np.linalg.qr(np.random.default_rng(1).standard_normal((3, 3)))[0]
+        x = x @ rot.T + [5.0, -3.0, 2.0]
+    mesh = TriMesh(x, h.triangles)
+    K = hessian_matrix(mesh)
+    A = mesh.area()
+    u, v = h.uv[:, 0], h.uv[:, 1]
+    np.testing.assert_allclose((u * u) @ K @ (u * u), 4 * A, rtol=1e-9)
+    np.testing.assert_allclose((v * v) @ K @ (v * v), 4 * A, rtol=1e-9)
+    np.testing.assert_allclose((u * v) @ K @ (u * v), 2 * A, rtol=1e-9)
+    lin = 3.0 + 2.0 * u - 5.0 * v                                  # same magnitude as u^2 / 100 here
+    assert abs(lin @ K @ lin) < 1e-9 * A
+    assert abs(np.ones(len(u)) @ K @ np.ones(len(u))) < 1e-9 * A
+
+
+# ----------------------------------------------------------------------------- the written face, read back
+
+
+@pytest.fixture(scope="module")
+def flat_face_file(flat_sheet, tmp_path_factory):
+    """The holed sheet laid flat, fitted (its face is the plane z = 0 up to rounding) and written to STEP."""
+    mesh, uv = flat_sheet
+    path = tmp_path_factory.mktemp("flat") / "flat.step"
+    write_shell(fit_trimmed_face(mesh, uv=uv, grid_shape=(12, 10)).face, path)
+    return mesh, path
+
+
+def test_written_face_against_a_lifted_mesh(flat_face_file):
+    """The flat face against the same mesh lifted by 0.5: both one-sided distances are 0.5, the areas agree."""
+    from trimsurf.fit import measure_written_face
+
+    mesh, path = flat_face_file
+    w0 = measure_written_face(path, mesh)
+    assert w0.step_valid and w0.hausdorff < 1e-6 * mesh.diagonal() and abs(w0.area_ratio - 1) < 1e-6
+    lifted = TriMesh(mesh.vertices + [0.0, 0.0, 0.5], mesh.triangles)
+    w = measure_written_face(path, lifted)
+    assert w.hausdorff_mesh_to_face == pytest.approx(0.5, abs=1e-6)
+    assert w.hausdorff_face_to_mesh == pytest.approx(0.5, abs=1e-6)
+    assert w.self_intersections == 0 and w.n_faces == 1
+
+
+def test_written_face_against_half_the_mesh(flat_face_file):
+    """Against half of the mesh the face is twice the area and reaches far beyond it (face -> mesh), while every
+    mesh point lies on it (mesh -> face ~ 0): the two directions are measured separately."""
+    from trimsurf.fit import measure_written_face
+
+    mesh, path = flat_face_file
+    c = mesh.vertices[mesh.triangles].mean(axis=1)
+    half = mesh.submesh(c[:, 0] < np.median(c[:, 0]))
+    w = measure_written_face(path, half)
+    assert w.hausdorff_mesh_to_face < 1e-6 * mesh.diagonal()
+    assert w.hausdorff_face_to_mesh > 0.3 * np.ptp(mesh.vertices[:, 0])
+    assert 1.8 < w.area_ratio < 2.2
+
+
+def test_written_face_unreadable_file(tmp_path, flat_sheet):
+    from trimsurf.fit import measure_written_face
+
+    mesh, _ = flat_sheet
+    bad = tmp_path / "bad.step"
+    bad.write_text("ISO-10303-21;\nHEADER;\nnot a step file\n")
+    w = measure_written_face(bad, mesh)
+    assert not w.readable and not w.step_valid and w.error and np.isnan(w.hausdorff)
+    assert measure_written_face(tmp_path / "missing.step", mesh).error == "no such file"
+
+
+def test_written_face_agrees_with_a_fine_brute_force(s_cone, tmp_path):
+    """The sampled figures against a brute force: the file read back, meshed by BRepMesh 50x finer than the
+    measure's own deflection, every mesh vertex to that tessellation and every tessellation node to the mesh.
+    The two agree within the fine tessellation's deflection plus 3% (the face side is sampled)."""
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+    from OCP.STEPControl import STEPControl_Reader
+
+    from trimsurf.fit import measure_written_face
+    from trimsurf.fit._measure import _faces, _triangulation
+    from trimsurf.quality import closest_points_on_mesh
+
+    mesh, _ = s_cone
+    r = fit_trimmed_face(mesh, embed_method="hlle", grid_shape=(29, 16))
+    path = tmp_path / "s.step"
+    write_shell(r.face, path)
+    w = measure_written_face(path, mesh)
+    reader = STEPControl_Reader()
+    reader.ReadFile(str(path))
+    reader.TransferRoots()
+    shape = reader.OneShape()
+    fine = w.deflection / 50
+    BRepMesh_IncrementalMesh(shape, fine, False, 0.1, False)
+    pts, _, tris = _triangulation(_faces(shape)[0])
+    tess = TriMesh(pts, tris)
+    brute_mf = closest_points_on_mesh(mesh.vertices, tess).distance.max()
+    brute_fm = closest_points_on_mesh(pts, mesh).distance.max()
+    assert abs(w.hausdorff_mesh_to_face - brute_mf) <= fine + 0.03 * brute_mf
+    assert abs(w.hausdorff_face_to_mesh - brute_fm) <= fine + 0.03 * brute_fm
+
+
+def test_written_face_runaway_extrapolation(s_cone, tmp_path):
+    """Sec. 4.2.1 with the paper's cubic S_i on the S strip: the ring-by-ring polynomial extrapolation runs away
+    (control points ~1e9 x the diagonal). The measure stays bounded in time and memory (a (u, v)-grid
+    tessellation, no self-intersection count) and reports the runaway plainly; the bilinear S_i stays near."""
+    import time
+
+    from trimsurf.fit import measure_written_face
+
+    mesh, _ = s_cone
+    out = {}
+    for degree in (3, 1):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", TrimsurfWarning)
+            r = fit_trimmed_face(mesh, embed_method="hlle", backmap_method="nurbs",
+                                 backmap_options={"extrapolation_degree": degree})
+            write_shell(r.face, tmp_path / f"n{degree}.step")
+        t = time.perf_counter()
+        out[degree] = measure_written_face(tmp_path / f"n{degree}.step", mesh)
+        assert time.perf_counter() - t < 30
+    assert out[3].area_ratio > 10 and out[3].hausdorff > mesh.diagonal() and out[3].self_intersections == -1
+    assert 0.5 < out[1].area_ratio < 1.5 and out[1].hausdorff < 0.1 * mesh.diagonal()
+    assert out[1].self_intersections >= 0

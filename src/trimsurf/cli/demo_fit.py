@@ -8,7 +8,8 @@ from .demo_steps import StepContext, StepOutput, step
 
 @step("fit", kinds=("mesh",))
 def _fit(ctx: StepContext) -> StepOutput:
-    """Fit a trimmed NURBS face to the mesh (forward map + back-map + trims), write STEP, render the deviation."""
+    """Fit a trimmed NURBS face to the mesh (forward map + back-map + trims), write STEP, read it back, measure it
+    and render the face read back coloured by its distance to the mesh."""
     from .fit import fit_mesh
 
     path = ctx.out("fit.step")
@@ -18,7 +19,8 @@ def _fit(ctx: StepContext) -> StepOutput:
     except InputError as exc:           # e.g. a closed sample: not a disk with holes
         return StepOutput(figures={"skipped": str(exc)})
     keys = ("vertices", "loops", "embed", "backmap", "flipped_in_embedding", "hausdorff", "hausdorff_rel",
-            "rms_deviation", "boundary_deviation", "self_intersections_in_face", "step_valid", "seconds")
+            "rms_deviation", "boundary_deviation", "area_ratio", "self_intersections", "step_valid", "problems",
+            "seconds_fit", "seconds_write", "seconds_measure")
     images = [png]
     if ctx.sample == "s_cone" and not ctx.quick:
         images.append(_table5_picture(ctx))

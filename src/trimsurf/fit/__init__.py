@@ -17,8 +17,11 @@ Des Manuf 9 (2015) 303-316), Fig. 2:
 5. `trim_loops`: p-curves lambda_i of the loops in S's domain.
 
 `fit_trimmed_face` runs all of it and returns a `FitResult` whose ``face``
-is a `trimsurf.model.TrimmedFace` (write it with ``trimsurf.io.write_shell``);
-`fit_quality` measures it against the mesh.
+is a `trimsurf.model.TrimmedFace` (write it with ``trimsurf.io.write_shell``).
+`measure_written_face` reads the written STEP file back through Open CASCADE
+and measures the face as read (Hausdorff both ways inside the trims, area,
+BRepCheck, self-intersections): the figures to report. `fit_quality` is an
+in-memory diagnostic (S on the mesh's parameter triangulation, no trims).
 """
 
 from ._backmap import BACKMAPS, BackMap, backmap, greville_hybrid, hybrid, lsq_fit, nurbs_extrapolation, rbf_map
@@ -27,6 +30,7 @@ from ._embed import (DEVELOPABLE_LIMIT, EMBEDDINGS, EmbeddingQuality, boundary_c
                      harmonic, hessian_lle, hessian_matrix, isomap, laplacian_eigenmaps, lscm, normalize_parameters)
 from ._fit import FitQuality, FitResult, evaluated_face_mesh, fit_quality, fit_trimmed_face
 from ._grid import ParameterGrid, locate, parameter_grid
+from ._measure import WrittenFace, deflection_for, measure_written_face
 from ._trim import order_loops, trim_loops
 
 __all__ = ["mesh_brep", "MeshBRep", "angle_defects", "vertex_areas",
@@ -36,4 +40,5 @@ __all__ = ["mesh_brep", "MeshBRep", "angle_defects", "vertex_areas",
            "parameter_grid", "ParameterGrid", "locate",
            "backmap", "BACKMAPS", "BackMap", "hybrid", "greville_hybrid", "lsq_fit", "nurbs_extrapolation", "rbf_map",
            "order_loops", "trim_loops",
-           "fit_trimmed_face", "FitResult", "fit_quality", "FitQuality", "evaluated_face_mesh"]
+           "fit_trimmed_face", "FitResult", "fit_quality", "FitQuality", "evaluated_face_mesh",
+           "measure_written_face", "WrittenFace", "deflection_for"]

@@ -6,7 +6,7 @@ method         surface S
 ``nurbs``      Sec. 4.2.1: control points grown ring by ring from a block W_0 inside phi(M):
                phi^-1(w) (barycentric) where w in phi(M), else the extrapolation S_i(w)
 ``rbf``        Sec. 4.2.2, eq. (10)-(11): thin-plate-spline RBF with S(u_i) = x_i
-               (the face written to STEP carries its ``lsq`` NURBS conversion)
+               (the face written to STEP carries its least-squares cubic B-spline conversion)
 ``hybrid``     Sec. 4.2.3: P = f(W) with f the RBF, S the cubic NURBS on P (the paper's choice)
 ``greville``   as hybrid, but P = f at the Greville abscissae of S's knots (beyond the paper)
 ``lsq``        least-squares cubic B-spline on W's knots through the vertices and a dense sample of
@@ -124,36 +124,23 @@ def greville_hybrid(mesh: TriMesh, uv: np.ndarray, grid: ParameterGrid, *, f: RB
     return BackMap("greville", s, grid, _bspline_fn(s), ctrl)
 
 
-def lsq_fit(mesh: TriMesh, uv: np.ndarray, grid: ParameterGrid, *, f: RBFInterpolator | None = None,
-            oversample: int = 3, smooth: float = 1e-6) -> BackMap:
-    """Least-squares cubic B-spline on W's knots through the mesh vertices and a dense RBF sample around them.
-
-    Data: every vertex (u_i, x_i), and a regular grid of `oversample` points
-    per knot span over H(W) with values phi^-1(w) (the mesh point, by
-    barycentric coordinates) where w lies in phi(M), and the RBF
-    extrapolation f(w) of M elsewhere (holes, concavities, the margin of W).
-    So every knot span has data however the mesh is spread. A small thin-plate (second-difference) penalty `smooth`, relative
-    to the data term, keeps control points without data defined. Solved by
-    sparse normal equations.
-    """
-    from scipy import sparse
-    from scipy.sparse import linalg as sla
-
-    f = rbf_map(mesh, uv) if f is None else f
-    base = _nurbs_on_grid(grid, np.zeros((*grid.shape, 3)))
+def _dense_grid(grid: ParameterGrid, base: NurbsSurface, oversample: int) -> np.ndarray:
+    """A regular grid of `oversample` points per knot span over H(W), (k, 2)."""
     nu, nv = grid.shape
     su = np.linspace(grid.u[0], grid.u[-1], oversample * (nu - base.degree_u) + 1)
     sv = np.linspace(grid.v[0], grid.v[-1], oversample * (nv - base.degree_v) + 1)
     uu, vv = np.meshgrid(su, sv, indexing="ij")
-    dense = np.column_stack([uu.ravel(), vv.ravel()])
-    tri, bary = locate(uv, mesh.triangles, dense)
-    inside = tri >= 0
-    dense_vals = np.empty((len(dense), 3))
-    dense_vals[inside] = np.einsum("kj,kjd->kd", bary[inside], mesh.vertices[mesh.triangles[tri[inside]]])
-    if (~inside).any():
-        dense_vals[~inside] = f(dense[~inside])
-    pts = np.vstack([uv, dense])
-    vals = np.vstack([mesh.vertices, dense_vals])
+    return np.column_stack([uu.ravel(), vv.ravel()])
+
+
+def _lsq_control_points(grid: ParameterGrid, base: NurbsSurface, pts: np.ndarray, vals: np.ndarray,
+                        smooth: float) -> np.ndarray:
+    """Control points (nu, nv, 3) of the cubic B-spline on W's knots fitting vals at pts by least squares, with
+    a thin-plate penalty `smooth` relative to the data term (sparse normal equations)."""
+    from scipy import sparse
+    from scipy.sparse import linalg as sla
+
+    nu, nv = grid.shape
     # data weight: each sample stands for an equal share of the parameter area
     bu = BSpline.design_matrix(np.clip(pts[:, 0], grid.u[0], grid.u[-1]), base.knots_u, base.degree_u).tocsr()
     bv = BSpline.design_matrix(np.clip(pts[:, 1], grid.v[0], grid.v[-1]), base.knots_v, base.degree_v).tocsr()
@@ -188,18 +175,68 @@ def lsq_fit(mesh: TriMesh, uv: np.ndarray, grid: ParameterGrid, *, f: RBFInterpo
     BtB = (B.T @ B).tocsc()
     lam = smooth * float(BtB.diagonal().mean()) / max(float((R.T @ R).diagonal().mean()), 1e-300)
     A = (BtB + lam * (R.T @ R)).tocsc()
-    ctrl = sla.splu(A).solve(np.asarray(B.T @ vals)).reshape(nu, nv, 3)
+    return sla.splu(A).solve(np.asarray(B.T @ vals)).reshape(nu, nv, 3)
+
+
+def lsq_fit(mesh: TriMesh, uv: np.ndarray, grid: ParameterGrid, *, f: RBFInterpolator | None = None,
+            oversample: int = 3, smooth: float = 1e-6, far_keep: int | None = 1) -> BackMap:
+    """Least-squares cubic B-spline on W's knots through the mesh vertices and a dense RBF sample around them.
+
+    Data: every vertex (u_i, x_i), and a regular grid of `oversample` points
+    per knot span over H(W) with values phi^-1(w) (the mesh point, by
+    barycentric coordinates) where w lies in phi(M), and the RBF
+    extrapolation f(w) of M elsewhere (holes, concavities, the margin of W).
+    So every knot span has data however the mesh is spread. Outside phi(M)
+    and more than two knot spans from every vertex the grid is thinned to
+    `far_keep` points per knot span (None: all); only control points without
+    data of their own rest on those. A small thin-plate (second-difference)
+    penalty `smooth`, relative to the data term, keeps control points
+    without data defined. Solved by sparse normal equations.
+    """
+    f = rbf_map(mesh, uv) if f is None else f
+    base = _nurbs_on_grid(grid, np.zeros((*grid.shape, 3)))
+    dense = _dense_grid(grid, base, oversample)
+    tri, bary = locate(uv, mesh.triangles, dense)
+    inside = tri >= 0
+    if far_keep is not None and oversample > far_keep:
+        # outside phi(M) and more than two knot spans from every vertex: only control points without data of
+        # their own rest on these RBF values; keep `far_keep` per knot span there (the RBF is the costly part)
+        from scipy.spatial import cKDTree
+
+        h = max(grid.u[1] - grid.u[0], grid.v[1] - grid.v[0])
+        far = ~inside & (cKDTree(uv).query(dense, distance_upper_bound=2 * h)[0] > 2 * h)
+        ns = oversample * (grid.shape[1] - base.degree_v) + 1
+        iu, iv = np.divmod(np.arange(len(dense)), ns)
+        step = oversample // far_keep
+        drop = far & ((iu % step != 0) | (iv % step != 0))
+        dense, tri, bary, inside = dense[~drop], tri[~drop], bary[~drop], inside[~drop]
+    dense_vals = np.empty((len(dense), 3))
+    dense_vals[inside] = np.einsum("kj,kjd->kd", bary[inside], mesh.vertices[mesh.triangles[tri[inside]]])
+    if (~inside).any():
+        dense_vals[~inside] = f(dense[~inside])
+    pts = np.vstack([uv, dense])
+    vals = np.vstack([mesh.vertices, dense_vals])
+    ctrl = _lsq_control_points(grid, base, pts, vals, smooth)
     s = _nurbs_on_grid(grid, ctrl)
     return BackMap("lsq", s, grid, _bspline_fn(s), ctrl)
 
 
-def rbf_surface(mesh: TriMesh, uv: np.ndarray, grid: ParameterGrid, *, f: RBFInterpolator | None = None
-                ) -> BackMap:
-    """Sec. 4.2.2: S = f, the thin-plate-spline RBF itself; the NURBS for STEP is its `lsq_fit`."""
+def rbf_surface(mesh: TriMesh, uv: np.ndarray, grid: ParameterGrid, *, f: RBFInterpolator | None = None,
+                oversample: int = 3, smooth: float = 1e-6) -> BackMap:
+    """Sec. 4.2.2: S = f, the thin-plate-spline RBF itself; for STEP it is converted to a cubic B-spline.
+
+    The conversion (``surface``, what a STEP file holds) is the least-squares
+    cubic B-spline on W's knots through the RBF's own values: at the vertex
+    parameters u_i and on a grid of `oversample` points per knot span over
+    H(W) (the RBF inside phi(M) too, not the mesh). ``evaluate`` is the RBF;
+    the figures of the written face are those of the conversion.
+    """
     f = rbf_map(mesh, uv) if f is None else f
-    conv = lsq_fit(mesh, uv, grid, f=f)
-    return BackMap("rbf", conv.surface, grid, lambda w: f(np.asarray(w, dtype=np.float64).reshape(-1, 2)),
-                   conv.control_grid)
+    base = _nurbs_on_grid(grid, np.zeros((*grid.shape, 3)))
+    pts = np.vstack([uv, _dense_grid(grid, base, oversample)])
+    ctrl = _lsq_control_points(grid, base, pts, f(pts), smooth)
+    conv = _nurbs_on_grid(grid, ctrl)
+    return BackMap("rbf", conv, grid, lambda w: f(np.asarray(w, dtype=np.float64).reshape(-1, 2)), ctrl)
 
 
 # ----------------------------------------------------------------------------- Sec. 4.2.1
@@ -246,9 +283,15 @@ def _largest_inside_block(inside: np.ndarray) -> tuple[int, int, int, int]:
     return int(i0), int(i1), int(j0), int(j1)
 
 
-def nurbs_extrapolation(mesh: TriMesh, uv: np.ndarray, grid: ParameterGrid, *, extrapolation_degree: int = 1
+def nurbs_extrapolation(mesh: TriMesh, uv: np.ndarray, grid: ParameterGrid, *, extrapolation_degree: int = 3
                         ) -> BackMap:
     """Sec. 4.2.1: the control polyhedron grown by iterative extrapolation (Fig. 3).
+
+    S_i, the surface extrapolated at each ring, is the B-spline of degree
+    `extrapolation_degree` on the control net P_i so far (its Greville
+    abscissae at W_i's grid points), continued beyond its domain by its end
+    polynomial pieces: 3 is the paper's cubic NURBS (eq. (9)); 1 (bilinear)
+    is kept as an option (benchmarks/RESULTS.md compares the two).
 
     1. W_0: a block of W inside phi(M) (the largest square of grid points
        inside, grown while it stays inside); 2. its control points
@@ -258,6 +301,8 @@ def nurbs_extrapolation(mesh: TriMesh, uv: np.ndarray, grid: ParameterGrid, *, e
        the extrapolation S_i(w); 6. repeat until W_i = W; 7. S: the cubic
        NURBS (eq. (9)) on P.
     """
+    if extrapolation_degree not in (1, 2, 3):
+        raise InputError(f"extrapolation_degree must be 1, 2 or 3; got {extrapolation_degree!r}")
     pts = grid.points()
     nu, nv = grid.shape
     tri, bary = locate(uv, mesh.triangles, pts.reshape(-1, 2))

@@ -56,7 +56,8 @@ class FitResult:
 
 def fit_trimmed_face(mesh: TriMesh, *, embed_method: str = "hlle", backmap_method: str = "lsq",
                      grid_shape: tuple[int, int] | None = None, trim_degree: int = 1, name: str = "fit",
-                     uv: np.ndarray | None = None, progress=None) -> FitResult:
+                     uv: np.ndarray | None = None, progress=None, backmap_options: dict | None = None,
+                     normalize_uv: bool = True) -> FitResult:
     """Fit a trimmed NURBS face to a disk-like mesh with holes (the paper's Fig. 2 pipeline).
 
     Parameters
@@ -77,8 +78,15 @@ def fit_trimmed_face(mesh: TriMesh, *, embed_method: str = "hlle", backmap_metho
     uv : (n, 2) float64 or None
         A given parameterization U instead of computing phi (e.g. the exact
         flat layout of a developable mesh); it is normalised the same way.
+    normalize_uv : bool
+        False for a `uv` that `embed` returned with `embed_method` (already
+        normalised): it is used as is and the result keeps `embed_method`'s
+        name (instead of "given").
     progress : callable or None
         Called with the name of each step as it starts.
+    backmap_options : dict or None
+        Keyword options of the back-map (e.g. ``{"extrapolation_degree": 1}``
+        for ``nurbs``).
 
     Returns
     -------
@@ -113,10 +121,14 @@ def fit_trimmed_face(mesh: TriMesh, *, embed_method: str = "hlle", backmap_metho
     tell(f"forward map ({embed_method})")
     if uv is None:
         U = embed(mesh, embed_method, brep=brep)
-    else:
+    elif normalize_uv:
         from ._embed import normalize_parameters
         U = normalize_parameters(mesh, uv)
         embed_method = "given"
+    else:
+        U = np.ascontiguousarray(uv, dtype=np.float64)
+        if U.shape != (mesh.n_vertices, 2) or not np.all(np.isfinite(U)):
+            raise InputError(f"uv must be finite with shape ({mesh.n_vertices}, 2); got {U.shape}")
     quality = embedding_quality(mesh, U, brep)
     secs["embed"] = time.perf_counter() - t
     t = time.perf_counter()
@@ -125,7 +137,7 @@ def fit_trimmed_face(mesh: TriMesh, *, embed_method: str = "hlle", backmap_metho
     e1, e2 = t_uv[:, 1] - t_uv[:, 0], t_uv[:, 2] - t_uv[:, 0]
     uv_area = 0.5 * float(np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum())
     grid = parameter_grid(U, grid_shape, n_vertices=mesh.n_vertices, area=uv_area)
-    S = backmap(mesh, U, grid, backmap_method)
+    S = backmap(mesh, U, grid, backmap_method, **(backmap_options or {}))
     secs["backmap"] = time.perf_counter() - t
     t = time.perf_counter()
     tell("trim loops")
@@ -186,9 +198,9 @@ class FitQuality:
     seconds: float
 
 
-def _polyline_samples(p: np.ndarray, step: float) -> np.ndarray:
+def _polyline_samples(p: np.ndarray, step: float, max_per_segment: int = 256) -> np.ndarray:
     q = np.roll(p, -1, axis=0)
-    n = np.maximum(np.ceil(np.linalg.norm(q - p, axis=1) / step).astype(int), 1)
+    n = np.clip(np.ceil(np.linalg.norm(q - p, axis=1) / step), 1, max_per_segment).astype(np.int64)
     idx = np.repeat(np.arange(len(p)), n)
     t = (np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)) / np.repeat(n, n)
     return p[idx] + t[:, None] * (q[idx] - p[idx])
@@ -211,9 +223,13 @@ def _distance_to_polylines(points: np.ndarray, polylines: list[np.ndarray], k: i
 
 def fit_quality(result: FitResult, mesh: TriMesh, *, density: int | None = None, levels: int | None = None,
                 self_intersections: bool = True) -> FitQuality:
-    """Hausdorff, RMS and boundary deviation of the fitted face from the mesh, and self-intersections of the face.
+    """In-memory diagnostic: Hausdorff, RMS and boundary deviation of the back-map S from the mesh before writing.
 
-    The face is evaluated on the subdivided parameter triangulation
+    Not the figures of the written face: S is evaluated on the mesh's own
+    parameter triangulation, so the trims never enter it (the ``rbf``
+    back-map's S is the RBF, not the B-spline written); the face as written is
+    measured by `trimsurf.fit.measure_written_face`. The face is evaluated on
+    the subdivided parameter triangulation
     (`evaluated_face_mesh`) and compared with the mesh by
     `trimsurf.quality.mesh_deviation` (exact closest points on triangles,
     `density` samples per triangle edge, both ways).
