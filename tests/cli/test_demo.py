@@ -40,7 +40,6 @@ def test_demo_runs_every_sample_and_step(demo_run):
             for f in st["files"]:
                 assert (out / f).is_file() and (out / f).stat().st_size > 0
         assert (out / f"{name}.info.json").is_file()
-    assert summary["seconds"] < 60
 
 
 def test_demo_figures_describe_the_samples(demo_run):
