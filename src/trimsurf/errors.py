@@ -20,6 +20,7 @@ __all__ = [
     "TrimLoopError",
     "GeometryError",
     "TrimsurfWarning",
+    "FaceSkippedWarning",
 ]
 
 
@@ -69,3 +70,7 @@ class GeometryError(InputError):
 
 class TrimsurfWarning(UserWarning):
     """Something the user should know that does not stop the work."""
+
+
+class FaceSkippedWarning(TrimsurfWarning):
+    """A face of a CAD file that could not be converted and was left out (the rest of the file is read)."""

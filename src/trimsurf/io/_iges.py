@@ -32,9 +32,23 @@ def read(path: str | os.PathLike) -> Shell:
     ------
     IgesReadError
         The file is missing, empty, malformed, or holds no faces (one line
-        naming the file; Open CASCADE's own output is suppressed).
+        naming the file; Open CASCADE's own output is suppressed), holds a
+        number that is not finite or above 1e10 in magnitude, or Open CASCADE
+        crashes or does not finish on it (the read runs in a child process
+        with a time limit, `trimsurf.io._occ._isolate`).
+
+    Warns
+    -----
+    FaceSkippedWarning
+        A face that cannot be converted is left out (named in the message).
     """
-    return _occ.shape_to_shell(read_occ_shape(path), name=Path(path).name)
+    _occ.check_file(path, IgesReadError)
+    return _occ.read_isolated(path, "IGES", IgesReadError)
+
+
+def read_in_process(path: str | os.PathLike) -> Shell:
+    """`read` in the calling process (what the child process of `read` runs; crashes are not contained)."""
+    return _occ.shape_to_shell(read_occ_shape(path), name=Path(path).name, skip_bad_faces=True)
 
 
 def write(shell: Shell, path: str | os.PathLike) -> None:

@@ -49,9 +49,24 @@ def read(path: str | os.PathLike) -> Shell:
     StepReadError
         The file is missing, empty, truncated or malformed, or holds no faces.
         The message is one line naming the file; Open CASCADE's own output is
-        suppressed.
+        suppressed. Also raised when a record has incorrect syntax, a number
+        is not finite or above 1e10 in magnitude, or Open CASCADE crashes or
+        does not finish on the file: the read runs in a child process with a
+        time limit (`trimsurf.io._occ._isolate`).
+
+    Warns
+    -----
+    FaceSkippedWarning
+        A face that cannot be converted is left out (named in the message);
+        the other faces are read.
     """
-    return _occ.shape_to_shell(read_occ_shape(path), name=Path(path).name)
+    _occ.check_file(path, StepReadError)
+    return _occ.read_isolated(path, "STEP", StepReadError)
+
+
+def read_in_process(path: str | os.PathLike) -> Shell:
+    """`read` in the calling process (what the child process of `read` runs; crashes are not contained)."""
+    return _occ.shape_to_shell(read_occ_shape(path), name=Path(path).name, skip_bad_faces=True)
 
 
 def write(shell: Shell | TrimmedFace | Sequence[TrimmedFace], path: str | os.PathLike, *,

@@ -12,6 +12,7 @@ from collections.abc import Iterator
 
 from ...errors import FileFormatError
 from .. import check_readable as check_file
+from ._checks import check_file_numbers, check_shape_geometry
 from ._to_shell import map_topology
 
 
@@ -93,6 +94,7 @@ def read_shape(path: str | os.PathLike, fmt: str, error: type[FileFormatError]):
     from OCP.IFSelect import IFSelect_RetDone
 
     p = check_file(path, error)
+    check_file_numbers(p, fmt, error)
     if fmt == "STEP":
         from OCP.STEPControl import STEPControl_Reader
         reader = STEPControl_Reader()
@@ -103,20 +105,74 @@ def read_shape(path: str | os.PathLike, fmt: str, error: type[FileFormatError]):
     with quiet_occ() as log:
         try:
             status = reader.ReadFile(str(p))
-            # TransferRoots on a failed read crashes the process: only transfer after RetDone
-            if status == IFSelect_RetDone:
-                reader.TransferRoots()
-                shape = reader.OneShape()
-            else:
+            if status != IFSelect_RetDone:
                 failure = f"status {getattr(status, 'name', status)}"
         except Exception as exc:  # Open CASCADE raises Standard_Failure subclasses
-            failure = f"{type(exc).__name__}: {exc}"
+            status, failure = None, f"{type(exc).__name__}: {exc}"
+    if status == IFSelect_RetDone:
+        _refuse_syntax_errors(reader, log, path, fmt, error)
+        # TransferRoots on a failed read crashes the process: only transfer after RetDone
+        with quiet_occ() as log:
+            try:
+                reader.TransferRoots()
+                shape = reader.OneShape()
+            except Exception as exc:
+                failure = f"{type(exc).__name__}: {exc}"
     if shape is None:
         detail = _occ_detail(log) or failure
         raise error(f"{path}: not a readable {fmt} file (truncated or malformed: {detail})")
     if shape.IsNull() or count_faces(shape) == 0:
         raise error(f"{path}: the {fmt} file holds no faces")
+    check_shape_geometry(shape, path, error)
     return shape
+
+
+def _refuse_syntax_errors(reader, log: list[str], path, fmt: str, error: type[FileFormatError]) -> None:
+    """Refuse a file whose records Open CASCADE's parser flags as "Incorrect Syntax" (before the transfer).
+
+    The parser reads on past a malformed record, and transferring what it made
+    of it can crash the process; a file with such records is refused. The
+    message gives the parser's count and the first check failure it recorded.
+    """
+    flagged = [ln for ln in log if "Incorrect Syntax" in ln]
+    if not flagged:
+        return
+    count = flagged[0].rsplit(":", 1)[-1].strip()
+    first = _first_check_failure(reader)
+    raise error(f"{path}: not a valid {fmt} file: Open CASCADE's reader found {count} record(s) with incorrect "
+                f"syntax{': ' + first if first else ''}")
+
+
+def _first_check_failure(reader) -> str:
+    """'#N: message' of the check failure most likely to be the syntax error, or ''.
+
+    A failure that says a parameter is "not a" Real/String/... or is undefined
+    is preferred over the others (real files carry harmless semantic
+    failures, e.g. an si_unit with the wrong parameter count).
+    """
+    found: list[str] = []
+    try:
+        model = reader.WS().Model()
+        checks = reader.WS().ModelCheckList(False)
+        checks.Start()
+        while checks.More() and len(found) < 1000:
+            check = checks.Value()
+            if check.NbFails():
+                label = ""
+                if checks.Number():
+                    try:
+                        label = model.StringLabel(checks.Entity()).ToExtString()
+                    except Exception:  # noqa: BLE001
+                        label = f"entity {checks.Number()}"
+                text = check.CFail(1, True)
+                found.append(f"{label + ': ' if label else ''}{text}")
+            checks.Next()
+    except Exception:  # noqa: BLE001 - the message only
+        pass
+    for item in found:
+        if " not a " in item or "ndefined" in item or "yntax" in item:
+            return item[:160]
+    return found[0][:160] if found else ""
 
 
 def invalid_faces(shape) -> list[int]:

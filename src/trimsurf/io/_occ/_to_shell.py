@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
 
-from ...errors import GeometryError
+from ...errors import FaceSkippedWarning, GeometryError
 from ...model import Edge, Loop, NurbsCurve, PCurve, Shell, TrimmedFace
 from ._geometry import curve_from_occ, surface_from_occ
 
@@ -136,18 +137,26 @@ def map_topology(shape) -> OccTopology:
     return OccTopology(faces, loops, edges, vertices)
 
 
-def shape_to_shell(shape, *, name: str = "") -> Shell:
+def shape_to_shell(shape, *, name: str = "", skip_bad_faces: bool = False) -> Shell:
     """Convert a NurbsConvert-ed Open CASCADE shape into a `Shell` (see the module notes).
 
-    Entities are numbered as by `map_topology`.
+    Entities are numbered as by `map_topology`. With `skip_bad_faces`, a face
+    whose conversion fails (invalid knots, a missing p-curve, an Open CASCADE
+    exception) is left out with a `FaceSkippedWarning` naming it (its index
+    as in `map_topology`); the other faces and the edges they use are kept,
+    numbered in order. Without it the first failure raises.
+
+    Raises
+    ------
+    GeometryError
+        A face cannot be converted (without `skip_bad_faces`), or every face
+        failed (with it).
     """
     from OCP.BRep import BRep_Tool
     from OCP.collections import (
         IndexedMap_TopoDS_Shape_TopTools_ShapeMapHasher as ShapeMap,
     )
-    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
     from OCP.TopExp import TopExp
-    from OCP.TopoDS import TopoDS
 
     topo = map_topology(shape)
     emap, vmap = ShapeMap(), ShapeMap()
@@ -155,41 +164,44 @@ def shape_to_shell(shape, *, name: str = "") -> Shell:
         emap.Add(e)
     for v in topo.vertices:
         vmap.Add(v)
-    edge_curves = [_edge_curve(e) for e in topo.edges]
+    edge_curves: list[NurbsCurve | None] = [None] * len(topo.edges)
+    edge_done = [False] * len(topo.edges)
     edge_uses: list[list[tuple[int, int, int]]] = [[] for _ in topo.edges]
     edge_dev = [0.0] * len(topo.edges)
-    faces: list[TrimmedFace] = []
+    converted: list[tuple] = []  # (surface, loops_raw, same_sense, name, tolerance)
+    skipped: list[str] = []
     for fi, (face, face_loops) in enumerate(zip(topo.faces, topo.loops)):
-        same_sense = face.Orientation() != TopAbs_REVERSED
-        fwd = TopoDS.Face(face.Oriented(TopAbs_FORWARD))
-        loops_raw: list[list[tuple[NurbsCurve, float, float, int]]] = []
-        for li, edges in enumerate(face_loops):
-            segs = []
-            for si, edge in enumerate(edges):
-                ei = emap.FindIndex(edge) - 1
-                pc = BRep_Tool.CurveOnSurface_s(edge, fwd, 0.0, 0.0)
-                if pc is None:
-                    raise GeometryError(f"{name}: face {fi} edge {ei} has no p-curve")
-                a, b = BRep_Tool.Range_s(edge, fwd)
-                t0, t1 = (b, a) if edge.Orientation() == TopAbs_REVERSED else (a, b)
-                if edge_curves[ei] is not None:
-                    edge_dev[ei] = max(edge_dev[ei], _same_parameter_deviation(edge, fwd))
-                edge_uses[ei].append((fi, li, si))
-                segs.append((curve_from_occ(pc, a, b, 2), t0, t1, ei))
-            loops_raw.append(segs)
-        u0, u1, v0, v1 = _uv_bounds(fwd)
-        lo, hi = np.array([u0, v0]), np.array([u1, v1])
-        all_segs = [PCurve(c, t0, t1) for segs in loops_raw for c, t0, t1, _ in segs]
-        if all_segs:
-            slo, shi = _segment_uv_range(all_segs)
-            lo, hi = np.minimum(lo, slo), np.maximum(hi, shi)
-        surface = surface_from_occ(BRep_Tool.Surface_s(fwd), lo, hi)
-        loops = tuple(Loop(tuple(PCurve(c, t0, t1, edge_curves[ei], ei) for c, t0, t1, ei in segs))
+        try:
+            item, uses, devs = _convert_face(fi, face, face_loops, emap, edge_curves, edge_done, name)
+        except Exception as exc:  # GeometryError from the model, Standard_Failure from Open CASCADE
+            if not skip_bad_faces:
+                raise
+            message = f"{name + ': ' if name else ''}face {fi} skipped: {type(exc).__name__}: {exc}"
+            skipped.append(" ".join(message.split()))
+            warnings.warn(skipped[-1], FaceSkippedWarning, stacklevel=2)
+            continue
+        out_index = len(converted)
+        converted.append(item)
+        for ei, li, si in uses:
+            edge_uses[ei].append((out_index, li, si))
+        for ei, dev in devs.items():
+            edge_dev[ei] = max(edge_dev[ei], dev)
+    if skipped and not converted:
+        raise GeometryError(f"{name + ': ' if name else ''}no face could be converted ({len(skipped)} skipped; "
+                            f"first: {skipped[0]})")
+    # edges used by a kept face, renumbered in order
+    kept = [ei for ei in range(len(topo.edges)) if edge_uses[ei] or not skipped]
+    new_id = {ei: k for k, ei in enumerate(kept)}
+    faces: list[TrimmedFace] = []
+    for surface, loops_raw, same_sense, face_name, tolerance in converted:
+        loops = tuple(Loop(tuple(PCurve(c, t0, t1, edge_curves[ei], new_id[ei]) for c, t0, t1, ei in segs))
                       for segs in loops_raw)
-        faces.append(TrimmedFace(surface, loops, same_sense=same_sense, name=f"{name} face {fi}".strip(),
-                                 tolerance=BRep_Tool.Tolerance_s(fwd)))
+        faces.append(TrimmedFace(surface, loops, same_sense=same_sense, name=face_name, tolerance=tolerance))
     edges = []
-    for ei, edge in enumerate(topo.edges):
+    for ei in kept:
+        edge = topo.edges[ei]
+        if not edge_done[ei]:
+            edge_curves[ei] = _edge_curve(edge)
         first, last = TopExp.FirstVertex_s(edge), TopExp.LastVertex_s(edge)
         vids = tuple(vmap.FindIndex(v) - 1 if not v.IsNull() else -1 for v in (first, last))
         t0, t1 = BRep_Tool.Range_s(edge)
@@ -198,6 +210,45 @@ def shape_to_shell(shape, *, name: str = "") -> Shell:
                           is_degenerate=BRep_Tool.Degenerated_s(edge)))
     vertices = np.array([_vertex_point(v) for v in topo.vertices], dtype=np.float64).reshape(-1, 3)
     return Shell(tuple(faces), tuple(edges), vertices, name=name)
+
+
+def _convert_face(fi: int, face, face_loops, emap, edge_curves, edge_done, name: str):
+    """One face: ((surface, loops_raw, same_sense, name, tolerance), [(edge, loop, segment)], {edge: deviation})."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
+    from OCP.TopoDS import TopoDS
+
+    same_sense = face.Orientation() != TopAbs_REVERSED
+    fwd = TopoDS.Face(face.Oriented(TopAbs_FORWARD))
+    loops_raw: list[list[tuple[NurbsCurve, float, float, int]]] = []
+    uses: list[tuple[int, int, int]] = []
+    devs: dict[int, float] = {}
+    for li, edges in enumerate(face_loops):
+        segs = []
+        for si, edge in enumerate(edges):
+            ei = emap.FindIndex(edge) - 1
+            if not edge_done[ei]:
+                edge_curves[ei] = _edge_curve(edge)
+                edge_done[ei] = True
+            pc = BRep_Tool.CurveOnSurface_s(edge, fwd, 0.0, 0.0)
+            if pc is None:
+                raise GeometryError(f"{name}: face {fi} edge {ei} has no p-curve")
+            a, b = BRep_Tool.Range_s(edge, fwd)
+            t0, t1 = (b, a) if edge.Orientation() == TopAbs_REVERSED else (a, b)
+            if edge_curves[ei] is not None:
+                devs[ei] = max(devs.get(ei, 0.0), _same_parameter_deviation(edge, fwd))
+            uses.append((ei, li, si))
+            segs.append((curve_from_occ(pc, a, b, 2), t0, t1, ei))
+        loops_raw.append(segs)
+    u0, u1, v0, v1 = _uv_bounds(fwd)
+    lo, hi = np.array([u0, v0]), np.array([u1, v1])
+    all_segs = [PCurve(c, t0, t1) for segs in loops_raw for c, t0, t1, _ in segs]
+    if all_segs:
+        slo, shi = _segment_uv_range(all_segs)
+        lo, hi = np.minimum(lo, slo), np.maximum(hi, shi)
+    surface = surface_from_occ(BRep_Tool.Surface_s(fwd), lo, hi)
+    item = (surface, loops_raw, same_sense, f"{name} face {fi}".strip(), BRep_Tool.Tolerance_s(fwd))
+    return item, uses, devs
 
 
 def _uv_bounds(face) -> tuple[float, float, float, float]:

@@ -1,0 +1,133 @@
+"""The child side of `trimsurf.io._occ._isolate`: a small fork server that reads CAD files in children.
+
+``python -m trimsurf.io._occ._worker FD_IN FD_OUT`` imports Open CASCADE once,
+then serves requests, one line each, from the file descriptor FD_IN::
+
+    READ <tab> FMT <tab> PATH <tab> ANSWER
+
+For each it forks a child that reads the STEP or IGES file PATH into a
+`Shell` and writes, pickled, to the file ANSWER either ("ok", shell,
+[(warning class, message)]) or ("error", exception class name, message).
+The server answers on FD_OUT with ``PID <pid>`` right after the fork and
+``EXIT <status>`` when the child ends (status: exit code, or minus the
+signal number). It ends when FD_IN is closed (its parent ended), killing a
+child still running. The server itself never calls Open CASCADE, so a crash
+or a hang stays in the child.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import select
+import signal
+import sys
+import warnings
+
+
+def read_to_file(fmt: str, path: str, answer: str) -> None:
+    """Read `path` and write the pickled answer to `answer` (what each forked child does)."""
+    import numpy as np
+
+    from ._isolate import convert_file
+
+    try:
+        with warnings.catch_warnings(record=True) as caught, np.errstate(all="ignore"):
+            warnings.simplefilter("always")
+            shell = convert_file(path, fmt)
+        kept = [(w.category.__name__, str(w.message)) for w in caught
+                if w.category.__module__ == "trimsurf.errors"]
+        message = ("ok", shell, kept)
+    except Exception as exc:  # noqa: BLE001 - everything goes back to the parent as one line
+        message = ("error", type(exc).__name__, str(exc))
+    with open(answer, "wb") as fh:
+        pickle.dump(message, fh, protocol=pickle.HIGHEST_PROTOCOL)
+
+
+def _warm_up() -> None:
+    """Read a small STEP and IGES file once, so Open CASCADE's lazy set-up (controllers, units, shape-fixing
+    resources: ~0.7 s) is done here and inherited by every forked child instead of repeated in each."""
+    import tempfile
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
+            from OCP.IGESControl import IGESControl_Writer
+            from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+
+            from .. import _iges, _step
+            from ._read import quiet_occ
+
+            with tempfile.TemporaryDirectory(prefix="trimsurf-warm-") as tmp, quiet_occ():
+                box = BRepPrimAPI_MakeBox(1.0, 2.0, 3.0).Shape()
+                writer = STEPControl_Writer()
+                writer.Transfer(box, STEPControl_AsIs)
+                writer.Write(os.path.join(tmp, "box.step"))
+                iges = IGESControl_Writer("MM", 1)
+                iges.AddShape(box)
+                iges.ComputeModel()
+                iges.Write(os.path.join(tmp, "box.igs"))
+                _step.read_in_process(os.path.join(tmp, "box.step"))
+                _iges.read_in_process(os.path.join(tmp, "box.igs"))
+        except Exception:  # noqa: BLE001 - a warm-up only
+            pass
+
+
+def _status(raw: int) -> int:
+    if os.WIFSIGNALED(raw):
+        return -os.WTERMSIG(raw)
+    return os.WEXITSTATUS(raw) if os.WIFEXITED(raw) else 1
+
+
+def serve(fd_in: int, fd_out: int) -> int:
+    # everything the reader needs, imported once before any fork
+    import numpy  # noqa: F401
+    import OCP.BRepBuilderAPI  # noqa: F401
+    import OCP.IGESControl  # noqa: F401
+    import OCP.STEPControl  # noqa: F401
+
+    from .. import _iges, _step  # noqa: F401
+    from . import _isolate  # noqa: F401
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides; Ctrl-C reaches it too
+    _warm_up()
+    buffer = b""
+    while True:
+        while b"\n" not in buffer:
+            chunk = os.read(fd_in, 65536)
+            if not chunk:
+                return 0
+            buffer += chunk
+        line, buffer = buffer.split(b"\n", 1)
+        parts = line.decode("utf-8", "surrogateescape").split("\t")
+        if len(parts) != 4 or parts[0] != "READ":
+            continue
+        _, fmt, path, answer = parts
+        pid = os.fork()
+        if pid == 0:  # the child
+            code = 1
+            try:
+                os.close(fd_in)
+                read_to_file(fmt, path, answer)
+                code = 0
+            finally:
+                os._exit(code)
+        os.write(fd_out, f"PID {pid}\n".encode())
+        while True:
+            done, raw = os.waitpid(pid, os.WNOHANG)
+            if done:
+                break
+            ready, _, _ = select.select([fd_in], [], [], 0.05)
+            if ready:  # a request while a child runs is not part of the protocol: only EOF (parent gone)
+                peek = os.read(fd_in, 65536)
+                if not peek:
+                    os.kill(pid, signal.SIGKILL)
+                    os.waitpid(pid, 0)
+                    return 0
+                buffer += peek
+        os.write(fd_out, f"EXIT {_status(raw)}\n".encode())
+
+
+if __name__ == "__main__":
+    sys.exit(serve(int(sys.argv[1]), int(sys.argv[2])))
