@@ -14,14 +14,15 @@ import contextlib
 import signal
 import threading
 import traceback
+import warnings
 
 import numpy as np
 
 from .. import __version__
-from ..errors import InputError
+from ..errors import FaceSkippedWarning, InputError
 from . import certify, demo, fit, info, join, reconstruct, samples, tessellate, view
-from ._common import (_TERMINATED, EXIT_FAILED, EXIT_INPUT, Terminated, check_output_file, check_output_folder,
-                      cli_warnings, examples, print_error)
+from ._common import (_TERMINATED, EXIT_FAILED, EXIT_INPUT, EXIT_OK, Terminated, check_output_file,
+                      check_output_folder, cli_warnings, examples, print_error)
 
 __all__ = ["main", "build_parser", "SUBCOMMANDS"]
 
@@ -92,6 +93,24 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+@contextlib.contextmanager
+def _faces_skipped():
+    """Count the `FaceSkippedWarning` shown in the block (a list that gets one item per warning)."""
+    seen: list[str] = []
+    previous = warnings.showwarning
+
+    def show(message, category, *args, **kwargs):
+        if issubclass(category, FaceSkippedWarning):
+            seen.append(str(message))
+        previous(message, category, *args, **kwargs)
+
+    warnings.showwarning = show
+    try:
+        yield seen
+    finally:
+        warnings.showwarning = previous
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run ``trimsurf`` with `argv` (default ``sys.argv[1:]``); returns the exit status.
 
@@ -109,9 +128,11 @@ def main(argv: list[str] | None = None) -> int:
     try:
         # numpy floating-point warnings never reach the terminal: inputs are checked for finite, bounded
         # values at read time, and every figure reported is measured on the output
-        with cli_warnings(), np.errstate(all="ignore"), _sigterm_as_interrupt():
+        with cli_warnings(), np.errstate(all="ignore"), _sigterm_as_interrupt(), _faces_skipped() as skipped:
             check_outputs(args)
-            return int(args.run(args))
+            status = int(args.run(args))
+        # a face of an input file was left out: some part failed
+        return EXIT_FAILED if skipped and status == EXIT_OK else status
     except MemoryError:
         if args.debug:
             traceback.print_exc()

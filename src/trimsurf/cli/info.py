@@ -11,7 +11,7 @@ from ..errors import FileFormatError, InputError, MeshError
 from ..geom import polyline_self_intersections
 from ..model import Shell, TriMesh
 from ..tolerance import default_tolerance
-from ._common import EXIT_OK, examples, format_table, print_json
+from ._common import EXIT_FAILED, EXIT_OK, examples, format_table, print_json
 
 __all__ = ["NAME", "HELP", "add_args", "run", "shell_report", "mesh_report", "format_report"]
 
@@ -55,7 +55,10 @@ def run(args: argparse.Namespace) -> int:
     if suffix in io.MESH_SUFFIXES:
         report = mesh_report(io.read_mesh(path), name=str(path))
     elif suffix in io.CAD_SUFFIXES:
-        report = shell_report(io.read_shell(path), name=str(path))
+        with io.skipped_faces() as skipped:
+            shell = io.read_shell(path)
+        report = shell_report(shell, name=str(path))
+        report["skipped_faces"] = skipped  # faces of the file left out (each already on stderr)
     else:
         raise FileFormatError(f"{path}: unknown file suffix {suffix!r}; expected a CAD file "
                               f"({', '.join(io.CAD_SUFFIXES)}) or a mesh file ({', '.join(io.MESH_SUFFIXES)})")
@@ -67,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     if args.strict and problems:
         first = problems[0].get("message", problems[0].get("kind", "problem"))
         raise InputError(f"{path}: {len(problems)} problem(s) found, first: {first}")
-    return EXIT_OK
+    return EXIT_FAILED if report.get("skipped_faces") else EXIT_OK
 
 
 # ----------------------------------------------------------------------------- CAD
@@ -330,6 +333,8 @@ def format_report(report: dict) -> str:
             ["tolerance", f"point {report['tolerance']['point']:.3g}, "
                           f"parameter {report['tolerance']['parameter']:.3g}"],
             ["problems", _g(report["n_problems"])]]
+    if report.get("skipped_faces"):
+        rows.append(["skipped faces", f"{len(report['skipped_faces'])} (could not be converted; see stderr)"])
     text = format_table(rows)
     faces = report["faces"]
     if faces:

@@ -206,7 +206,7 @@ def check_tessellate_budget(shell, path, tolerance, max_edge) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..io import read_shell, write_mesh
+    from ..io import read_shell, skipped_faces, write_mesh
     from ..tessellate import tessellate_shell
 
     for name in ("tolerance", "max_edge"):
@@ -226,7 +226,8 @@ def run(args: argparse.Namespace) -> int:
         for path, target in zip(inputs, targets):
             t0 = time.perf_counter()
             try:
-                shell = read_shell(path)
+                with skipped_faces() as skipped:
+                    shell = read_shell(path)
                 check_tessellate_budget(shell, path, args.tolerance, args.max_edge)
                 res = tessellate_shell(shell, tolerance=args.tolerance, max_edge=args.max_edge,
                                        mode="loose" if args.loose else "auto",
@@ -246,6 +247,7 @@ def run(args: argparse.Namespace) -> int:
                 status = EXIT_FAILED
                 bar.advance(1, description=path.name)
                 continue
+            status = EXIT_FAILED if skipped else status
             for f in res.failed_faces:
                 print_warning(f"{path}: face {f.index} ({f.name}) skipped: {'; '.join(f.messages)}")
                 status = EXIT_FAILED
@@ -259,7 +261,8 @@ def run(args: argparse.Namespace) -> int:
             else:
                 print_warning(f"{path}: no face could be tessellated; nothing written")
                 status = EXIT_FAILED
-            entries.append(_entry(path, res, time.perf_counter() - t0) | {"output": written})
+            entries.append(_entry(path, res, time.perf_counter() - t0) | {"output": written,
+                                                                           "faces_skipped_at_read": skipped})
             bar.advance(1, description=path.name)
     if unreadable == len(inputs):
         status = EXIT_INPUT

@@ -7,15 +7,18 @@ rename it, so a failed write never leaves a partial file.
 
 from __future__ import annotations
 
+import contextlib
 import os
+import warnings
+from collections.abc import Iterator
 from importlib import import_module
 from pathlib import Path
 
-from ..errors import FileFormatError
+from ..errors import FaceSkippedWarning, FileFormatError
 from ..model import Shell, TriMesh
 
 __all__ = ["read", "read_shell", "read_mesh", "write_shell", "write_mesh", "CAD_SUFFIXES", "MESH_SUFFIXES",
-           "occ_mesh_faces"]
+           "occ_mesh_faces", "skipped_faces"]
 
 # suffix -> private module holding read(path) and write(obj, path)
 _CAD_MODULES = {".step": "_step", ".stp": "_step", ".iges": "_iges", ".igs": "_iges",
@@ -51,6 +54,26 @@ def read_shell(path: str | os.PathLike) -> Shell:
     module = _cad_module(path)
     check_readable(path)
     return module.read(path)
+
+
+@contextlib.contextmanager
+def skipped_faces() -> Iterator[list[str]]:
+    """Collect the `FaceSkippedWarning` messages of the reads in the block (they are still shown).
+
+    >>> with skipped_faces() as skipped:
+    ...     pass
+    >>> skipped
+    []
+    """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        found: list[str] = []
+        try:
+            yield found
+        finally:
+            found += [str(w.message) for w in caught if issubclass(w.category, FaceSkippedWarning)]
+    for w in caught:
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
 
 
 def read_mesh(path: str | os.PathLike) -> TriMesh:

@@ -75,6 +75,9 @@ def curve_from_occ(curve, first: float, last: float, dim: int) -> NurbsCurve:
     A periodic B-spline is made non-periodic; when [first, last] leaves its
     knot span the origin is moved (knot insertion + ``SetOrigin``) and the
     knots are translated by whole periods, so the parameterization is kept.
+    When [first, last] leaves the knot range of a non-periodic curve, the
+    end span is continued exactly (as for surfaces, see the module notes of
+    `trimsurf.io._occ`), as Open CASCADE evaluates it.
     """
     bs = _curve_to_bspline(curve, first, last, dim)
     lo, hi = min(first, last), max(first, last)
@@ -96,10 +99,26 @@ def curve_from_occ(curve, first: float, last: float, dim: int) -> NurbsCurve:
         bs.SetNotPeriodic()
     if not _is_clamped(_reals(bs.KnotSequence()), bs.Degree()):
         bs.Segment(bs.FirstParameter(), bs.LastParameter())
+    # [first, last] beyond the knot range: Open CASCADE continues the end polynomials; so do we, exactly
+    p = bs.Degree()
+    d0, d1 = bs.FirstParameter() + shift, bs.LastParameter() + shift
+    eps = _REL_PARAM_EPS * (d1 - d0)
+    need_lo, need_hi = lo < d0 - eps, hi > d1 + eps
+    n_knots = bs.NbKnots()
+    if need_hi and n_knots > 2:
+        bs.InsertKnot(bs.Knot(n_knots - 1), p, 0.0, False)
+    if need_lo and n_knots > 2:
+        bs.InsertKnot(bs.Knot(2), p, 0.0, False)
     knots = _reals(bs.KnotSequence()) + shift
     poles = _points1(bs.Poles(), dim)
     weights = _reals(bs.WeightsArray()) if bs.IsRational() else None
-    return NurbsCurve(bs.Degree(), knots, poles, weights)
+    if need_lo or need_hi:
+        nk, npw = _extend(knots, _homogeneous(poles, weights), p, min(lo, d0), max(hi, d1))
+        if np.all(npw[:, -1] > 0):
+            knots = nk
+            poles, w = _cartesian(npw)
+            weights = None if weights is None else w
+    return NurbsCurve(p, knots, poles, weights)
 
 
 def curve_to_occ(curve: NurbsCurve):
