@@ -64,6 +64,18 @@ def _is_clamped(flat_knots: np.ndarray, degree: int) -> bool:
     return bool(np.all(flat_knots[:degree + 1] == flat_knots[0]) and np.all(flat_knots[-degree - 1:] == flat_knots[-1]))
 
 
+def _insert_knot(bs, u: float, mult: int, tol: float) -> None:
+    """Raise the multiplicity of knot `u` of a 2D or 3D B-spline curve to at least `mult` (inserting it if new).
+
+    ``Geom_BSplineCurve::InsertKnot`` takes an ``Add`` flag (default: add to the
+    multiplicity); ``Geom2d_BSplineCurve::InsertKnot`` has none and raises to `mult`.
+    """
+    if bs.DynamicType().Name() == "Geom2d_BSplineCurve":
+        bs.InsertKnot(u, mult, tol)
+    else:
+        bs.InsertKnot(u, mult, tol, False)
+
+
 def _knot_index(values: np.ndarray, x: float, tol: float) -> int | None:
     hit = np.flatnonzero(np.abs(values - x) <= tol)
     return int(hit[0]) + 1 if hit.size else None
@@ -90,7 +102,7 @@ def curve_from_occ(curve, first: float, last: float, dim: int) -> NurbsCurve:
             k = math.floor((lo - c0) / period)
             start = lo - k * period
             shift = k * period
-            bs.InsertKnot(start, 1, eps, False)
+            _insert_knot(bs, start, 1, eps)
             index = _knot_index(_reals(bs.Knots()), start, eps)
             if index is not None:
                 bs.SetOrigin(index)
@@ -106,9 +118,9 @@ def curve_from_occ(curve, first: float, last: float, dim: int) -> NurbsCurve:
     need_lo, need_hi = lo < d0 - eps, hi > d1 + eps
     n_knots = bs.NbKnots()
     if need_hi and n_knots > 2:
-        bs.InsertKnot(bs.Knot(n_knots - 1), p, 0.0, False)
+        _insert_knot(bs, bs.Knot(n_knots - 1), p, 0.0)
     if need_lo and n_knots > 2:
-        bs.InsertKnot(bs.Knot(2), p, 0.0, False)
+        _insert_knot(bs, bs.Knot(2), p, 0.0)
     knots = _reals(bs.KnotSequence()) + shift
     poles = _points1(bs.Poles(), dim)
     weights = _reals(bs.WeightsArray()) if bs.IsRational() else None

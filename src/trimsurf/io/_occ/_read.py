@@ -8,9 +8,11 @@ import os
 import re
 import sys
 import tempfile
+import warnings
 from collections.abc import Iterator
+from pathlib import Path
 
-from ...errors import FileFormatError
+from ...errors import FaceSkippedWarning, FileFormatError, TrimsurfWarning
 from .. import check_readable as check_file
 from ._checks import check_file_numbers, check_shape_geometry
 from ._to_shell import map_topology
@@ -138,41 +140,41 @@ def _refuse_syntax_errors(reader, log: list[str], path, fmt: str, error: type[Fi
     if not flagged:
         return
     count = flagged[0].rsplit(":", 1)[-1].strip()
-    first = _first_check_failure(reader)
+    first = _first_check_failure(reader, path)
     raise error(f"{path}: not a valid {fmt} file: Open CASCADE's reader found {count} record(s) with incorrect "
                 f"syntax{': ' + first if first else ''}")
 
 
-def _first_check_failure(reader) -> str:
+def _first_check_failure(reader, path) -> str:
     """'#N: message' of the check failure most likely to be the syntax error, or ''.
 
     A failure that says a parameter is "not a" Real/String/... or is undefined
     is preferred over the others (real files carry harmless semantic
-    failures, e.g. an si_unit with the wrong parameter count).
+    failures, e.g. an si_unit with the wrong parameter count). Entities are
+    numbered in file order, so the label is the N-th record's.
     """
-    found: list[str] = []
+    found: list[tuple[int, str]] = []
     try:
-        model = reader.WS().Model()
         checks = reader.WS().ModelCheckList(False)
         checks.Start()
         while checks.More() and len(found) < 1000:
             check = checks.Value()
             if check.NbFails():
-                label = ""
-                if checks.Number():
-                    try:
-                        label = model.StringLabel(checks.Entity()).ToExtString()
-                    except Exception:  # noqa: BLE001
-                        label = f"entity {checks.Number()}"
-                text = check.CFail(1, True)
-                found.append(f"{label + ': ' if label else ''}{text}")
+                found.append((checks.Number(), check.CFail(1, True)))
             checks.Next()
     except Exception:  # noqa: BLE001 - the message only
         pass
-    for item in found:
-        if " not a " in item or "ndefined" in item or "yntax" in item:
-            return item[:160]
-    return found[0][:160] if found else ""
+    if not found:
+        return ""
+    number, text = next(((n, t) for n, t in found if " not a " in t or "ndefined" in t or "yntax" in t), found[0])
+    label = f"entity {number}" if number else ""
+    if number:
+        with contextlib.suppress(OSError, StopIteration):
+            records = re.finditer(rb"(?m)^\s*(#\d+)\s*=", Path(path).read_bytes())
+            for _ in range(number - 1):
+                next(records)
+            label = next(records).group(1).decode()
+    return f"{label + ': ' if label else ''}{text}"[:160]
 
 
 def invalid_faces(shape) -> list[int]:
@@ -199,7 +201,16 @@ def count_faces(shape) -> int:
 
 
 def nurbs_shape(shape, *, path: str | os.PathLike = "", error: type[FileFormatError] = FileFormatError):
-    """The shape with every curve and surface converted to B-splines (``BRepBuilderAPI_NurbsConvert``)."""
+    """The shape with every curve and surface converted to B-splines (``BRepBuilderAPI_NurbsConvert``).
+
+    When the conversion of the whole shape fails (Open CASCADE refuses, e.g.,
+    a face that crosses the seam of a periodic B-spline surface: "Knots
+    interval values too close"), the faces are converted one by one: a face
+    whose own conversion fails is kept as it is when its surface is already a
+    B-spline or Bézier surface (`surface_from_occ` handles periodic ones), and
+    left out with a `FaceSkippedWarning` otherwise. The faces then no longer
+    share their edges (as in an unsewn IGES file); a `TrimsurfWarning` says so.
+    """
     from OCP.BRepBuilderAPI import BRepBuilderAPI_NurbsConvert
 
     failure = ""
@@ -210,5 +221,39 @@ def nurbs_shape(shape, *, path: str | os.PathLike = "", error: type[FileFormatEr
             converted, failure = None, f"{type(exc).__name__}: {exc}"
     if converted is None or converted.IsNull():
         detail = _occ_detail(log) or failure
-        raise error(f"{path}: Open CASCADE could not convert the shape to B-splines ({detail})")
+        converted = _nurbs_faces_one_by_one(shape, path, detail)
+        if converted is None:
+            raise error(f"{path}: Open CASCADE could not convert the shape to B-splines ({detail})")
     return converted
+
+
+def _nurbs_faces_one_by_one(shape, path, detail: str):
+    """A compound of the faces of `shape`, each converted on its own (see `nurbs_shape`); None if none is left."""
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_NurbsConvert
+    from OCP.TopoDS import TopoDS_Compound
+
+    builder = BRep_Builder()
+    compound = TopoDS_Compound()
+    builder.MakeCompound(compound)
+    kept = 0
+    for fi, face in enumerate(map_topology(shape).faces):
+        with quiet_occ():
+            try:
+                builder.Add(compound, BRepBuilderAPI_NurbsConvert(face, True).Shape())
+                kept += 1
+                continue
+            except Exception as exc:  # noqa: BLE001 - Standard_Failure
+                reason = f"{type(exc).__name__}: {exc}"
+            kind = BRep_Tool.Surface_s(face).DynamicType().Name()
+        if kind in ("Geom_BSplineSurface", "Geom_BezierSurface"):
+            builder.Add(compound, face)
+            kept += 1
+        else:
+            warnings.warn(f"{path}: face {fi} skipped: Open CASCADE could not convert it to a B-spline ({reason})",
+                          FaceSkippedWarning, stacklevel=3)
+    if not kept:
+        return None
+    warnings.warn(f"{path}: Open CASCADE could not convert the whole shape to B-splines ({detail}); its faces "
+                  "were converted one by one and no longer share edges", TrimsurfWarning, stacklevel=3)
+    return compound
