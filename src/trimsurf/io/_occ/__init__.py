@@ -59,8 +59,20 @@ runs with file descriptors 1 and 2 redirected into a temporary file (the text
 is used for the one-line error message). The redirection is process-wide, so
 do not read CAD files from several threads at once.
 
+Hostile files. ``trimsurf.io.read_shell`` reads STEP and IGES files in a
+child process with a time limit (`_isolate`, `_worker`), so a crash or a hang
+of Open CASCADE is a one-line error naming the file. Before Open CASCADE
+transfers anything, a file holding a number that is not finite or above 1e10
+in magnitude is refused (`_checks.check_file_numbers`: a pole of 250.E+999
+made the transfer spin), and so is a STEP file whose records the parser flags
+as "Incorrect Syntax" (transferring them can crash the process); after the
+transfer every face's surface, curves and vertices are checked the same way
+(`_checks.check_shape_geometry`). A face that cannot be converted is left
+out with a `FaceSkippedWarning` naming it, never the whole file.
+
 Modules: `_read` (quiet reading, B-spline conversion), `_geometry` (curves and
-surfaces both ways), `_to_shell` (shape -> Shell), `_to_shape` (Shell -> shape).
+surfaces both ways), `_to_shell` (shape -> Shell), `_to_shape` (Shell -> shape),
+`_checks` (finite-geometry checks), `_isolate` / `_worker` (the child process).
 """
 
 from __future__ import annotations
