@@ -159,14 +159,38 @@ def check_file_numbers(path: str | os.PathLike, fmt: str, error: type[FileFormat
         raise error(f"{path}: line {line}{entity}: the number {text} {what}")
 
 
+def _box_is_sane(shape) -> bool:
+    """Fast path: Open CASCADE's bounding box of the shape (from control points, in C++) is finite and within
+    `MAX_ABS`. The entity-by-entity check then has nothing to find but weights and knots, which the text
+    check (`check_file_numbers`) has bounded already, so it runs only when the box is not sane."""
+    from OCP.Bnd import Bnd_Box
+    from OCP.BRepBndLib import BRepBndLib
+
+    try:
+        box = Bnd_Box()
+        BRepBndLib.Add_s(shape, box, False)
+        if box.IsVoid() or box.IsOpen():
+            return False
+        lo, hi = box.CornerMin(), box.CornerMax()
+        corners = np.array([lo.X(), lo.Y(), lo.Z(), hi.X(), hi.Y(), hi.Z()], dtype=np.float64)
+    except Exception:  # noqa: BLE001 - then look entity by entity
+        return False
+    return bool(np.all(np.isfinite(corners)) and np.all(np.abs(corners) <= MAX_ABS))
+
+
 def check_shape_geometry(shape, path: str | os.PathLike = "", error: type[FileFormatError] = FileFormatError) -> None:
     """Refuse a shape with non-finite or huge geometry (see the module notes); faces numbered as `map_topology`.
+
+    The shape's bounding box is looked at first (cheap); only when it is not
+    finite or not within `MAX_ABS` is every entity looked at, to name it.
 
     Raises
     ------
     FileFormatError (`error`)
         One line: the file, the face (and edge or vertex), the geometry kind and the bad value.
     """
+    if _box_is_sane(shape):
+        return
     from OCP.BRep import BRep_Tool
     from OCP.collections import (
         IndexedMap_TopoDS_Shape_TopTools_ShapeMapHasher as ShapeMap,
