@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import re
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -118,9 +119,25 @@ def test_read_that_does_not_finish_is_stopped_at_the_time_limit(shared_data, gap
     with pytest.raises(StepReadError) as info:
         io.read_shell(big)
     assert time.perf_counter() - start < 10.0
-    assert _one_line(info.value).startswith(f"{big}: reading the STEP file did not finish within 0 s")
+    assert _one_line(info.value).startswith(f"{big}: reading the STEP file did not finish within 0.05 s")
     monkeypatch.setenv("TRIMSURF_READ_TIMEOUT", "60")
     assert len(io.read_shell(gap_step).faces) == 2
+
+
+def test_reading_from_an_unguarded_script_runs_the_script_once(gap_step, tmp_path):
+    # multiprocessing's spawn/forkserver would re-run a script without `if __name__ == "__main__"`
+    import os
+    import subprocess
+    import sys
+
+    script = tmp_path / "plain.py"
+    script.write_text(f"from trimsurf import io\nprint('faces', len(io.read_shell({str(gap_step)!r}).faces))\n")
+    src = str(Path(_occ.__file__).resolve().parents[3])
+    env = dict(os.environ, PYTHONPATH=src + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    env.pop("TRIMSURF_OCC_IN_PROCESS", None)
+    run = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, env=env, timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout == "faces 2\n" and run.stderr == ""
 
 
 def test_default_time_limit_grows_with_the_file(tmp_path, monkeypatch):

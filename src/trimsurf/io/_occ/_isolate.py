@@ -14,7 +14,9 @@ read, ended when this process ends) that has imported Open CASCADE once; a
 read costs one ``fork`` and the transfer of the pickled result through a
 temporary file. The server is a fresh interpreter that never calls Open
 CASCADE itself: no fork of a parent that may hold threads, no re-import of
-the caller's main script. Set ``TRIMSURF_READ_TIMEOUT`` (seconds) to change
+the caller's main script (``multiprocessing``'s spawn and forkserver
+methods re-run an unguarded caller script in the child: measured, and
+avoided). Set ``TRIMSURF_READ_TIMEOUT`` (seconds) to change
 the time limit, and ``TRIMSURF_OCC_IN_PROCESS=1`` to read in the calling
 process (debugging; crashes are then not contained).
 """
@@ -206,7 +208,7 @@ def read_isolated(path: str | os.PathLike, fmt: str, error: type[FileFormatError
                 _discard_server()
                 code = _server().run(fmt, str(path), answer, timeout)
         if code is None:
-            raise error(f"{path}: reading the {fmt} file did not finish within {timeout:.0f} s (stopped; Open "
+            raise error(f"{path}: reading the {fmt} file did not finish within {timeout:.3g} s (stopped; Open "
                         "CASCADE is probably stuck on a malformed file; TRIMSURF_READ_TIMEOUT=SECONDS allows "
                         "more)")
         message = None
