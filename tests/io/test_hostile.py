@@ -74,6 +74,16 @@ def test_non_finite_or_huge_control_point_is_refused_quickly(gap_step, tmp_path,
     assert f"line {at + 1} (#44)" in text
 
 
+def test_huge_knot_is_refused_naming_its_line(gap_step, tmp_path):
+    text = gap_step.read_text()
+    new = text.replace("(0.,0.5,1.),(0.,0.3,\n    0.6,1.)", "(0.,0.5,1.E20),(0.,0.3,\n    0.6,1.)", 1)
+    assert new != text
+    bad = tmp_path / "knot.step"
+    bad.write_text(new)
+    with pytest.raises(StepReadError, match=r"knot\.step: line \d+ \(#41\): the number 1\.E20 is above 1e\+10"):
+        io.read_shell(bad)
+
+
 def test_big_numbers_in_strings_and_names_are_not_refused(gap_step, tmp_path):
     data = gap_step.read_bytes().replace(b"FILE_NAME('", b"FILE_NAME('1.E999 99999999999. ", 1)
     ok = tmp_path / "names.step"
