@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import json
 import os
 import pickle
 import select
@@ -72,7 +73,8 @@ def convert_file(path: str, fmt: str) -> Shell:
 
 
 def _in_process() -> bool:
-    return os.environ.get("TRIMSURF_OCC_IN_PROCESS", "").strip() not in ("", "0")
+    """Read in this process: asked for with TRIMSURF_OCC_IN_PROCESS=1, or no ``fork`` (not POSIX)."""
+    return os.environ.get("TRIMSURF_OCC_IN_PROCESS", "").strip() not in ("", "0") or not hasattr(os, "fork")
 
 
 def _child_env() -> dict[str, str]:
@@ -121,7 +123,9 @@ class _Server:
 
     def run(self, fmt: str, path: str, answer: str, timeout: float) -> int | None:
         """Exit status of the child that read `path` (minus the signal if killed); None after `timeout`."""
-        request = "\t".join(("READ", fmt, path, answer)) + "\n"
+        # one JSON line (paths may hold tabs or newlines); the child reads from our working folder, so
+        # relative paths, and the messages naming them, stay the caller's
+        request = json.dumps(["READ", fmt, path, answer, os.getcwd()]) + "\n"
         os.write(self.to_server, request.encode("utf-8", "surrogateescape"))
         # the server answers PID at once after its start-up; the time limit runs from the fork
         first = self._line(time.monotonic() + _SERVER_START_S)
@@ -204,7 +208,7 @@ def read_isolated(path: str | os.PathLike, fmt: str, error: type[FileFormatError
         with _LOCK:
             try:
                 code = _server().run(fmt, str(path), answer, timeout)
-            except EOFError:  # the server ended (killed from outside): start a new one, once
+            except (EOFError, BrokenPipeError):  # the server ended (killed from outside): start a new one, once
                 _discard_server()
                 code = _server().run(fmt, str(path), answer, timeout)
         if code is None:

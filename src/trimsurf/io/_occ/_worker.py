@@ -3,7 +3,7 @@
 ``python -m trimsurf.io._occ._worker FD_IN FD_OUT`` imports Open CASCADE once,
 then serves requests, one line each, from the file descriptor FD_IN::
 
-    READ <tab> FMT <tab> PATH <tab> ANSWER
+    ["READ", FMT, PATH, ANSWER, WORKING_FOLDER]     (a JSON array)
 
 For each it forks a child that reads the STEP or IGES file PATH into a
 `Shell` and writes, pickled, to the file ANSWER either ("ok", shell,
@@ -17,6 +17,7 @@ or a hang stays in the child.
 
 from __future__ import annotations
 
+import json
 import os
 import pickle
 import select
@@ -100,15 +101,18 @@ def serve(fd_in: int, fd_out: int) -> int:
                 return 0
             buffer += chunk
         line, buffer = buffer.split(b"\n", 1)
-        parts = line.decode("utf-8", "surrogateescape").split("\t")
-        if len(parts) != 4 or parts[0] != "READ":
+        try:
+            kind, fmt, path, answer, cwd = json.loads(line.decode("utf-8", "surrogateescape"))
+        except ValueError:
             continue
-        _, fmt, path, answer = parts
+        if kind != "READ":
+            continue
         pid = os.fork()
         if pid == 0:  # the child
             code = 1
             try:
                 os.close(fd_in)
+                os.chdir(cwd)
                 read_to_file(fmt, path, answer)
                 code = 0
             finally:
