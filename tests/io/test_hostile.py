@@ -366,3 +366,22 @@ def test_no_face_converted_is_one_error(shared_data, monkeypatch):
     monkeypatch.setattr(_to_shell, "surface_from_occ", broken)
     with pytest.warns(FaceSkippedWarning), pytest.raises(GeometryError, match="no face could be converted"):
         _step.read_in_process(shared_data / "cad" / "occt__screw.step")
+
+
+def test_batch_goes_on_after_a_file_that_crashes_open_cascade(gap_step, tmp_path, capsys):
+    from trimsurf.cli import main
+
+    folder = tmp_path / "in"
+    folder.mkdir()
+    src = _iges_of(build_sample("gap_pair"), tmp_path / "gap.igs")
+    lines = src.read_bytes().split(b"\n")
+    rec = next(i for i, ln in enumerate(lines) if ln.startswith(b"126,11,"))
+    lines[rec + 1] = lines[rec + 1].replace(b"0.500540029,0.500540029,", b"           ,0.500540029,", 1)
+    (folder / "a_crash.igs").write_bytes(b"\n".join(lines))
+    (folder / "b_good.step").write_bytes(gap_step.read_bytes())
+    out = tmp_path / "out"
+    assert main(["tessellate", str(folder), "-o", str(out) + "/"]) == 1
+    err = capsys.readouterr().err
+    assert f"trimsurf: error: {folder / 'a_crash.igs'}: Open CASCADE crashed (SIGSEGV)" in err
+    assert sorted(p.name for p in out.iterdir()) == ["b_good.ply"]
+    assert io.read_mesh(out / "b_good.ply").n_triangles > 0
