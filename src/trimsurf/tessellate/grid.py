@@ -20,10 +20,15 @@ import triangle as tr
 
 from ..errors import TrimLoopError
 from ..geom.predicates import points_in_polygons
+from .pslg import clean_pslg
 
 __all__ = ["outcodes", "cohen_sutherland_cells", "DomainTriangulation", "triangulate_domain"]
 
 _INSIDE, _LEFT, _RIGHT, _BOTTOM, _TOP = 0, 1, 2, 4, 8
+
+#: distance in Triangle's coordinates (the crossed cells' box scaled to about the unit square, so about
+#: a fraction of the face's size) below which two points are one and a point lies on a segment
+SNAP = 1e-10
 
 
 def outcodes(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -304,18 +309,33 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
         shear = 0.0 if tie_main is None else (-1e-3 if tie_main else 1e-3)
         if shear:       # u += shear * v: every rectangle turns into a parallelogram, its shorter diagonal wins
             q = np.column_stack([q[:, 0] + shear * q[:, 1], q[:, 1]])
-        res = tr.triangulate({"vertices": q, "segments": local[seg]}, "pQ")
+        # a graph without crossings, near-duplicate points or points on segments: Triangle never
+        # computes a crossing point then, so it always finishes (see `clean_pslg`)
+        q, lseg, rep = clean_pslg(q, local[seg], eps=SNAP)
+        keep = np.flatnonzero(rep == np.arange(len(q)))
+        compact = np.full(len(q), -1, dtype=np.int64)
+        compact[keep] = np.arange(len(keep))
+        res = tr.triangulate({"vertices": q[keep], "segments": compact[lseg]}, "pQ")
+        gone = np.flatnonzero(rep[:n_q] != np.arange(n_q))
+        if len(gone):       # a merged grid node: the untouched cells at it use the point it merged into
+            alias = np.arange(len(uv))
+            alias[used[gone]] = used[rep[gone]]
+            grid_tris = alias[grid_tris]
         out_v = res["vertices"]
         if shear:
             out_v = np.column_stack([out_v[:, 0] - shear * out_v[:, 1], out_v[:, 1]])
         out_v = out_v * scale + scale_lo
-        out_v[:n_q] = uv[used]          # the input points exactly as given
         out_t = res["triangles"].astype(np.int64)
-        n_in = len(used)
-        glob = np.r_[used, len(uv) + np.arange(len(out_v) - n_in)]
-        if len(out_v) > n_in:      # Triangle inserted points (crossing constraints)
-            uv = np.concatenate([uv, out_v[n_in:]])
-            grid_node = np.r_[grid_node, np.full(len(out_v) - n_in, -1, dtype=np.int64)]
+        given = keep < n_q                          # input points (the rest: crossing points, Triangle's)
+        out_v[:len(keep)][given] = uv[used[keep[given]]]          # the input points exactly as given
+        n_new = len(out_v) - int(given.sum())
+        glob = np.empty(len(out_v), dtype=np.int64)
+        glob[:len(keep)][given] = used[keep[given]]
+        new_rows = np.r_[np.flatnonzero(~given), np.arange(len(keep), len(out_v))]
+        glob[new_rows] = len(uv) + np.arange(n_new)
+        if n_new:
+            uv = np.concatenate([uv, out_v[new_rows]])
+            grid_node = np.r_[grid_node, np.full(n_new, -1, dtype=np.int64)]
         tri = glob[out_t]
         cen = uv[tri].mean(axis=1)
         ti = np.clip(np.searchsorted(us, cen[:, 0]) - 1, 0, nu - 2)
@@ -323,6 +343,12 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
         ok = crossed[ti, tj]
         ok[ok] = points_in_polygons(cen[ok], polys)
         cdt_tris = tri[ok]
+    flat = (grid_tris[:, 0] == grid_tris[:, 1]) | (grid_tris[:, 1] == grid_tris[:, 2]) | (grid_tris[:, 0] == grid_tris[:, 2])
+    if flat.any():          # a cell narrower than SNAP lost a corner: its triangles go, and the quad
+        new_row = np.cumsum(~flat) - 1
+        quads = quads[~(flat[quads[:, 0]] | flat[quads[:, 1]])]
+        quads = new_row[quads]
+        grid_tris = grid_tris[~flat]
     tris = np.concatenate([grid_tris, cdt_tris]).astype(np.int64)
     # counter-clockwise in (u, v)
     p = uv[tris]

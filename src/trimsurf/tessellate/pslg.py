@@ -1,0 +1,266 @@
+"""A planar straight-line graph Triangle always finishes on.
+
+Shewchuk's Triangle computes the crossing point of two crossing constraint
+segments in floating point and inserts it; when the segments meet at a tiny
+angle, or their endpoints nearly coincide, the inserted point misses both lines,
+the split pieces cross again, and the insertion never ends (the turbine blade of
+issue 16: two trim points 7e-16 apart in a planar face, one of the hole's loop
+and one of the outer loop, and Triangle spinning for hours on 308 points).
+Without crossings Triangle only flips edges and splits a segment at a vertex
+lying exactly on it, which ends: `clean_pslg` hands it such a graph.
+
+1. Vertices closer than `eps` merge (the first of each cluster stays).
+2. A vertex within `eps` of a segment it is not an end of splits the segment.
+3. Segments that still cross (exact `orient2d`, the same signs Triangle sees)
+   are split at their crossing point, computed here; steps 1-3 repeat until no
+   crossing is left (a few rounds), else `TrimLoopError`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from ..errors import TrimLoopError
+from ..geom.predicates import _CCW_BOUND, orient2d
+
+__all__ = ["clean_pslg", "crossing_segments"]
+
+#: rounds of merge / split / cut before giving up
+_ROUNDS = 8
+
+
+def _length_classes(length: np.ndarray) -> list:
+    """Segment indices grouped by length within a factor of 4 (so each group's search radius fits it)."""
+    cls = np.floor(np.log2(np.maximum(length, 1e-300)) / 2.0).astype(np.int64)
+    order = np.argsort(cls, kind="stable")
+    cuts = np.flatnonzero(np.diff(cls[order])) + 1
+    return np.split(order, cuts)
+
+
+def _merge(q: np.ndarray, seg: np.ndarray, eps: float):
+    """Representative (lowest index) of each vertex within `eps` of another; segments renumbered, degenerate
+    and repeated ones dropped."""
+    n = len(q)
+    rep = np.arange(n)
+    pairs = cKDTree(q).query_pairs(eps, output_type="ndarray")
+    if len(pairs):
+        g = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+        _, label = connected_components(g, directed=False)
+        first = np.full(label.max() + 1, n, dtype=np.int64)
+        np.minimum.at(first, label, np.arange(n))
+        rep = first[label]
+    seg = rep[seg]
+    seg = seg[seg[:, 0] != seg[:, 1]]
+    return rep, _unique_segments(seg)
+
+
+def _unique_segments(seg: np.ndarray) -> np.ndarray:
+    if not len(seg):
+        return seg.reshape(0, 2)
+    return np.unique(np.sort(seg, axis=1), axis=0)
+
+
+def _vertex_segment_pairs(q: np.ndarray, seg: np.ndarray, vertices: np.ndarray, eps: float):
+    """(segment, vertex, t) for vertices within `eps` of a segment they are not an end of; t its parameter."""
+    a, b = q[seg[:, 0]], q[seg[:, 1]]
+    d = b - a
+    length = np.linalg.norm(d, axis=1)
+    mid = 0.5 * (a + b)
+    vtree = cKDTree(q[vertices])
+    rows = []
+    for group in _length_classes(length):
+        r = 0.5 * float(length[group].max()) + eps
+        hit = cKDTree(mid[group]).sparse_distance_matrix(vtree, r, output_type="ndarray")
+        if len(hit):
+            rows.append(np.column_stack([group[hit["i"]], vertices[hit["j"]]]))
+    if not rows:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0)
+    s, v = np.concatenate(rows).T
+    keep = (seg[s, 0] != v) & (seg[s, 1] != v)
+    s, v = s[keep], v[keep]
+    w = q[v] - a[s]
+    t = np.einsum("nd,nd->n", w, d[s]) / np.maximum(length[s] ** 2, 1e-300)
+    t = np.clip(t, 0.0, 1.0)
+    dist = np.linalg.norm(w - t[:, None] * d[s], axis=1)
+    near = (dist < eps) & (t > 0.0) & (t < 1.0)
+    return s[near], v[near], t[near]
+
+
+def _split(seg: np.ndarray, s: np.ndarray, v: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Segments `s` split at vertices `v` (in the order of their parameters `t`); the others kept."""
+    if not len(s):
+        return seg
+    hit = np.unique(s)
+    rows_s = np.r_[hit, hit, s]
+    rows_v = np.r_[seg[hit, 0], seg[hit, 1], v]
+    rows_t = np.r_[np.zeros(len(hit)), np.ones(len(hit)), t]
+    order = np.lexsort((rows_t, rows_s))
+    rows_s, rows_v = rows_s[order], rows_v[order]
+    same = rows_s[:-1] == rows_s[1:]
+    pieces = np.column_stack([rows_v[:-1][same], rows_v[1:][same]])
+    keep = np.ones(len(seg), dtype=bool)
+    keep[hit] = False
+    out = np.concatenate([seg[keep], pieces])
+    return _unique_segments(out[out[:, 0] != out[:, 1]])
+
+
+def _candidate_segment_pairs(q: np.ndarray, seg: np.ndarray) -> np.ndarray:
+    """Pairs (i < j) of segments whose bounding circles meet."""
+    a, b = q[seg[:, 0]], q[seg[:, 1]]
+    length = np.linalg.norm(b - a, axis=1)
+    mid = 0.5 * (a + b)
+    groups = _length_classes(length)          # shortest first
+    out = []
+    for k, gk in enumerate(groups):
+        # class k against itself and every shorter class: within the sum of the radii, at most 2 r_k
+        shorter = np.concatenate(groups[:k + 1])
+        r = float(length[gk].max()) + 1e-300
+        hit = cKDTree(mid[gk]).sparse_distance_matrix(cKDTree(mid[shorter]), r, output_type="ndarray")
+        if len(hit):
+            i, j = gk[hit["i"]], shorter[hit["j"]]
+            near = np.linalg.norm(mid[i] - mid[j], axis=1) <= 0.5 * (length[i] + length[j]) + 1e-300
+            out.append(np.column_stack([i[near], j[near]]))
+    if not out:
+        return np.zeros((0, 2), dtype=np.int64)
+    p = np.sort(np.concatenate(out), axis=1)
+    p = p[p[:, 0] != p[:, 1]]
+    return np.unique(p, axis=0) if len(p) else p.reshape(0, 2)
+
+
+def _orient_certain(a, b, c) -> np.ndarray:
+    """Sign of orient2d(a, b, c) where the floating-point value is certain (Shewchuk's bound), else 0."""
+    left = (a[:, 0] - c[:, 0]) * (b[:, 1] - c[:, 1])
+    right = (a[:, 1] - c[:, 1]) * (b[:, 0] - c[:, 0])
+    det = left - right
+    sign = np.sign(det).astype(np.int64)
+    sign[np.abs(det) <= _CCW_BOUND * (np.abs(left) + np.abs(right))] = 0
+    return sign
+
+
+def crossing_segments(vertices: np.ndarray, segments: np.ndarray) -> np.ndarray:
+    """Pairs (i, j) of segments that cross properly (interiors meet in one point), by the exact orient2d.
+
+    Parameters
+    ----------
+    vertices : (n, 2) float64
+    segments : (m, 2) int64
+
+    Returns
+    -------
+    (k, 2) int64
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> v = np.array([[0, 0], [1, 1], [0, 1], [1, 0]], float)
+    >>> crossing_segments(v, np.array([[0, 1], [2, 3]])).tolist()
+    [[0, 1]]
+    """
+    q = np.asarray(vertices, dtype=np.float64)
+    seg = np.asarray(segments, dtype=np.int64).reshape(-1, 2)
+    if len(seg) < 2:
+        return np.zeros((0, 2), dtype=np.int64)
+    p = _candidate_segment_pairs(q, seg)
+    i, j = p[:, 0], p[:, 1]
+    shared = ((seg[i, 0] == seg[j, 0]) | (seg[i, 0] == seg[j, 1]) | (seg[i, 1] == seg[j, 0])
+              | (seg[i, 1] == seg[j, 1]))
+    i, j = i[~shared], j[~shared]
+    a, b, c, d = q[seg[i, 0]], q[seg[i, 1]], q[seg[j, 0]], q[seg[j, 1]]
+    # a proper crossing lies in both boxes (this drops the collinear pieces of one grid line)
+    meet = np.all((np.maximum(np.minimum(a, b), np.minimum(c, d)) <= np.minimum(np.maximum(a, b), np.maximum(c, d))),
+                  axis=1)
+    i, j, a, b, c, d = i[meet], j[meet], a[meet], b[meet], c[meet], d[meet]
+    # floating-point signs where they are certain; the exact orient2d only for the uncertain pairs
+    s1, s2, s3, s4 = (_orient_certain(x, y, z) for x, y, z in ((a, b, c), (a, b, d), (c, d, a), (c, d, b)))
+    apart = (s1 * s2 > 0) | (s3 * s4 > 0)
+    cross = ~apart & (s1 * s2 < 0) & (s3 * s4 < 0)
+    unsure = np.flatnonzero(~apart & ~cross)
+    if len(unsure):
+        u = unsure
+        cross[u] = ((orient2d(a[u], b[u], c[u]) * orient2d(a[u], b[u], d[u]) < 0)
+                    & (orient2d(c[u], d[u], a[u]) * orient2d(c[u], d[u], b[u]) < 0))
+    return np.column_stack([i[cross], j[cross]]).astype(np.int64)
+
+
+def clean_pslg(vertices: np.ndarray, segments: np.ndarray, *, eps: float):
+    """Merge near-duplicate vertices, split segments at vertices on them and at crossings, for Triangle.
+
+    Parameters
+    ----------
+    vertices : (n, 2) float64
+        Points as Triangle will see them (scaled to about the unit square).
+    segments : (m, 2) int64
+        Constraint segments.
+    eps : float
+        Distance (in the units of `vertices`) below which two vertices are one and
+        a vertex lies on a segment.
+
+    Returns
+    -------
+    vertices : (n + k, 2) float64
+        The input points, then k crossing points added.
+    segments : (m', 2) int64
+        No two of them cross (exact predicate), none is degenerate or repeated, none
+        passes within `eps` of a vertex it does not end at.
+    rep : (n + k,) int64
+        The vertex each one merged into (itself when kept); segments use only kept ones.
+
+    Raises
+    ------
+    TrimLoopError
+        Crossings left after the rounds (never seen; a face fails instead of hanging).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> v = np.array([[0, 0], [1, 0], [1, 1e-17], [1, 1], [0.5, 0]], float)
+    >>> q, s, rep = clean_pslg(v, np.array([[0, 1], [2, 3]]), eps=1e-10)
+    >>> rep.tolist(), s.tolist()
+    ([0, 1, 1, 3, 4], [[0, 4], [1, 3], [1, 4]])
+    """
+    q = np.asarray(vertices, dtype=np.float64).reshape(-1, 2)
+    seg = np.asarray(segments, dtype=np.int64).reshape(-1, 2)
+    n0 = len(q)
+    rep = np.arange(n0)
+    for _ in range(_ROUNDS):
+        r, seg = _merge(q, seg, eps)
+        rep = r[rep]
+        kept = np.flatnonzero(r == np.arange(len(q)))
+        for _ in range(4 * _ROUNDS):
+            if not len(seg):
+                break
+            s, v, t = _vertex_segment_pairs(q, seg, kept, eps)
+            if not len(s):
+                break
+            seg = _split(seg, s, v, t)
+        x = crossing_segments(q, seg)
+        if not len(x):
+            return q, seg, rep
+        # one crossing per segment this round (a segment crossed twice is cut again next round)
+        _, first = np.unique(x[:, 0], return_index=True)
+        x = x[first]
+        x = x[~np.isin(x[:, 1], x[:, 0])]
+        _, first = np.unique(x[:, 1], return_index=True)
+        x = x[first]
+        a, b, c, d = q[seg[x[:, 0], 0]], q[seg[x[:, 0], 1]], q[seg[x[:, 1], 0]], q[seg[x[:, 1], 1]]
+        e, f = b - a, d - c
+        den = e[:, 0] * f[:, 1] - e[:, 1] * f[:, 0]
+        w = c - a
+        tt = np.clip((w[:, 0] * f[:, 1] - w[:, 1] * f[:, 0]) / den, 0.0, 1.0)
+        p = a + tt[:, None] * e
+        new = len(q) + np.arange(len(p))
+        q = np.concatenate([q, p])
+        rep = np.r_[rep, new]
+        s = np.r_[x[:, 0], x[:, 1]]
+        v = np.r_[new, new]
+        seg_t = np.r_[tt, np.zeros(len(p))]
+        # the parameter along the second segment
+        g = p - c
+        seg_t[len(p):] = np.clip(np.einsum("nd,nd->n", g, f) / np.maximum(np.einsum("nd,nd->n", f, f), 1e-300),
+                                 0.0, 1.0)
+        seg = _split(seg, s, v, seg_t)
+    raise TrimLoopError(f"constraint segments still cross after {_ROUNDS} rounds of splitting "
+                        f"({len(crossing_segments(q, seg))} crossing(s)); the trim polygons cannot be triangulated")
