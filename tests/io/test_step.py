@@ -29,8 +29,13 @@ README_FACES = {
     "gmsh__wing_fuselage.step": 16, "gmsh__wrenchnut.stp": 36, "occt__bearing.iges": 213,
     "occt__linkrods.step": 37, "occt__screw.step": 10, "occtpr946__bug27693_cornetta-step.stp": 110,
     "occtpr946__bug32596_abc_0_13.step": 99, "occtpr946__ec_soapbox-A.stp": 86,
-    "occtpr946__trj5_k1-pe-214.stp": 52, "trimesh__featuretype.STEP": 96,
+    "occtpr946__trj5_k1-pe-214.stp": 52, "trimesh__featuretype.STEP": 96, "occtpr946__ec_turbine-A.stp": 53,
 }
+# faces whose seam p-curves NurbsConvert leaves partly unconverted (repaired by the reader, see
+# trimsurf.io._occ._to_shell._repair_seam_pcurves)
+SEAM_REPAIRED = {"occtpr946__ec_turbine-A.stp": (8, 9, 34, 35)}
+# open shells (README: free edges > 0)
+OPEN_FILES = {"occtpr946__ec_turbine-A.stp"}
 REL = 1e-9  # the issue's acceptance tolerance, relative to the file's bounding-box diagonal
 N_UV = 6  # random (u, v) per face
 N_T = 3  # random t per loop segment
@@ -71,6 +76,11 @@ def _forward(face):
     return TopoDS.Face(face.Oriented(TopAbs_FORWARD))
 
 
+def _reversed_edge(edge):
+    from OCP.TopoDS import TopoDS
+    return TopoDS.Edge(edge.Reversed())
+
+
 def occ_surface_d2(surface, uv: np.ndarray) -> np.ndarray:
     """Open CASCADE's S, Su, Sv, Suu, Suv, Svv at each (u, v): shape (6, n, 3)."""
     from OCP.gp import gp_Pnt, gp_Vec
@@ -101,6 +111,8 @@ def check_surfaces_match_occ(name: str) -> float:
     for fi, face in enumerate(data.shell.faces):
         fwd = _forward(data.topo.faces[fi])
         u0, u1, v0, v1 = BRepTools.UVBounds_s(fwd)
+        if fi in SEAM_REPAIRED.get(name, ()):     # UVBounds counts the unconverted seam p-curves
+            (u0, u1), (v0, v1) = np.clip([u0, u1], *face.surface.domain[0]), np.clip([v0, v1], *face.surface.domain[1])
         # random inside the face's UV bounds, plus the two corners for S and its first derivatives only (a
         # corner may sit on a C1 knot, where the one-sided second derivatives differ between implementations)
         uv = np.column_stack([rng.uniform(u0, u1, N_UV), rng.uniform(v0, v1, N_UV)])
@@ -138,8 +150,15 @@ def check_curves_match_occ(name: str) -> None:
                 edge = data.topo.loops[fi][li][si]
                 ts = rng.uniform(min(seg.t0, seg.t1), max(seg.t0, seg.t1), N_T)
                 pc = BRep_Tool.CurveOnSurface_s(edge, fwd, 0.0, 0.0)
+                ref = occ_curve_points(pc, ts, 2)
+                if BRep_Tool.IsClosed_s(edge, fwd) and fi in SEAM_REPAIRED.get(name, ()):
+                    # a seam p-curve NurbsConvert left unconverted: ours is the partner's shifted by a period
+                    other = BRep_Tool.CurveOnSurface_s(_reversed_edge(edge), fwd, 0.0, 0.0)
+                    shifts = np.array([[0, 0], [a1 - a0, 0], [a0 - a1, 0], [0, b1 - b0], [0, b0 - b1]])
+                    cands = [ref] + [occ_curve_points(other, ts, 2) + d for d in shifts]
+                    ref = min(cands, key=lambda c: np.abs(seg.evaluate(ts) - c).max())
                 # p-curves live in (u, v): 1e-9 of the surface's parameter range (measured <= 2e-12)
-                assert_allclose(seg.evaluate(ts), occ_curve_points(pc, ts, 2), rtol=0, atol=REL * uv_scale,
+                assert_allclose(seg.evaluate(ts), ref, rtol=0, atol=REL * uv_scale,
                                 err_msg=f"{name} face {fi} loop {li} segment {si}: p-curve")
                 if seg.edge_curve is not None:
                     c3 = BRep_Tool.Curve_s(edge, 0.0, 0.0)
@@ -234,7 +253,7 @@ def check_edge_uses(name: str) -> None:
 # ---------------------------------------------------------------------------------------------------------------
 
 def test_real_step_files_are_all_covered():
-    assert len(STEP_FILES) == 12 and set(STEP_FILES) <= set(README_FACES)
+    assert len(STEP_FILES) == 13 and set(STEP_FILES) <= set(README_FACES)
 
 
 @pytest.mark.parametrize("name", STEP_FILES)
@@ -265,9 +284,18 @@ def test_loops_are_oriented_outer_ccw_holes_cw(name):
     check_loops(name)
 
 
-@pytest.mark.parametrize("name", STEP_FILES)
+def test_open_turbine_shell_has_the_readme_free_edges():
+    """The turbine blade is an open shell: 14 free edges (README), every other edge used twice."""
+    shell = load("occtpr946__ec_turbine-A.stp").shell
+    check_edge_uses("occtpr946__ec_turbine-A.stp")
+    uses = [len(e.uses) for e in shell.edges if not e.is_degenerate]
+    assert uses.count(1) == 14 and set(uses) == {1, 2}
+    assert not shell.is_closed() and not shell.non_manifold_edges()
+
+
+@pytest.mark.parametrize("name", sorted(set(STEP_FILES) - OPEN_FILES))
 def test_closed_files_give_closed_manifold_shells(name):
-    # every STEP file here is closed (README: free edges 0)
+    # every STEP file here but the turbine is closed (README: free edges 0)
     shell = load(name).shell
     check_edge_uses(name)
     assert shell.is_closed()

@@ -223,6 +223,7 @@ def _convert_face(fi: int, face, face_loops, emap, edge_curves, edge_done, name:
     loops_raw: list[list[tuple[NurbsCurve, float, float, int]]] = []
     uses: list[tuple[int, int, int]] = []
     devs: dict[int, float] = {}
+    repaired = False
     for li, edges in enumerate(face_loops):
         segs = []
         for si, edge in enumerate(edges):
@@ -235,20 +236,93 @@ def _convert_face(fi: int, face, face_loops, emap, edge_curves, edge_done, name:
                 raise GeometryError(f"{name}: face {fi} edge {ei} has no p-curve")
             a, b = BRep_Tool.Range_s(edge, fwd)
             t0, t1 = (b, a) if edge.Orientation() == TopAbs_REVERSED else (a, b)
-            if edge_curves[ei] is not None:
-                devs[ei] = max(devs.get(ei, 0.0), _same_parameter_deviation(edge, fwd))
             uses.append((ei, li, si))
             segs.append((curve_from_occ(pc, a, b, 2), t0, t1, ei))
+        fixed = _repair_seam_pcurves(segs, [BRep_Tool.IsClosed_s(e, fwd) for e in edges], BRep_Tool.Surface_s(fwd))
+        repaired = repaired or bool(fixed)
+        for si, edge in enumerate(edges):
+            ei = segs[si][3]
+            if edge_curves[ei] is not None and si not in fixed:
+                devs[ei] = max(devs.get(ei, 0.0), _same_parameter_deviation(edge, fwd))
         loops_raw.append(segs)
-    u0, u1, v0, v1 = _uv_bounds(fwd)
-    lo, hi = np.array([u0, v0]), np.array([u1, v1])
     all_segs = [PCurve(c, t0, t1) for segs in loops_raw for c, t0, t1, _ in segs]
-    if all_segs:
-        slo, shi = _segment_uv_range(all_segs)
-        lo, hi = np.minimum(lo, slo), np.maximum(hi, shi)
+    if all_segs and repaired:       # UVBounds would count the seam p-curves replaced
+        lo, hi = _segment_uv_range(all_segs)
+    else:
+        u0, u1, v0, v1 = _uv_bounds(fwd)
+        lo, hi = np.array([u0, v0]), np.array([u1, v1])
+        if all_segs:
+            slo, shi = _segment_uv_range(all_segs)
+            lo, hi = np.minimum(lo, slo), np.maximum(hi, shi)
     surface = surface_from_occ(BRep_Tool.Surface_s(fwd), lo, hi)
     item = (surface, loops_raw, same_sense, f"{name} face {fi}".strip(), BRep_Tool.Tolerance_s(fwd))
     return item, uses, devs
+
+
+def _repair_seam_pcurves(segs: list, closed: list, surface) -> set:
+    """Give a seam use that leaves its loop a translate of its partner's p-curve by the period; in place.
+
+    ``BRepBuilderAPI_NurbsConvert`` (OCCT 8.0.1) converts only one of the two p-curves of some seam
+    edges: on occtpr946__ec_turbine-A (faces 8, 9, 34, 35: torus, cylinder, cone, sphere) the other
+    one is left in the old parameterization, or is the p-curve of another face (21 to 41 off in 3D).
+    A seam use whose ends miss its neighbours' ends in (u, v) is replaced by the candidate among its
+    own and its partner's p-curve, shifted by 0 or one period of a closed direction, that meets both.
+
+    Parameters
+    ----------
+    segs : list of (NurbsCurve, t0, t1, edge index)
+        One loop's segments, in order; changed in place.
+    closed : list of bool
+        Whether each segment's edge is a seam of the face (``BRep_Tool::IsClosed``).
+    surface : Geom_Surface
+        The face's (converted) surface.
+
+    Returns
+    -------
+    set of int
+        Indices of the segments replaced.
+    """
+    n = len(segs)
+    if n < 3 or not any(closed):
+        return set()
+    u0, u1, v0, v1 = surface.Bounds()
+    shifts = [np.zeros(2)]
+    if surface.IsUClosed() and np.isfinite(u1 - u0):
+        shifts += [np.array([u1 - u0, 0.0]), np.array([u0 - u1, 0.0])]
+    if surface.IsVClosed() and np.isfinite(v1 - v0):
+        shifts += [np.array([0.0, v1 - v0]), np.array([0.0, v0 - v1])]
+    span = max(abs(u1 - u0) if np.isfinite(u1 - u0) else 0.0, abs(v1 - v0) if np.isfinite(v1 - v0) else 0.0, 1.0)
+    tol = 1e-6 * span
+
+    def ends(curve, t0, t1):
+        p = curve.evaluate(np.array([t0, t1]))
+        return p[0], p[1]
+
+    def gap(si, curve):
+        t0, t1 = segs[si][1], segs[si][2]
+        a, b = ends(curve, t0, t1)
+        prev = segs[(si - 1) % n]
+        nxt = segs[(si + 1) % n]
+        return (float(np.linalg.norm(a - ends(prev[0], prev[1], prev[2])[1]))
+                + float(np.linalg.norm(b - ends(nxt[0], nxt[1], nxt[2])[0])))
+
+    fixed = set()
+    for si in range(n):
+        if not closed[si] or gap(si, segs[si][0]) <= tol:
+            continue
+        curve, t0, t1, ei = segs[si]
+        partners = [segs[k][0] for k in range(n) if k != si and segs[k][3] == ei]
+        best, best_gap = None, np.inf
+        for base in [curve, *partners]:
+            for d in shifts[1:] if base is curve else shifts:
+                cand = NurbsCurve(base.degree, base.knots, base.control_points + d, base.weights)
+                g = gap(si, cand)
+                if g < best_gap:
+                    best, best_gap = cand, g
+        if best is not None and best_gap <= tol:
+            segs[si] = (best, t0, t1, ei)
+            fixed.add(si)
+    return fixed
 
 
 def _uv_bounds(face) -> tuple[float, float, float, float]:
