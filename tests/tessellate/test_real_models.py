@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
+
 import pytest
 
 from trimsurf.cli import main
@@ -74,3 +76,38 @@ def test_unsewn_iges_loose_within_tolerance_unflipped(shared_data, tmp_path):
     e = _tessellate(shared_data / "cad" / "occt__bearing.iges", tmp_path)
     assert e["mode"] == "loose"
     _common_guarantees(e)
+
+
+def test_open_turbine_within_tolerance_boundary_only_on_its_free_edges(shared_data, tmp_path):
+    """occtpr946__ec_turbine-A: an open shell (14 free B-rep edges, README), rational B-spline faces up to
+    degree 11. Triangle spun for hours on its face 1 (two trim points 7e-16 apart, see
+    trimsurf.tessellate.pslg) and 4 faces had seam p-curves NurbsConvert left unconverted. At the
+    defaults: every face, within the tolerance, no flip, no non-manifold edge, one orientation; the
+    written mesh's boundary is the free edges and nothing else: every boundary edge lies on a free
+    B-rep edge (both ends and midpoint within the tolerance), and the boundary's length is the free
+    edges' length (chords: at most it, and within 0.1 %)."""
+    from scipy.spatial import cKDTree
+
+    from trimsurf.io import read_mesh, read_shell
+
+    path = shared_data / "cad" / "occtpr946__ec_turbine-A.stp"
+    e = _tessellate(path, tmp_path)
+    assert e["mode"] == "conforming"
+    _common_guarantees(e)
+    assert e["orientation_consistent"]
+    mesh = read_mesh(tmp_path / "m.ply")
+    shell = read_shell(path)
+    free = [edge for edge in shell.edges if len(edge.uses) == 1 and not edge.is_degenerate]
+    assert len(free) == 14
+    samples = [edge.curve.evaluate(np.linspace(edge.t0, edge.t1, 20001)) for edge in free]
+    free_length = sum(float(np.linalg.norm(np.diff(s, axis=0), axis=1).sum()) for s in samples)
+    step = max(float(np.linalg.norm(np.diff(s, axis=0), axis=1).max()) for s in samples)
+    tree = cKDTree(np.concatenate(samples))
+    b = mesh.boundary_edges()
+    assert len(b) > 0
+    p, q = mesh.vertices[b[:, 0]], mesh.vertices[b[:, 1]]
+    for x in (p, q, 0.5 * (p + q)):
+        d, _ = tree.query(x)
+        assert d.max() <= e["tolerance"] + step, d.max()       # the samples are `step` apart
+    length = float(np.linalg.norm(q - p, axis=1).sum())
+    assert free_length * (1 - 1e-3) <= length <= free_length * (1 + 1e-9), (length, free_length)

@@ -239,28 +239,17 @@ def clean_pslg(vertices: np.ndarray, segments: np.ndarray, *, eps: float):
         x = crossing_segments(q, seg)
         if not len(x):
             return q, seg, rep
-        # one crossing per segment this round (a segment crossed twice is cut again next round)
-        _, first = np.unique(x[:, 0], return_index=True)
-        x = x[first]
-        x = x[~np.isin(x[:, 1], x[:, 0])]
-        _, first = np.unique(x[:, 1], return_index=True)
-        x = x[first]
+        # every crossing cut this round: one new point per crossing pair, on both segments
         a, b, c, d = q[seg[x[:, 0], 0]], q[seg[x[:, 0], 1]], q[seg[x[:, 1], 0]], q[seg[x[:, 1], 1]]
         e, f = b - a, d - c
         den = e[:, 0] * f[:, 1] - e[:, 1] * f[:, 0]
         w = c - a
-        tt = np.clip((w[:, 0] * f[:, 1] - w[:, 1] * f[:, 0]) / den, 0.0, 1.0)
-        p = a + tt[:, None] * e
+        ta = np.clip((w[:, 0] * f[:, 1] - w[:, 1] * f[:, 0]) / den, 0.0, 1.0)
+        p = a + ta[:, None] * e
+        tc = np.clip(np.einsum("nd,nd->n", p - c, f) / np.maximum(np.einsum("nd,nd->n", f, f), 1e-300), 0.0, 1.0)
         new = len(q) + np.arange(len(p))
         q = np.concatenate([q, p])
         rep = np.r_[rep, new]
-        s = np.r_[x[:, 0], x[:, 1]]
-        v = np.r_[new, new]
-        seg_t = np.r_[tt, np.zeros(len(p))]
-        # the parameter along the second segment
-        g = p - c
-        seg_t[len(p):] = np.clip(np.einsum("nd,nd->n", g, f) / np.maximum(np.einsum("nd,nd->n", f, f), 1e-300),
-                                 0.0, 1.0)
-        seg = _split(seg, s, v, seg_t)
+        seg = _split(seg, np.r_[x[:, 0], x[:, 1]], np.r_[new, new], np.r_[ta, tc])
     raise TrimLoopError(f"constraint segments still cross after {_ROUNDS} rounds of splitting "
                         f"({len(crossing_segments(q, seg))} crossing(s)); the trim polygons cannot be triangulated")
