@@ -182,6 +182,18 @@ def _self_crossing(loop, same_uv: float) -> tuple[int, tuple[float, float], tupl
     return len(pairs), (float(point[0]), float(point[1])), (int(seg_of[i]), int(seg_of[j]))
 
 
+#: how `Shell.bounding_box` finds the model's extent (printed by ``info``)
+EXTENT_SOURCE = "trimmed faces (points on the trims and inside them), not surfaces' control nets"
+
+
+def _tessellate_defaults(diag: float) -> dict:
+    """The defaults ``trimsurf tessellate`` derives from the diagonal (None where it is not finite)."""
+    from ..tessellate.shell import REL_MAX_EDGE, REL_TOLERANCE
+
+    ok = bool(np.isfinite(diag) and diag > 0)
+    return {"tolerance": REL_TOLERANCE * diag if ok else None, "max_edge": REL_MAX_EDGE * diag if ok else None}
+
+
 def shell_report(shell: Shell, *, name: str = "") -> dict:
     """Figures and problems of a `Shell`, as a JSON-ready dict (what ``trimsurf info`` prints).
 
@@ -201,7 +213,8 @@ def shell_report(shell: Shell, *, name: str = "") -> dict:
         (list of {kind, face, ..., message}).
     """
     lo, hi = shell.bounding_box()
-    diag = float(np.linalg.norm(hi - lo))
+    with np.errstate(all="ignore"):
+        diag = float(np.linalg.norm(hi - lo))
     tol = default_tolerance(diag)
     faces, problems = [], []
     for f, face in enumerate(shell.faces):
@@ -222,7 +235,9 @@ def shell_report(shell: Shell, *, name: str = "") -> dict:
             "n_loops": int(sum(f["n_loops"] for f in faces)),
             "n_segments": int(sum(sum(f["segments_per_loop"]) for f in faces)),
             "bounding_box": {"min": lo.tolist(), "max": hi.tolist()}, "diagonal": diag,
+            "extent_source": EXTENT_SOURCE,
             "tolerance": {"point": tol.point, "parameter": tol.parameter},
+            "tessellate_defaults": _tessellate_defaults(diag),
             "has_topology": shell.has_topology, "edges": edges, "n_vertices": int(len(shell.vertices)),
             "closed": shell.is_closed(), "n_problems": len(problems), "problems": problems, "faces": faces}
 
@@ -330,6 +345,9 @@ def format_report(report: dict) -> str:
             ["closed", _g(report["closed"])],
             ["bounding box", _box(report)],
             ["diagonal", _g(report["diagonal"])],
+            ["extent from", report["extent_source"]],
+            ["tessellate defaults", f"tolerance {_g(report['tessellate_defaults']['tolerance'])}, "
+                                    f"max edge {_g(report['tessellate_defaults']['max_edge'])}"],
             ["tolerance", f"point {report['tolerance']['point']:.3g}, "
                           f"parameter {report['tolerance']['parameter']:.3g}"],
             ["problems", _g(report["n_problems"])]]

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -79,6 +79,7 @@ class Shell:
     edges: tuple[Edge, ...] = ()
     vertices: np.ndarray = None  # type: ignore[assignment]
     name: str = ""
+    _boxes: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "faces", tuple(self.faces))
@@ -153,18 +154,37 @@ class Shell:
                         adj[a].add(b)
         return adj
 
-    def bounding_box(self, n: int = 9) -> tuple[np.ndarray, np.ndarray]:
-        """Axis-aligned box of the faces, from an n x n sample of each surface and its control net."""
-        lo = np.full(3, np.inf)
-        hi = np.full(3, -np.inf)
-        for f in self.faces:
-            (u0, u1), (v0, v1) = f.surface.domain
-            uu, vv = np.meshgrid(np.linspace(u0, u1, n), np.linspace(v0, v1, n))
-            pts = f.surface.evaluate(np.column_stack([uu.ravel(), vv.ravel()]))
-            lo = np.minimum(lo, pts.min(axis=0))
-            hi = np.maximum(hi, pts.max(axis=0))
-        return lo, hi
+    def bounding_box(self, n: int = 17) -> tuple[np.ndarray, np.ndarray]:
+        """Axis-aligned box of the trimmed faces, from points sampled inside their trims.
+
+        Each face contributes `TrimmedFace.sample_points` (its loops, and an `n` x `n` grid of the
+        loops' (u, v) box inside them), never its untrimmed surface or control net: a face trimmed
+        to a small part of a huge surface counts with that part only. A sampled bound: the true box
+        is at least this one and larger by at most the faces' bulge between samples. Every default
+        that derives from `diagonal` (tolerances, grid sizes) inherits it.
+
+        Examples
+        --------
+        >>> from trimsurf.samples import build_sample
+        >>> lo, hi = build_sample("bspline_box").bounding_box()
+        >>> bool(np.all(hi > lo))
+        True
+        """
+        n = int(n)
+        if n not in self._boxes:          # the shell is frozen: its box is computed once per n
+            lo = np.full(3, np.inf)
+            hi = np.full(3, -np.inf)
+            for f in self.faces:
+                pts = f.sample_points(n)
+                if len(pts):
+                    lo = np.minimum(lo, pts.min(axis=0))
+                    hi = np.maximum(hi, pts.max(axis=0))
+            self._boxes[n] = (lo, hi)
+        lo, hi = self._boxes[n]
+        return lo.copy(), hi.copy()
 
     def diagonal(self) -> float:
+        """Diagonal of `bounding_box` (model units): the extent every default tolerance derives from."""
         lo, hi = self.bounding_box()
-        return float(np.linalg.norm(hi - lo))
+        with np.errstate(all="ignore"):
+            return float(np.linalg.norm(hi - lo))
