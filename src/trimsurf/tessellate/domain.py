@@ -43,6 +43,10 @@ LineFamily = Callable[[np.ndarray], np.ndarray]
 
 _N_SUB = 7          # sub-samples per interval when an interval is checked (odd: the midpoint too)
 _MAX_ROUNDS = 12    # checking / bisection rounds
+#: iso-values per direction beyond which `adaptive_values` refuses (InputError) instead of placing
+#: them: the checks cost about 170 bytes per value and line, so a tolerance or grid size far too small
+#: for the face could take gigabytes (a backstop: the CLI refuses from an estimate first)
+MAX_VALUES = 20000
 
 
 def interval_criteria(evaluate: LineFamily, x: np.ndarray, *, n_sub: int = _N_SUB,
@@ -94,8 +98,15 @@ def _check(tolerance: float, max_edge: float) -> None:
             raise InputError(f"{name} must be a positive finite number; got {v!r}")
 
 
+def _too_many(n: float, max_values: int, tolerance: float, max_edge: float) -> InputError:
+    exc = InputError(f"~{n:.3g} intervals needed (more than {max_values}): tolerance {tolerance:.3g} or "
+                     f"max edge {max_edge:.3g} is too small for this curve family")
+    exc.needed = float(n)
+    return exc
+
+
 def _bisection(evaluate: LineFamily, a: float, b: float, tolerance: float, max_edge: float,
-               max_iter: int = 40) -> np.ndarray:
+               max_iter: int = 40, max_values: int = MAX_VALUES) -> np.ndarray:
     """The paper's listing (Sec. 5.1): grid size first, then approximation error, per interval."""
     span = b - a
     eps_x = 1e-12 * max(span, 1e-300)
@@ -138,12 +149,14 @@ def _bisection(evaluate: LineFamily, a: float, b: float, tolerance: float, max_e
                 x1 = x0 if x0 > ui else ui + (x1 - ui) * 0.5
         x1 = max(x1, ui + 1e-9 * span)
         values.append(min(x1, b))
+        if len(values) > max_values + 1:
+            raise _too_many((len(values) - 1) * span / max(values[-1] - a, 1e-300), max_values, tolerance, max_edge)
     values[-1] = b
     return np.asarray(values)
 
 
 def _equidistributed(evaluate: LineFamily, a: float, b: float, tolerance: float, max_edge: float,
-                     init: np.ndarray, weights_fn=None) -> np.ndarray:
+                     init: np.ndarray, weights_fn=None, max_values: int = MAX_VALUES) -> np.ndarray:
     # fine sampling: split intervals until each is well below both criteria
     x = np.unique(np.clip(np.r_[a, init, b], a, b))
     for _ in range(8):
@@ -160,6 +173,8 @@ def _equidistributed(evaluate: LineFamily, a: float, b: float, tolerance: float,
     cum = np.r_[0.0, np.cumsum(need)]
     if not cum[-1] > 0:
         return np.array([a, b]), False
+    if not cum[-1] <= max_values:
+        raise _too_many(cum[-1], max_values, tolerance, max_edge)
 
     def place(n: int) -> np.ndarray:
         v = np.interp(np.linspace(0.0, cum[-1], n + 1), cum, x)
@@ -208,7 +223,8 @@ def _uniform(evaluate: LineFamily, a: float, b: float, tolerance: float, max_edg
 
 
 def adaptive_values(evaluate: LineFamily, a: float, b: float, *, tolerance: float, max_edge: float,
-                    strategy: str = "equidistributed", init=None, weights_fn=None) -> np.ndarray:
+                    strategy: str = "equidistributed", init=None, weights_fn=None,
+                    max_values: int = MAX_VALUES) -> np.ndarray:
     """Values a = x_0 < ... < x_n = b meeting both 3D criteria on every interval and every line.
 
     Parameters
@@ -226,10 +242,17 @@ def adaptive_values(evaluate: LineFamily, a: float, b: float, *, tolerance: floa
         Values that start the fine sampling (e.g. knots); default 16 uniform.
     weights_fn : callable or None
         x (n,) -> (n - 1, L) bool: which lines count on each interval.
+    max_values : int
+        More intervals than this are refused (InputError) before they are placed.
 
     Returns
     -------
     (n + 1,) float64, increasing, from a to b.
+
+    Raises
+    ------
+    InputError
+        Bad parameters, or more than `max_values` intervals needed.
 
     Examples
     --------
@@ -247,12 +270,12 @@ def adaptive_values(evaluate: LineFamily, a: float, b: float, *, tolerance: floa
         raise InputError(f"strategy must be one of {', '.join(STRATEGIES)}; got {strategy!r}")
     init = np.linspace(a, b, 17) if init is None else np.asarray(init, dtype=np.float64)
     if strategy == "bisection":
-        x = _bisection(evaluate, a, b, tolerance, max_edge)
+        x = _bisection(evaluate, a, b, tolerance, max_edge, max_values=max_values)
     elif strategy == "uniform":
         x = _uniform(evaluate, a, b, tolerance, max_edge, weights_fn)
         return x
     else:
-        x, checked = _equidistributed(evaluate, a, b, tolerance, max_edge, init, weights_fn)
+        x, checked = _equidistributed(evaluate, a, b, tolerance, max_edge, init, weights_fn, max_values)
         if checked:     # every interval already met both criteria
             return x
     # check every interval against both criteria; bisect where one fails
@@ -263,4 +286,6 @@ def adaptive_values(evaluate: LineFamily, a: float, b: float, *, tolerance: floa
         if not bad.any():
             break
         x = np.sort(np.r_[x, 0.5 * (x[:-1] + x[1:])[bad]])
+        if len(x) - 1 > max_values:
+            raise _too_many(len(x) - 1, max_values, tolerance, max_edge)
     return x

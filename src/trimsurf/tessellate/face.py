@@ -9,7 +9,7 @@ import numpy as np
 from ..errors import InputError, TrimLoopError
 from ..geom.predicates import points_in_polygons
 from ..model import TriMesh, TrimmedFace
-from .domain import adaptive_values
+from .domain import MAX_VALUES, adaptive_values
 from .grid import triangulate_domain
 from .repair import remove_polygon_loops, repair_face
 from .slivers import collapse_boundary_slivers
@@ -28,6 +28,11 @@ ASPECT = 6.0
 LOCAL_FIX = 1.5
 #: the aspect limit applies where the short side's direction has at least this many cells
 MIN_ACROSS = 2
+#: grid cells per face beyond which a face is refused (InputError, the face fails) before the grid is
+#: refined or triangulated: 2.5e5 cells, 5e5 triangles. The cell checks of a grid near the limit peak
+#: at 1.1 GB RSS (fender sample at --tolerance 3e-4, refused after 7 s; 2.4 GB with a limit of 1e6).
+#: A backstop for the library: the CLI refuses from an estimate first.
+MAX_CELLS = 250_000
 #: barycentric points where a triangle's deviation is sampled: centroid, edge midpoints, and the
 #: centroids of the three corner sub-triangles
 _BARY = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.5],
@@ -125,6 +130,8 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
     def place(line_tol: float):
         out = []
         for axis in (0, 1):
+            # the cells of the whole grid are bounded too (MAX_CELLS): the v lines by what the u lines leave
+            limit = MAX_VALUES if axis == 0 else max(1, min(MAX_VALUES, MAX_CELLS // max(len(out[0]) - 1, 1)))
             other = lines[axis]
             knots = s.knots_u if axis == 0 else s.knots_v
 
@@ -146,9 +153,16 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
                     return ins[:n - 1] | ins[1:n] | ins[n:]
             init = np.unique(np.r_[np.linspace(lo[axis], hi[axis], 17), _knots_in(knots, lo[axis], hi[axis])])
             # grid size max_edge / sqrt(2): the cell diagonals (triangle edges) stay within max_edge
-            out.append(adaptive_values(evaluate, lo[axis], hi[axis], tolerance=line_tol,
-                                       max_edge=max_edge / np.sqrt(2.0), strategy=strategy, init=init,
-                                       weights_fn=weights_fn))
+            try:
+                out.append(adaptive_values(evaluate, lo[axis], hi[axis], tolerance=line_tol,
+                                           max_edge=max_edge / np.sqrt(2.0), strategy=strategy, init=init,
+                                           weights_fn=weights_fn, max_values=limit))
+            except InputError as exc:
+                if not hasattr(exc, "needed"):
+                    raise
+                raise InputError(f"{face.name or 'face'}: the grid would need ~{exc.needed:.3g} iso-lines in "
+                                 f"{'uv'[axis]} (at most {limit} here, {MAX_CELLS} cells per face): tolerance "
+                                 f"{tolerance:.3g} or max edge {max_edge:.3g} is too small for this face") from None
         return out
 
     us, vs = place(tolerance)
@@ -162,8 +176,11 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
     best = refine_cells(face, us, vs, tolerance=tolerance, max_edge=max_edge)
     r = _worst_cell_ratio(face, us, vs, tolerance, polys)
     if r > 1.0:
-        alt = place(tolerance / (1.05 * r))
-        alt = refine_cells(face, alt[0], alt[1], tolerance=tolerance, max_edge=max_edge)
+        try:
+            alt = place(tolerance / (1.05 * r))
+            alt = refine_cells(face, alt[0], alt[1], tolerance=tolerance, max_edge=max_edge)
+        except InputError:          # the alternative would exceed the cell budget: keep the first
+            return best
         if (len(alt[0]) - 1) * (len(alt[1]) - 1) < (len(best[0]) - 1) * (len(best[1]) - 1):
             best = alt
     return best
@@ -258,6 +275,10 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
         mi, mj = np.nonzero(long & (side_u < side_v))
         us = np.unique(np.r_[us, 0.5 * (us[bi_u] + us[bi_u + 1]), 0.5 * (us[li] + us[li + 1])])
         vs = np.unique(np.r_[vs, 0.5 * (vs[bj_v] + vs[bj_v + 1]), 0.5 * (vs[mj] + vs[mj + 1])])
+        if (len(us) - 1) * (len(vs) - 1) > MAX_CELLS:
+            raise InputError(f"{face.name or 'face'}: refining the grid would make {len(us) - 1} x {len(vs) - 1} "
+                             f"cells (more than {MAX_CELLS}): tolerance {tolerance:.3g} or max edge "
+                             f"{max_edge:.3g} is too small for this face")
     return us, vs
 
 
