@@ -80,12 +80,13 @@ def test_bug32596_whole_model(bug32596):
     assert r["max_deviation"] <= res.tolerance
 
 
-@pytest.mark.parametrize("fname", ["gmsh__t20_data.step"])
+@pytest.mark.parametrize("fname", ["gmsh__t20_data.step", "occtpr946__ec_turbine-A.stp"])
 def test_sliver_collapse_keeps_the_guarantees_on_every_face(shared_data, fname):
     """Boundary sliver collapse (batched rounds) on every face of a real part: fewer thin triangles at
-    the trims, and every face still counter-clockwise in (u, v), not flipped, within the tolerance."""
+    the trims, and every face still counter-clockwise in (u, v), not flipped, within the tolerance; on t20
+    and on the turbine blade (rational B-splines up to degree 11, 489 poles; an open shell)."""
     from trimsurf.model import TriMesh
-    from trimsurf.quality import triangle_angles
+    from trimsurf.quality import flipped_triangles_normal, triangle_angles
     from trimsurf.tessellate import tessellate_face
 
     shell = read_shell(shared_data / "cad" / fname)
@@ -103,6 +104,12 @@ def test_sliver_collapse_keeps_the_guarantees_on_every_face(shared_data, fname):
         assert np.all(area > 0) or np.all(area < 0)
         one = Shell.from_faces([face])
         m = measure_mesh(TriMesh(with_s.vertices, with_s.triangles, face_id=np.zeros(with_s.n_triangles, int)), one)
-        assert m["flipped"] == 0, f"face {i}"
+        # no triangle with an area is flipped; one face alone keeps the zero-area triangles of a pole (two
+        # corners at one 3D point, no orientation: the turbine's sphere face 35, 1 of them off zero by
+        # rounding, 1e-15 mm^2); the shell's seam reduction collapses them (0 flipped in the whole model)
+        flipped = flipped_triangles_normal(with_s, face).flipped
+        assert np.all(with_s.triangle_areas()[flipped] <= 1e-12 * shell.diagonal() ** 2), f"face {i}"
+        if m["flipped"]:
+            assert fname == "occtpr946__ec_turbine-A.stp" and i == 35, f"face {i}"
         assert m["max_deviation"] <= tol, f"face {i}"
     assert thin_with < thin_without                          # the reduction ran and removed slivers
