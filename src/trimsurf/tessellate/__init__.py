@@ -12,6 +12,8 @@ module          stage
 `trims`         trim polygons to the 3D criteria, iso-values inserted, polygon reduction (4.3)
 `grid`          Cohen-Sutherland clip, constrained Delaunay (Triangle) of crossed cells only,
                 best-diagonal split or quads of untouched cells (4.3, 5.1, Fig. 10)
+`pslg`          Triangle's input made one it always finishes on: near-duplicate points merged,
+                segments split at points on them and at crossings (exact orient2d)
 `slivers`       boundary-only reduction of thin triangles at the trims (5.1)
 `common`        common parameterization of faces meeting along iso-lines (Fig. 12; opt-in)
 `stitch`        stitching with a k-d tree, projection, T-junction split, check-back (4.4, 5.2)
