@@ -341,3 +341,26 @@ def check_output_folder(path: Path, *, option: str = "") -> None:
             raise InputError(f"{where}: folder is not writable")
         return
     check_output_file(path, option=option)
+
+
+def load_shell(name: str, command: str):
+    """A Shell from a CAD file path or an embedded sample name (``trimsurf <command> MODEL``).
+
+    Raises
+    ------
+    InputError
+        A mesh sample, or a path that is neither a CAD file nor a sample name.
+    """
+    from .. import io
+    from ..model import Shell
+    from ..samples import SAMPLES, build_sample
+
+    path = Path(name)
+    if not path.exists() and name in SAMPLES:
+        obj = build_sample(name)
+        if not isinstance(obj, Shell):
+            raise InputError(f"sample {name!r} is a mesh; {command} needs a CAD shell")
+        return obj
+    if path.suffix.lower() not in io.CAD_SUFFIXES:
+        raise InputError(f"{name}: not a CAD file ({', '.join(io.CAD_SUFFIXES)}) nor a sample name")
+    return io.read_shell(path)

@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ._common import EXIT_FAILED, EXIT_OK, examples, format_table, print_json, print_warning, progress, write_json
+from ._common import EXIT_FAILED, EXIT_OK, examples, format_table, load_shell, print_json, print_warning, progress, write_json
 
-__all__ = ["NAME", "HELP", "DESCRIPTION", "EPILOG", "add_args", "run", "load_model", "format_certificate"]
+__all__ = ["NAME", "HELP", "DESCRIPTION", "EPILOG", "add_args", "run", "format_certificate"]
 
 NAME = "certify"
 HELP = "certify a CAD model: Whitney-perturbed faces meet exactly along the edge curves, normal bounds, " \
@@ -76,23 +76,6 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="also check the certificate on a fine tessellation with the exact triangle test")
 
 
-def load_model(name: str):
-    """A Shell from a CAD file path or an embedded sample name."""
-    from .. import io
-    from ..model import Shell
-    from ..samples import SAMPLES, build_sample
-
-    path = Path(name)
-    if not path.exists() and name in SAMPLES:
-        obj = build_sample(name)
-        if not isinstance(obj, Shell):
-            raise InputError(f"sample {name!r} is a mesh; certify needs a CAD shell")
-        return obj
-    if path.suffix.lower() not in io.CAD_SUFFIXES:
-        raise InputError(f"{name}: not a CAD file ({', '.join(io.CAD_SUFFIXES)}) nor a sample name")
-    return io.read_shell(path)
-
-
 def _fmt(x: float | None) -> str:
     return "unbounded" if x is None else f"{x:.3g}"
 
@@ -144,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--rtol must be below 1; got {args.rtol!r}")
     from ..certify import file_point_tolerance
 
-    shell = load_model(args.model)
+    shell = load_shell(args.model, "certify")
     n = len(shell.faces)
     tol, source = args.point_tolerance, "option"
     if tol is None:

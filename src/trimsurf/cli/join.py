@@ -10,7 +10,7 @@ import numpy as np
 
 from ..errors import InputError
 from ._common import (EXIT_FAILED, EXIT_OK, check_budget, estimate_shell_triangles, examples, format_table,
-                      print_warning, progress, write_json)
+                      load_shell, print_warning, progress, write_json)
 
 __all__ = ["NAME", "HELP", "DESCRIPTION", "EPILOG", "add_args", "run"]
 
@@ -89,23 +89,6 @@ def _positive(value, name: str):
         raise InputError(f"{name} must be a positive number; got {value!r}")
 
 
-def load_model(name: str):
-    """A Shell from a CAD file path or an embedded sample name (as `trimsurf certify` resolves MODEL)."""
-    from .. import io
-    from ..model import Shell
-    from ..samples import SAMPLES, build_sample
-
-    path = Path(name)
-    if not path.exists() and name in SAMPLES:
-        obj = build_sample(name)
-        if not isinstance(obj, Shell):
-            raise InputError(f"sample {name!r} is a mesh; join needs a CAD shell")
-        return obj
-    if path.suffix.lower() not in io.CAD_SUFFIXES:
-        raise InputError(f"{name}: not a CAD file ({', '.join(io.CAD_SUFFIXES)}) nor a sample name")
-    return io.read_shell(path)
-
-
 def _face_meshes(shell, args, deflection: float):
     from .. import io
 
@@ -177,7 +160,7 @@ def run(args: argparse.Namespace) -> int:
     if args.output.suffix.lower() not in io.MESH_SUFFIXES:
         raise InputError(f"{args.output}: unknown mesh suffix {args.output.suffix!r}; expected one of "
                          f"{', '.join(io.MESH_SUFFIXES)}")
-    shell = load_model(args.model)
+    shell = load_shell(args.model, "join")
     sewn = False
     if not args.meshes and needs_sewing(shell):   # an unsewn surface model: which faces adjoin?
         shell, sewn = sew_shell(shell), True
