@@ -230,57 +230,71 @@ def boundary_data(loops, values, *, closed: bool = True, strict: bool = True) ->
                         bool(scalar), bool(strict), {})
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _raise_by_pair(i, j, pts, vals, a, d, length, g, start, end, best, bad):  # pragma: no cover - compiled
+    """Raise ``best`` (per component) to the sup of |eps(q) - eps(v_i)| / |q - v_i| over q on segment j.
+
+    The numerator is affine along the segment and the quotient has one stationary point, so the sup is
+    at that point or at an end. A zero distance with a non-zero numerator is recorded in ``bad``.
+    """
+    sa, sb = start[j], end[j]
+    if i == sa or i == sb:
+        return
+    ux, uy, ln = d[j, 0], d[j, 1], length[j]
+    dx, dy = pts[i, 0] - a[j, 0], pts[i, 1] - a[j, 1]
+    x0 = dx * ux + dy * uy          # coordinate of the vertex along the segment
+    h = dx * uy - dy * ux           # and across it
+    h2 = h * h
+    xc = min(max(x0, 0.0), ln) - x0
+    dmin = np.sqrt(h2 + xc * xc)    # distance vertex - segment: every denominator is >= dmin
+    for cc in range(vals.shape[1]):
+        ev = vals[i, cc]
+        # the numerator is affine along the segment: |.| <= its larger end value
+        if max(abs(vals[sa, cc] - ev), abs(vals[sb, cc] - ev)) <= best[cc] * dmin:
+            continue
+        gj = g[j, cc]
+        c0 = vals[sa, cc] - ev      # eps(q(x)) - eps(v) = c0 + g x
+        den = c0 + gj * x0
+        xs = x0
+        if den != 0.0:              # the only stationary point of (c0 + g x) / sqrt(h^2 + (x - x0)^2)
+            xs = x0 + gj * h2 / den
+        if xs < 0.0:
+            xs = 0.0
+        elif xs > ln:
+            xs = ln
+        for t in range(3):
+            x = xs if t == 0 else (0.0 if t == 1 else ln)
+            rx = x - x0
+            dist = np.sqrt(h2 + rx * rx)
+            num = abs(c0 + gj * x)
+            if dist == 0.0:
+                if num > 0.0 and bad[0] < 0:
+                    bad[0], bad[1], bad[2] = i, j, cc
+                continue
+            r = num / dist
+            if r > best[cc]:
+                best[cc] = r
+
+
+@njit(cache=True, nogil=True)
+def _segment_slopes(g):  # pragma: no cover - compiled
+    """Per component, the largest |slope| along one segment (pairs on the same segment)."""
+    best = np.zeros(g.shape[1])
+    for j in range(g.shape[0]):
+        for cc in range(g.shape[1]):
+            if abs(g[j, cc]) > best[cc]:
+                best[cc] = abs(g[j, cc])
+    return best
+
+
 @njit(cache=True, nogil=True)
 def _lipschitz_kernel(pts, vals, a, d, length, g, start, end):  # pragma: no cover - compiled
     """Exact L per component; the first (vertex, segment, component) with an infinite quotient, or -1."""
-    k = pts.shape[0]
-    m = a.shape[0]
-    c = vals.shape[1]
-    best = np.zeros(c)
-    for j in range(m):  # pairs on one segment: its slope
-        for cc in range(c):
-            if abs(g[j, cc]) > best[cc]:
-                best[cc] = abs(g[j, cc])
+    best = _segment_slopes(g)
     bad = np.full(3, -1, dtype=np.int64)
-    for j in range(m):
-        sa, sb = start[j], end[j]
-        ax, ay, ux, uy, ln = a[j, 0], a[j, 1], d[j, 0], d[j, 1], length[j]
-        for i in range(k):
-            if i == sa or i == sb:
-                continue
-            dx, dy = pts[i, 0] - ax, pts[i, 1] - ay
-            x0 = dx * ux + dy * uy          # coordinate of the vertex along the segment
-            h = dx * uy - dy * ux           # and across it
-            h2 = h * h
-            xc = min(max(x0, 0.0), ln) - x0
-            dmin = np.sqrt(h2 + xc * xc)    # distance vertex - segment: every denominator is >= dmin
-            for cc in range(c):
-                ev = vals[i, cc]
-                # the numerator is affine along the segment: |.| <= its larger end value
-                if max(abs(vals[sa, cc] - ev), abs(vals[sb, cc] - ev)) <= best[cc] * dmin:
-                    continue
-                gj = g[j, cc]
-                c0 = vals[sa, cc] - ev      # eps(q(x)) - eps(v) = c0 + g x
-                den = c0 + gj * x0
-                xs = x0
-                if den != 0.0:              # the only stationary point of (c0 + g x) / sqrt(h^2 + (x - x0)^2)
-                    xs = x0 + gj * h2 / den
-                if xs < 0.0:
-                    xs = 0.0
-                elif xs > ln:
-                    xs = ln
-                for t in range(3):
-                    x = xs if t == 0 else (0.0 if t == 1 else ln)
-                    rx = x - x0
-                    dist = np.sqrt(h2 + rx * rx)
-                    num = abs(c0 + gj * x)
-                    if dist == 0.0:
-                        if num > 0.0 and bad[0] < 0:
-                            bad[0], bad[1], bad[2] = i, j, cc
-                        continue
-                    r = num / dist
-                    if r > best[cc]:
-                        best[cc] = r
+    for j in range(a.shape[0]):
+        for i in range(pts.shape[0]):
+            _raise_by_pair(i, j, pts, vals, a, d, length, g, start, end, best, bad)
     return best, bad
 
 
@@ -294,19 +308,12 @@ def _lipschitz_kernel_pruned(pts, vals, a, d, length, g, start, end, bc, br, bma
     extreme values): a block whose bound does not beat the current L for any component is skipped. The
     result is the same exact supremum as the unpruned kernel (only pairs that cannot attain it are skipped).
     """
-    k = pts.shape[0]
-    m = a.shape[0]
     c = vals.shape[1]
-    nb = bc.shape[0]
-    best = np.zeros(c)
-    for j in range(m):
-        for cc in range(c):
-            if abs(g[j, cc]) > best[cc]:
-                best[cc] = abs(g[j, cc])
+    best = _segment_slopes(g)
     bad = np.full(3, -1, dtype=np.int64)
-    for i in range(k):
+    for i in range(pts.shape[0]):
         px, py = pts[i, 0], pts[i, 1]
-        for b in range(nb):
+        for b in range(bc.shape[0]):
             dx, dy = px - bc[b, 0], py - bc[b, 1]
             gap = np.sqrt(dx * dx + dy * dy) - br[b]
             if gap > 0.0:
@@ -319,42 +326,7 @@ def _lipschitz_kernel_pruned(pts, vals, a, d, length, g, start, end, bc, br, bma
                 if skip:
                     continue
             for j in range(bstart[b], bend[b]):
-                sa, sb = start[j], end[j]
-                if i == sa or i == sb:
-                    continue
-                ax, ay, ux, uy, ln = a[j, 0], a[j, 1], d[j, 0], d[j, 1], length[j]
-                ddx, ddy = px - ax, py - ay
-                x0 = ddx * ux + ddy * uy
-                h = ddx * uy - ddy * ux
-                h2 = h * h
-                xc = min(max(x0, 0.0), ln) - x0
-                dmin = np.sqrt(h2 + xc * xc)
-                for cc in range(c):
-                    ev = vals[i, cc]
-                    if max(abs(vals[sa, cc] - ev), abs(vals[sb, cc] - ev)) <= best[cc] * dmin:
-                        continue
-                    gj = g[j, cc]
-                    c0 = vals[sa, cc] - ev
-                    den = c0 + gj * x0
-                    xs = x0
-                    if den != 0.0:
-                        xs = x0 + gj * h2 / den
-                    if xs < 0.0:
-                        xs = 0.0
-                    elif xs > ln:
-                        xs = ln
-                    for t in range(3):
-                        x = xs if t == 0 else (0.0 if t == 1 else ln)
-                        rx = x - x0
-                        dist = np.sqrt(h2 + rx * rx)
-                        num = abs(c0 + gj * x)
-                        if dist == 0.0:
-                            if num > 0.0 and bad[0] < 0:
-                                bad[0], bad[1], bad[2] = i, j, cc
-                            continue
-                        r = num / dist
-                        if r > best[cc]:
-                            best[cc] = r
+                _raise_by_pair(i, j, pts, vals, a, d, length, g, start, end, best, bad)
     return best, bad
 
 
