@@ -112,7 +112,12 @@ def _crossing(rect, segs_a: np.ndarray, segs_b: np.ndarray, idx: np.ndarray) -> 
     a, b = segs_a[idx], segs_b[idx]
     near = ((np.minimum(a[:, 0], b[:, 0]) <= u1) & (np.maximum(a[:, 0], b[:, 0]) >= u0)
             & (np.minimum(a[:, 1], b[:, 1]) <= v1) & (np.maximum(a[:, 1], b[:, 1]) >= v0))
-    idx, a, b = idx[near], a[near], b[near]
+    return idx[near][_meets_rect(rect, a[near], b[near])]
+
+
+def _meets_rect(rect, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Whether each segment a -> b meets the closed rectangle (u0, u1, v0, v1), (n,) bool (Liang-Barsky)."""
+    u0, u1, v0, v1 = rect
     d = b - a
     t0 = np.zeros(len(d))
     t1 = np.ones(len(d))
@@ -125,7 +130,7 @@ def _crossing(rect, segs_a: np.ndarray, segs_b: np.ndarray, idx: np.ndarray) -> 
             r = np.where(par, 0.0, q_ / np.where(par, 1.0, p_))
         t0 = np.where(~par & (p_ < 0), np.maximum(t0, r), t0)
         t1 = np.where(~par & (p_ > 0), np.minimum(t1, r), t1)
-    return idx[ok & (t0 <= t1)]
+    return ok & (t0 <= t1)
 
 
 def _inside(x: float, y: float, segs_a: np.ndarray, segs_b: np.ndarray) -> bool:
@@ -141,19 +146,7 @@ def rect_meets_domain(rect, segs_a: np.ndarray, segs_b: np.ndarray, polys) -> bo
     """Whether the closed (u, v) rectangle meets the polygonal domain (exact): a boundary segment meets the
     rectangle (Liang-Barsky clipping), or, when none does, the rectangle's centre is inside."""
     u0, u1, v0, v1 = rect
-    d = segs_b - segs_a
-    t0 = np.zeros(len(d))
-    t1 = np.ones(len(d))
-    ok = np.ones(len(d), dtype=bool)
-    for p_, q_ in ((-d[:, 0], segs_a[:, 0] - u0), (d[:, 0], u1 - segs_a[:, 0]),
-                   (-d[:, 1], segs_a[:, 1] - v0), (d[:, 1], v1 - segs_a[:, 1])):
-        par = p_ == 0
-        ok &= ~(par & (q_ < 0))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            r = np.where(par, 0.0, q_ / np.where(par, 1.0, p_))
-        t0 = np.where(~par & (p_ < 0), np.maximum(t0, r), t0)
-        t1 = np.where(~par & (p_ > 0), np.minimum(t1, r), t1)
-    if np.any(ok & (t0 <= t1)):
+    if np.any(_meets_rect(rect, segs_a, segs_b)):
         return True
     return bool(points_in_polygons(np.array([[0.5 * (u0 + u1), 0.5 * (v0 + v1)]]), polys)[0])
 
