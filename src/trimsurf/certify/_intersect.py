@@ -361,21 +361,10 @@ def _bezier_normal_cone(h: np.ndarray) -> tuple[np.ndarray, float] | None:
     N = (w P_u - w_u P) x (w P_v - w_v P) / w^4 (P the weighted points) is a polynomial over w^4 > 0; its
     Bézier coefficients c_kl span a convex cone that contains every normal direction. None when the
     coefficients do not lie in an open half-space (no cone below 180 degrees)."""
-    pw, w = h[..., :3], h[..., 3]
-    p, q = pw.shape[0] - 1, pw.shape[1] - 1
-    if p < 1 or q < 1:
+    coef = _normal_coefficients(h)
+    if coef is None:
         return None
-    du = p * (pw[1:] - pw[:-1])
-    dv = q * (pw[:, 1:] - pw[:, :-1])
-    if np.allclose(w, w.flat[0], rtol=1e-14, atol=0.0):
-        c = _bprod(du, dv, np.cross)
-    else:
-        wu = p * (w[1:] - w[:-1])
-        wv = q * (w[:, 1:] - w[:, :-1])
-        a = _bprod(w[..., None], du, _mul) - _bprod(wu[..., None], pw, _mul)
-        b = _bprod(w[..., None], dv, _mul) - _bprod(wv[..., None], pw, _mul)
-        c = _bprod(a, b, np.cross)
-    c = c.reshape(-1, 3)
+    c = coef[2].reshape(-1, 3)
     n = np.linalg.norm(c, axis=1)
     scale = n.max(initial=0.0)
     if scale <= 0:
