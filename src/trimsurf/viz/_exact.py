@@ -80,9 +80,9 @@ def _split_by_face(mesh: TriMesh) -> list[tuple[int, TriMesh]]:
 
 #: a seam edge between two faces is smooth (G1 join, normals shared) when its dihedral angle is at most this
 #: multiple of the largest dihedral angle of the faces' own edges around its two ends (see `unshare_faces`)
-SEAM_CREASE_RATIO = 3.0
+SEAM_CREASE_RATIO = 1.5
 #: a seam edge with a dihedral angle above this is a crease whatever the mesh around it (degrees)
-SEAM_CREASE_MAX_DEG = 60.0
+SEAM_CREASE_MAX_DEG = 30.0
 
 
 def _seam_edges(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -103,9 +103,11 @@ def _seam_edges(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.n
     seam = manifold & (mesh.face_id[ta] != mesh.face_id[tb])
     inner = manifold & ~seam
     a, b = keys // n, keys % n
-    ring = np.zeros(n)  # largest dihedral angle of the faces' own edges at each vertex
-    np.maximum.at(ring, a[inner], ang[inner])
-    np.maximum.at(ring, b[inner], ang[inner])
+    # largest dihedral angle of the faces' own edges on the triangles around each vertex (their far edges
+    # too: on a mesh swept in strips the bend sits on the edges one step away from the seam)
+    own = np.where(inner, ang, 0.0)[inv].reshape(-1, 3).max(axis=1)
+    ring = np.zeros(n)
+    np.maximum.at(ring, T.ravel(), np.repeat(own, 3))
     local = np.maximum(ring[a], ring[b])
     smooth = (ang <= SEAM_CREASE_RATIO * local) & (ang <= SEAM_CREASE_MAX_DEG)
     s = np.flatnonzero(seam)
