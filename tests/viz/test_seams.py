@@ -176,3 +176,15 @@ def test_cad_seams_smooth_exactly_where_the_faces_join_g1(shared_data):
     assert g1.sum() >= 9 and crease.sum() >= 300
     assert not np.any(smooth & crease), np.sort(exact_deg[smooth & crease])  # no crease blended
     assert np.all(smooth[g1])  # every tangent join shared: no false stripe break
+
+
+def test_web_viewer_keeps_g1_seam_vertices_shared(g1_patches, tmp_path):
+    # the page's shader computes the stripes per vertex from the same prepared mesh: no seam copies in it
+    import json
+    import re
+
+    from trimsurf.viz import write_html
+
+    page = write_html(g1_patches, tmp_path / "v.html").read_text(encoding="utf-8")
+    meta = json.loads(re.search(r'id="trimsurf-meta">(.*?)</script>', page, re.S).group(1))
+    assert meta["meshes"][0]["n_vertices"] == g1_patches.n_vertices  # before the fix: 12 seams' vertices twice
