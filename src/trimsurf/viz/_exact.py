@@ -157,25 +157,22 @@ def unshare_faces(mesh: TriMesh) -> TriMesh:
     F = np.asarray(mesh.face_id, dtype=np.int64)
     F = F - F.min()
     # one node per (vertex, face) corner pair; smooth seam edges join a vertex's nodes of the two faces
-    corner = np.column_stack([T.ravel(), np.repeat(F, 3)])
-    pairs, node = np.unique(corner, axis=0, return_inverse=True)
+    stride = int(F.max()) + 1
+    pair_keys, node = np.unique(T.ravel().astype(np.int64) * stride + np.repeat(F, 3), return_inverse=True)
     node = node.ravel()
     a, b, ta, tb, smooth = _seam_edges(mesh)
     a, b, ta, tb = a[smooth], b[smooth], ta[smooth], tb[smooth]
-
-    stride = int(F.max()) + 1
-    pair_keys = pairs[:, 0] * stride + pairs[:, 1]  # sorted, as np.unique sorts the rows
 
     def find(v, f):
         return np.searchsorted(pair_keys, v * stride + f)
 
     u = np.concatenate([find(a, F[ta]), find(b, F[ta])])
     w = np.concatenate([find(a, F[tb]), find(b, F[tb])])
-    g = coo_matrix((np.ones(len(u)), (u, w)), shape=(len(pairs), len(pairs)))
+    g = coo_matrix((np.ones(len(u)), (u, w)), shape=(len(pair_keys), len(pair_keys)))
     _, comp = connected_components(g, directed=False)
     # each component becomes one vertex (its first node's vertex: all nodes of a component share it)
     rep = np.zeros(comp.max() + 1, dtype=np.int64)
-    rep[comp[::-1]] = pairs[::-1, 0]
+    rep[comp[::-1]] = pair_keys[::-1] // stride
     uv = mesh.uv[rep] if mesh.uv is not None else None
     return TriMesh(mesh.vertices[rep], comp[node].reshape(-1, 3), uv=uv, face_id=np.asarray(mesh.face_id).copy())
 
