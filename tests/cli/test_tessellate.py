@@ -119,3 +119,67 @@ def test_subprocess_run(screw, tmp_path):
                          capture_output=True, text=True, timeout=300)
     assert res.returncode == 0, res.stderr
     assert out.exists() and res.stderr == ""
+
+
+def test_flipped_triangle_in_written_mesh_exit_1(monkeypatch, tmp_path, capsys):
+    """The promise is measured on the file written: a result whose report says 0 flipped but whose mesh
+    has one triangle turned over is caught on the read-back, one warning line, exit 1 (exit 0 before)."""
+    import dataclasses
+
+    import trimsurf.tessellate as tess
+
+    real = tess.tessellate_shell
+
+    def one_flipped(*args, **kwargs):
+        res = real(*args, **kwargs)
+        assert res.report["flipped"] == 0
+        t = res.mesh.triangles.copy()
+        t[0] = t[0, ::-1]
+        return dataclasses.replace(res, mesh=replace(res.mesh, triangles=t))
+
+    monkeypatch.setattr(tess, "tessellate_shell", one_flipped)
+    monkeypatch.setattr("trimsurf.io.read_shell", lambda path: build_sample("bspline_box"))
+    fake = tmp_path / "box.step"
+    fake.write_text("not read")
+    out, rep = tmp_path / "box.ply", tmp_path / "r.json"
+    assert main(["tessellate", str(fake), "-o", str(out), "--report", str(rep)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "guarantee not met" in err[0] and "1 flipped" in err[0]
+    entry = json.loads(rep.read_text())["inputs"][0]
+    assert entry["flipped"] == 1 and entry["guarantees_met"] is False
+    assert read_mesh(out).n_triangles == entry["triangles"]
+
+
+def test_unexplained_nonmanifold_edge_in_loose_mode_exit_1(monkeypatch, tmp_path, capsys):
+    """Loose mode as conforming: a written non-manifold edge the model does not explain (a face's
+    triangle doubled onto its neighbour's edge) means exit 1."""
+    import dataclasses
+
+    import numpy as np
+
+    import trimsurf.tessellate as tess
+
+    real = tess.tessellate_shell
+
+    def doubled(*args, **kwargs):
+        res = real(*args, **kwargs)
+        m = res.mesh
+        assert res.report["nonmanifold_edges"] == 0 and res.mode == "loose"
+        # a copy of triangle 0 turned over onto its third vertex's mirror: its edge (0,1) gets 3 triangles
+        a, b, c = m.triangles[0]
+        mirror = 2 * (m.vertices[a] + m.vertices[b]) / 2 - m.vertices[c]
+        v = np.vstack([m.vertices, mirror])
+        t = np.vstack([m.triangles, [[b, a, len(m.vertices)]]])
+        fid = np.append(m.face_id, m.face_id[0])
+        return dataclasses.replace(res, mesh=type(m)(v, t, face_id=fid))
+
+    monkeypatch.setattr(tess, "tessellate_shell", doubled)
+    monkeypatch.setattr("trimsurf.io.read_shell", lambda path: build_sample("bspline_box"))
+    fake = tmp_path / "box.step"
+    fake.write_text("not read")
+    out, rep = tmp_path / "box.ply", tmp_path / "r.json"
+    assert main(["tessellate", str(fake), "-o", str(out), "--loose", "--report", str(rep)]) == 1
+    err = capsys.readouterr().err
+    assert "1 non-manifold edges the model does not explain" in err
+    entry = json.loads(rep.read_text())["inputs"][0]
+    assert entry["nonmanifold_edges"] == 1 and entry["nonmanifold_edges_explained"] == 0

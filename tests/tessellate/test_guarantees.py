@@ -113,3 +113,53 @@ def test_sliver_collapse_keeps_the_guarantees_on_every_face(shared_data, fname):
             assert fname == "occtpr946__ec_turbine-A.stp" and i == 35, f"face {i}"
         assert m["max_deviation"] <= tol, f"face {i}"
     assert thin_with < thin_without                          # the reduction ran and removed slivers
+
+
+# -- which non-manifold edges the model explains (tessellate.measure.explained_nonmanifold_edges) --------
+
+def _sheet(face_id, pts, tris):
+    from trimsurf.model import TriMesh
+
+    return TriMesh(np.asarray(pts, float), np.asarray(tris), face_id=np.full(len(tris), face_id))
+
+
+def test_explained_nonmanifold_three_faces_along_a_curve_and_coincident_faces():
+    from trimsurf.model import TriMesh
+    from trimsurf.tessellate.measure import explained_nonmanifold_edges
+
+    # edge (0,1) on the x axis; three fins, one triangle of each face, each face's boundary runs along it
+    v = np.array([[0, 0, 0], [1, 0, 0], [0.5, 1, 0], [0.5, -1, 0], [0.5, 0, 1]], float)
+    t = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4]])
+    fins = TriMesh(v, t, face_id=np.array([0, 1, 2]))
+    own = [_sheet(i, v, t[i:i + 1]) for i in range(3)]
+    assert explained_nonmanifold_edges(fins, own, 1e-6).tolist() == [True]
+    # the same edge, but face 2's own boundary lies 0.1 away (it was moved onto the edge): not explained
+    moved = v.copy()
+    moved[[0, 1], 1] += 0.1
+    own[2] = _sheet(2, moved, t[2:3])
+    assert explained_nonmanifold_edges(fins, own, 1e-2).tolist() == [False]
+    assert explained_nonmanifold_edges(fins, own, 0.2).tolist() == [True]
+    # two coincident faces (two touching solids' interface): two triangles of each, either side of the edge
+    t2 = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 2], [1, 0, 3]])
+    twin = TriMesh(v, t2, face_id=np.array([0, 0, 1, 1]))
+    assert explained_nonmanifold_edges(twin, [None, None], 1e-6).tolist() == [True]
+
+
+def test_unexplained_nonmanifold_fold_of_one_face_onto_a_neighbour():
+    """A face with two triangles on one edge and a neighbour with one (a pinch of the face's trims stitched
+    onto the neighbour, the turbine's face 1 in --loose): not explained, even when every boundary runs
+    along the edge; nor are two triangles of one face folded onto the same side."""
+    from trimsurf.model import TriMesh
+    from trimsurf.tessellate.measure import explained_nonmanifold_edges
+
+    v = np.array([[0, 0, 0], [1, 0, 0], [0.5, 1, 0], [0.5, -1, 0], [0.5, 0, 1]], float)
+    t = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4]])
+    mesh = TriMesh(v, t, face_id=np.array([0, 0, 1]))
+    own = [_sheet(0, v, t[:2]), _sheet(1, v, t[2:])]
+    # face 0's own mesh has the edge inside; give it its own copy with the edge on its boundary too
+    own[0] = _sheet(0, v, t[:1])
+    assert explained_nonmanifold_edges(mesh, own, 1.0).tolist() == [False]
+    # coincident faces, but face 1's two triangles fold onto the same side of the edge
+    t2 = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 2], [0, 1, 4]])
+    folded = TriMesh(v, t2, face_id=np.array([0, 0, 1, 1]))
+    assert explained_nonmanifold_edges(folded, [None, None], 1.0).tolist() == [False]

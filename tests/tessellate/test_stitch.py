@@ -193,6 +193,8 @@ def test_loose_wing_fuselage_no_flips(shared_data):
     r = res.report
     assert r["flipped"] == 0 and r["boundary_edges"] == 0
     assert r["max_deviation"] <= res.tolerance
+    # the interface faces (7 and 15, one per solid) coincide: every non-manifold edge is explained
+    assert r["nonmanifold_edges"] > 0 and r["nonmanifold_edges_explained"] == r["nonmanifold_edges"]
 
 
 def test_loose_u_joint_corners_no_flips(shared_data):

@@ -33,7 +33,9 @@ projection), longest edge, smallest and 5th-percentile angle, boundary and
 non-manifold edges, triangles flipped against the surface normal, orientation.
 Defaults: tolerance 1e-3 and max edge 3e-2 of each model's bounding-box diagonal.
 Faces that repair cannot fix are named on stderr and skipped (exit status 1, the
-rest is written); unreadable files exit 2."""
+rest is written); a written mesh with flipped triangles or with non-manifold edges
+the model's own faces do not explain (three faces meeting along a curve, coincident
+faces of touching solids) is named on stderr, exit status 1; unreadable files exit 2."""
 EPILOG = examples("trimsurf tessellate part.step -o part.ply",
                   "trimsurf tessellate cad/ -o meshes/ --tolerance 0.05 --max-edge 10 --report report.json",
                   "trimsurf tessellate panel.vda -o panel.obj --loose --quads",
@@ -164,6 +166,8 @@ def _entry(path: Path, res, seconds: float) -> dict:
     out["mode"] = res.mode
     out["watertight"] = r.get("watertight")
     out["within_tolerance"] = r.get("within_tolerance")
+    out["nonmanifold_edges_explained"] = r.get("nonmanifold_edges_explained")
+    out["guarantees_met"] = r.get("guarantees_met")
     out["faces_failed"] = r.get("faces_failed")
     out["faces_flagged"] = r.get("faces_flagged")
     out["faces_repaired"] = r.get("faces_repaired")
@@ -258,6 +262,8 @@ def run(args: argparse.Namespace) -> int:
                 else:
                     write_mesh(res.mesh, target)
                 written = str(target)
+                if not _guarantees_met(path, target, res, shell):
+                    status = EXIT_FAILED
             else:
                 print_warning(f"{path}: no face could be tessellated; nothing written")
                 status = EXIT_FAILED
@@ -286,6 +292,36 @@ def run(args: argparse.Namespace) -> int:
         print_warning(f"{n_failed} of {len(inputs)} inputs failed: "
                       + ", ".join(Path(e["input"]).name for e in entries if "error" in e))
     return status
+
+
+def _guarantees_met(path: Path, target: Path, res, shell) -> bool:
+    """Measure the written file (read back); one warning line if a promise is broken.
+
+    Broken: flipped triangles, or non-manifold edges beyond those the model's own
+    faces explain (`tessellate.measure.explained_nonmanifold_edges`). Non-manifold
+    edges are counted on the file read back; flips too where the file keeps each
+    triangle's face (PLY's face_id), else on the mesh in memory that was written
+    (OBJ, OFF, STL, glTF, --quads). The written figures replace the in-memory ones
+    in ``res.report``.
+    """
+    from ..io import read_mesh
+    from ..quality import topology_report
+    from ..tessellate.measure import explained_nonmanifold_edges, flipped_against_normal
+
+    r = res.report
+    back = read_mesh(target)
+    r["nonmanifold_edges"] = int(topology_report(back).n_non_manifold_edges)
+    if back.face_id is not None:
+        r["flipped"] = flipped_against_normal(back, shell, reversed_faces=r.get("faces_flipped", ()))
+        r["nonmanifold_edges_explained"] = int(explained_nonmanifold_edges(back, res.face_meshes, res.tolerance).sum())
+    flipped = int(r.get("flipped") or 0)
+    excess = r["nonmanifold_edges"] - int(r.get("nonmanifold_edges_explained") or 0)
+    r["guarantees_met"] = flipped == 0 and excess <= 0
+    if not r["guarantees_met"]:
+        what = [f"{flipped} flipped triangles"] if flipped else []
+        what += [f"{excess} non-manifold edges the model does not explain"] if excess > 0 else []
+        print_warning(f"{path}: guarantee not met in {target}: {', '.join(what)}")
+    return r["guarantees_met"]
 
 
 def _failure(exc: BaseException, path: Path) -> str:

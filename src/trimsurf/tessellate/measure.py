@@ -9,7 +9,7 @@ import numpy as np
 from ..model import Shell, TriMesh
 from ..quality import shell_deviation, topology_report, triangle_quality
 
-__all__ = ["measure_mesh", "measure_result", "flipped_against_normal"]
+__all__ = ["measure_mesh", "measure_result", "flipped_against_normal", "explained_nonmanifold_edges"]
 
 
 def flipped_against_normal(mesh: TriMesh, shell: Shell, *, reversed_faces=(), tol_rel: float = 1e-10) -> int:
@@ -110,9 +110,86 @@ def measure_mesh(mesh: TriMesh, shell: Shell, *, density: int = 3, n_domain: int
     }
 
 
+def _point_polyline_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance from each point `p` (k, 3) to the nearest of the segments a[j]-b[j] (s, 3)."""
+    if not len(a):
+        return np.full(len(p), np.inf)
+    d = b - a
+    dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
+    t = np.clip(np.einsum("kij,ij->ki", p[:, None, :] - a[None], d) / dd, 0.0, 1.0)
+    q = a[None] + t[..., None] * d[None]
+    return np.linalg.norm(p[:, None, :] - q, axis=2).min(axis=1)
+
+
+def explained_nonmanifold_edges(mesh: TriMesh, face_meshes, tolerance: float) -> np.ndarray:
+    """Mask over ``mesh.non_manifold_edges()``: those the model's own topology explains.
+
+    A non-manifold edge (k > 2 triangles) is explained when the model's faces
+    meet there as distinct sheets, in one of two ways:
+
+    - k >= 3 faces meet along a curve: its k triangles belong to k distinct
+      faces, and the trimmed boundary of each (its own mesh's boundary edges,
+      `face_meshes`) runs along the edge: the edge's points at 1/4, 1/2 and 3/4
+      lie within `tolerance` of it;
+    - coincident faces (e.g. the interface face of two touching solids, stored
+      once per solid): every face on the edge has exactly two triangles there,
+      on either side of the edge (the edge runs once each way, normals within
+      90 deg), i.e. the edge is a manifold interior edge of each face.
+
+    Anything else (a face with two triangles next to one with one: a fold or a
+    pinch of a face's own trims stitched onto a neighbour) is not explained.
+    """
+    nm = mesh.non_manifold_edges()
+    out = np.zeros(len(nm), dtype=bool)
+    if not len(nm) or mesh.face_id is None:
+        return out
+    edges, inv, counts = mesh.edges(), mesh.half_edge_edges(), mesh.edge_triangle_counts()
+    nm_index = np.flatnonzero(counts > 2)
+    he = mesh.half_edges()
+    normals = mesh.triangle_normals()
+    bounds: dict = {}
+    for k, e in enumerate(nm_index):
+        hes = np.flatnonzero(inv == e)
+        tris = hes // 3
+        fids = mesh.face_id[tris]
+        uniq, per = np.unique(fids, return_counts=True)
+        if np.all(per == 2):
+            ok = True
+            for f in uniq.tolist():
+                h = hes[fids == f]
+                t = tris[fids == f]
+                ok &= bool(he[h[0], 0] == he[h[1], 1]) and float(normals[t[0]] @ normals[t[1]]) > 0.0
+            out[k] = ok
+            continue
+        if not np.all(per == 1):
+            continue
+        a, b = mesh.vertices[edges[e, 0]], mesh.vertices[edges[e, 1]]
+        pts = a + np.array([0.25, 0.5, 0.75])[:, None] * (b - a)
+        ok = True
+        for f in uniq.tolist():
+            fm = face_meshes[f] if f < len(face_meshes) else None
+            if fm is None:
+                ok = False
+                break
+            if f not in bounds:
+                be = fm.boundary_edges()
+                bounds[f] = (fm.vertices[be[:, 0]], fm.vertices[be[:, 1]])
+            if _point_polyline_distance(pts, *bounds[f]).max() > tolerance:
+                ok = False
+                break
+        out[k] = ok
+    return out
+
+
 def measure_result(result, shell: Shell) -> dict:
-    """`measure_mesh` of a `TessellationResult`'s mesh, plus the checks against its parameters."""
+    """`measure_mesh` of a `TessellationResult`'s mesh, plus the checks against its parameters.
+
+    Adds ``within_tolerance`` and ``nonmanifold_edges_explained`` (non-manifold
+    edges where three or more faces of the model meet, `explained_nonmanifold_edges`).
+    """
     out = measure_mesh(result.mesh, shell, reversed_faces=result.report.get("faces_flipped", ()),
                        skipped_faces=[f.index for f in result.failed_faces])
     out["within_tolerance"] = bool(out["max_deviation"] <= result.tolerance)
+    out["nonmanifold_edges_explained"] = int(explained_nonmanifold_edges(result.mesh, result.face_meshes,
+                                                                         result.tolerance).sum())
     return out
