@@ -78,7 +78,8 @@ def test_unsewn_iges_loose_within_tolerance_unflipped(shared_data, tmp_path):
     _common_guarantees(e)
 
 
-def test_open_turbine_within_tolerance_boundary_only_on_its_free_edges(shared_data, tmp_path):
+@pytest.mark.parametrize("flags", [(), ("--loose",)], ids=["conforming", "loose"])
+def test_open_turbine_within_tolerance_boundary_only_on_its_free_edges(shared_data, tmp_path, flags):
     """occtpr946__ec_turbine-A: an open shell (14 free B-rep edges, README), rational B-spline faces up to
     degree 11. Triangle spun for hours on its face 1 (two trim points 7e-16 apart, see
     trimsurf.tessellate.pslg) and 4 faces had seam p-curves NurbsConvert left unconverted. At the
@@ -86,16 +87,22 @@ def test_open_turbine_within_tolerance_boundary_only_on_its_free_edges(shared_da
     written mesh's boundary is the free edges and nothing else: every boundary edge lies on a free
     B-rep edge (both ends and midpoint within the tolerance), and the boundary's length is the free
     edges' length (chords: at most it, and within 0.5 %; measured 232 edges, 0.087 % short, 0.134 from
-    the edges at most with tolerance 0.147)."""
+    the edges at most with tolerance 0.147).
+
+    --loose (faces alone, stitched): the same. Face 1's hole touches its outer trim at one point, and
+    near it the face is narrower than the stitching distance: both its sides were stitched onto face 8,
+    leaving 1 non-manifold edge and 2 flipped triangles (exit 0 then); those folds are now removed and
+    the neighbours stitched across (stitch._prune_folds). Its boundary: on the free edges but for
+    a crack of 13 edges beside the pinch point (not closed yet)."""
     from scipy.spatial import cKDTree
 
     from trimsurf.io import read_mesh, read_shell
 
     path = shared_data / "cad" / "occtpr946__ec_turbine-A.stp"
-    e = _tessellate(path, tmp_path)
-    assert e["mode"] == "conforming"
+    e = _tessellate(path, tmp_path, *flags)
+    assert e["mode"] == ("loose" if flags else "conforming")
     _common_guarantees(e)
-    assert e["orientation_consistent"]
+    assert e["orientation_consistent"] and e["guarantees_met"]
     mesh = read_mesh(tmp_path / "m.ply")
     shell = read_shell(path)
     free = [edge for edge in shell.edges if len(edge.uses) == 1 and not edge.is_degenerate]
@@ -107,8 +114,16 @@ def test_open_turbine_within_tolerance_boundary_only_on_its_free_edges(shared_da
     b = mesh.boundary_edges()
     assert len(b) > 0
     p, q = mesh.vertices[b[:, 0]], mesh.vertices[b[:, 1]]
-    for x in (p, q, 0.5 * (p + q)):
-        d, _ = tree.query(x)
-        assert d.max() <= e["tolerance"] + step, d.max()       # the samples are `step` apart
+    d = np.max([tree.query(x)[0] for x in (p, q, 0.5 * (p + q))], axis=0)
+    on_free = d <= e["tolerance"] + step                         # the samples are `step` apart
+    if flags:
+        # loose: a crack remains between face 0's long chord and face 1's hole trim beside the pinch
+        # point (0, 62, 55), where check-back refuses the splits (measured 13 edges; 15 before the
+        # folds were pruned); nowhere else
+        off = ~on_free
+        assert off.sum() <= 13, off.sum()
+        assert np.linalg.norm(0.5 * (p + q)[off] - [0.0, 62.0, 55.0], axis=1).max() < 5.0
+        return
+    assert on_free.all(), d.max()
     length = float(np.linalg.norm(q - p, axis=1).sum())
     assert free_length * (1 - 5e-3) <= length <= free_length * (1 + 1e-9), (length, free_length)

@@ -337,7 +337,7 @@ class _State:
 
 def reduce_seams(mesh: TriMesh, tolerance: float, *, tri_dev=None, max_edge: float = np.inf,
                  corner_uv=None, surfaces=None, faces=None, max_rounds: int = 6, short: float = 0.5,
-                 return_kept: bool = False):
+                 return_kept: bool = False, return_state: bool = False):
     """Collapse short seam edges within `tolerance`; returns the reduced mesh and the number of collapses.
 
     Parameters
@@ -365,8 +365,15 @@ def reduce_seams(mesh: TriMesh, tolerance: float, *, tri_dev=None, max_edge: flo
         against the normal are removed by collapsing a seam edge of theirs.
     short : float
         Only seam edges shorter than `short` times the median seam edge are collapsed.
+    return_kept, return_state : bool
+        Also return the mask of kept input triangles; with `return_state` too, the kept
+        triangles' deviation bounds and corner (u, v) (None without `corner_uv`).
     """
     if mesh.face_id is None or not mesh.n_triangles:
+        if return_state:
+            return (mesh, 0, np.ones(mesh.n_triangles, dtype=bool),
+                    np.zeros(mesh.n_triangles) if tri_dev is None else np.asarray(tri_dev, dtype=np.float64),
+                    None if corner_uv is None else np.asarray(corner_uv, dtype=np.float64))
         return (mesh, 0, np.ones(mesh.n_triangles, dtype=bool)) if return_kept else (mesh, 0)
     st = _State(mesh, tolerance, tri_dev, max_edge, corner_uv, surfaces, faces)
     V = st.V
@@ -430,4 +437,6 @@ def reduce_seams(mesh: TriMesh, tolerance: float, *, tri_dev=None, max_edge: flo
     T, fid, alive = st.T[st.alive], st.fid[st.alive], st.alive
     used, inv = np.unique(T, return_inverse=True)
     out = TriMesh(V[used], inv.reshape(-1, 3), face_id=fid)
+    if return_state:
+        return out, total, alive, st.dev[alive], None if st.cuv is None else st.cuv[alive]
     return (out, total, alive) if return_kept else (out, total)

@@ -151,7 +151,7 @@ def _closest_edges(points, vfaces, edges_a, edges_b, edge_face, tree, radius, ep
 
 
 def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, tolerance: float | None = None,
-                return_origin: bool = False, corner_uv=None):
+                return_origin: bool = False, corner_uv=None, near=None):
     """Stitch the face boundaries of a mesh with ``face_id`` within distance `eps` (paper Sec. 5.2).
 
     Parameters
@@ -169,6 +169,9 @@ def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, tolerance: float | N
         The (u, v) of every triangle corner on its face, carried through: a point inserted on
         an edge gets the (u, v) at its parameter along the edge. Given, the result is
         ``(mesh, info, dev, origin, corner_uv)``.
+    near : ((k, 3) float64, float) or None
+        Only boundary vertices within the given distance of one of the points are stitched
+        (a local repair); None: all.
 
     Returns
     -------
@@ -197,6 +200,9 @@ def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, tolerance: float | N
     reach = eps if tolerance is None else max(eps, float(tolerance))
     radius = 0.5 * r_max + reach
     bverts = np.unique(bedges)
+    if near is not None:
+        d_near, _ = cKDTree(np.asarray(near[0], dtype=np.float64)).query(V[bverts])
+        bverts = bverts[d_near <= near[1]]
     # the faces of each boundary vertex: those of its outgoing and incoming boundary edges (one face
     # before stitching; two where an earlier pass merged the corners of two faces)
     vfaces = np.full((len(V), 2), -1, dtype=np.int64)      # -1: no boundary edge that way
@@ -447,8 +453,107 @@ def merge_face_meshes(face_meshes: dict, *, tolerance: float, stitch: bool = Tru
         n_before = mesh.n_triangles
         kw = {} if cuv is None else {"corner_uv": cuv, "faces": faces,
                                      "surfaces": [None if f is None else f.surface for f in faces]}
-        mesh, n, alive = _reduce(mesh, tolerance, tri_dev=dev, max_edge=max_edge, return_kept=True, **kw)
+        mesh, n, alive, dev, cuv = _reduce(mesh, tolerance, tri_dev=dev, max_edge=max_edge, return_kept=True,
+                                           return_state=True, **kw)
         q = remap(q, n_before, np.where(alive, np.cumsum(alive) - 1, -1))
         info["seam_collapses"] = n
+    if stitch and cuv is not None and faces is not None:
+        # folds left where a face is narrower than the stitching distance: removed and stitched across
+        pruned = _prune_folds(mesh, dev, cuv, q, faces, tolerance)
+        if pruned is not None:
+            mesh, dev, cuv, q, n_pruned = pruned
+            info["stitch_folds_pruned"] = n_pruned
     info["quads"] = q
     return mesh, info
+
+
+def _fold_triangles(mesh: TriMesh, cuv, faces) -> np.ndarray:
+    """Triangles of a face folded over by stitching: flipped against the face's oriented normal, or two
+    of one face's triangles on one non-manifold edge (a neck of the face narrower than the stitching
+    distance, both its sides stitched onto one neighbour)."""
+    from .seams import _against_normal, _normals
+
+    # at the (u, v) centroid, as the measure module counts flips (the corners are stricter: a pole)
+    bad = _against_normal(faces, mesh.face_id, cuv, _normals(mesh.vertices, mesh.triangles),
+                          bary=np.array([[1 / 3, 1 / 3, 1 / 3]]))
+    counts = mesh.edge_triangle_counts()
+    if np.any(counts > 2):
+        inv = mesh.half_edge_edges()
+        tri = np.arange(3 * mesh.n_triangles) // 3
+        for e in np.flatnonzero(counts > 2).tolist():
+            t = tri[inv == e]
+            f = mesh.face_id[t]
+            _, first, cnt = np.unique(f, return_index=True, return_counts=True)
+            if np.all(cnt == 2):
+                continue            # coincident faces (two touching solids' interface): not a fold
+            for k in np.flatnonzero(cnt > 1):
+                bad[t[f == f[first[k]]]] = True
+    return np.flatnonzero(bad)
+
+
+def _prune_folds(mesh: TriMesh, dev, cuv, q, faces, tolerance: float):
+    """Remove thin folded triangles (`_fold_triangles`) and stitch the hole they leave; kept only if better.
+
+    Where a face is narrower than the stitching distance (the turbine's face 1 at the point where its
+    hole touches its outer trim), both its sides get stitched onto one neighbour and its triangles fold.
+    Without them, the neighbours across the neck are within the stitching distance of each other and
+    stitch directly. The result is kept only when it has no more boundary or non-manifold edges and
+    fewer folded triangles, the triangles stitching made are not flipped (at their (u, v) centroid or a
+    corner) and keep their deviation bound within the tolerance, and the removed triangles' surface
+    points (corners, edge midpoints, centroid) lie within the tolerance of the result; else None.
+    """
+    from ..quality.closest_point import closest_points_on_mesh
+    from ..quality.sampling import sample_face_domain
+    from .seams import _BARY, _against_normal, _normals
+
+    bad = _fold_triangles(mesh, cuv, faces)
+    # only thin ones: every point of a removed triangle within the stitching distance of its edges
+    # (inradius 2 area / perimeter), so the neighbours stitched across it stay within the tolerance
+    p = mesh.vertices[mesh.triangles[bad]]
+    area2 = np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    perimeter = np.linalg.norm(p - np.roll(p, 1, axis=1), axis=2).sum(axis=1)
+    bad = bad[area2 <= 0.5 * tolerance * perimeter]
+    if not len(bad):
+        return None
+    n_b0, n_nm0 = len(mesh.boundary_edges()), len(mesh.non_manifold_edges())
+    n_bad0 = len(_fold_triangles(mesh, cuv, faces))
+    keep = np.ones(mesh.n_triangles, dtype=bool)
+    keep[bad] = False
+    hole = mesh.vertices[np.unique(mesh.triangles[bad])]     # only the hole's vertices are stitched
+    index = np.where(keep, np.cumsum(keep) - 1, -1)
+    used, inv = np.unique(mesh.triangles[keep], return_inverse=True)
+    m = TriMesh(mesh.vertices[used], inv.reshape(-1, 3), face_id=mesh.face_id[keep])
+    d, c = dev[keep], cuv[keep]
+    new = np.zeros(m.n_triangles, dtype=bool)
+    qq = index[q] if len(q) else q
+    qq = qq[(qq >= 0).all(axis=1)] if len(qq) else qq
+    for _ in range(2):
+        if not len(m.boundary_edges()):
+            break
+        n_before = m.n_triangles
+        m, _, d, origin, c = stitch_mesh(m, 0.5 * tolerance, d, tolerance=tolerance, corner_uv=c,
+                                         near=(hole, tolerance))
+        idx = np.full(n_before, -1, dtype=np.int64)
+        idx[origin[origin >= 0]] = np.flatnonzero(origin >= 0)
+        new = np.where(origin >= 0, new[np.maximum(origin, 0)], True)
+        if len(qq):
+            qq = idx[qq]
+            qq = qq[(qq >= 0).all(axis=1)]
+    if (len(m.boundary_edges()) > n_b0 or len(m.non_manifold_edges()) > n_nm0
+            or len(_fold_triangles(m, c, faces)) >= n_bad0):
+        return None
+    if np.any(new) and (np.any(d[new] > tolerance)
+                        or np.any(_against_normal(faces, m.face_id[new], c[new], _normals(m.vertices, m.triangles[new])))):
+        return None
+    # each face of the removed triangles stays covered by its own triangles (as the measure module
+    # counts): its removed triangles' surface points and a sampling of its trimmed domain
+    fb = mesh.face_id[bad]
+    for f in np.unique(fb).tolist():
+        own = m.face_id == f
+        if not np.any(own):
+            return None
+        uv = np.einsum("bj,rjk->rbk", np.r_[_BARY, np.eye(3)], cuv[bad[fb == f]]).reshape(-1, 2)
+        pts = np.concatenate([faces[f].surface.evaluate(uv), faces[f].surface.evaluate(sample_face_domain(faces[f], n=32))])
+        if float(closest_points_on_mesh(pts, m.submesh(own)).distance.max()) > tolerance:
+            return None
+    return m, d, c, qq, int(len(bad))
