@@ -580,9 +580,10 @@ def _refine_to_deviation(face: TrimmedFace, out: dict, flags: str, nr: int, r_xy
         # on dR lies on b(t) or, in Case 2, on the polyline itself); refining for it only makes slivers
         seg = np.asarray(out["segments"], dtype=np.int64)
         on_r = np.asarray(out["segment_markers"]).ravel() < 2 + nr
-        key = set(map(tuple, np.sort(seg[on_r], axis=1).tolist()))
+        n_v = len(tv)
+        r_seg = np.sort(seg[on_r], axis=1)
         e = np.sort(np.stack([tt, np.roll(tt, -1, axis=1)], axis=2), axis=2)   # edge c: corners c, c + 1
-        skip = np.array([(int(a), int(b)) in key for a, b in e.reshape(-1, 2)], dtype=bool).reshape(-1, 3)
+        skip = np.isin(e[..., 0] * n_v + e[..., 1], r_seg[:, 0] * n_v + r_seg[:, 1])
         dev = triangle_deviation(face, pts, uv, tt, density=_REFINE_DENSITY, exact_above=target, skip_edges=skip)
         bad = dev > target
         if not bad.any() or it == _REFINE_ROUNDS or len(tt) > _REFINE_MAX_TRIANGLES:
