@@ -33,3 +33,16 @@ def test_python_m_trimsurf_version():
     res = subprocess.run([sys.executable, "-m", "trimsurf", "--version"], capture_output=True, text=True,
                          timeout=120)
     assert res.returncode == 0 and res.stdout.strip() == f"trimsurf {trimsurf.__version__}"
+
+
+def test_reader_closing_stdout_early_is_quiet(shared_data):
+    # `trimsurf info --json big.iges | head -c 10`: the JSON (~140 KB) overflows the pipe buffer after the
+    # reader has gone; no "Broken pipe" line, no traceback, status 1 (the output was not delivered)
+    proc = subprocess.Popen([sys.executable, "-m", "trimsurf", "info", "--json",
+                             str(shared_data / "cad" / "occt__bearing.iges")],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert proc.stdout.read(10)
+    proc.stdout.close()
+    _, err = proc.communicate(timeout=300)
+    assert err.decode() == ""
+    assert proc.returncode == 1

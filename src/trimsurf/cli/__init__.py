@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import os
 import signal
+import sys
 import threading
 import traceback
 import warnings
@@ -147,6 +149,12 @@ def main(argv: list[str] | None = None) -> int:
             traceback.print_exc()
         print_error(exc)
         return EXIT_INPUT
+    except BrokenPipeError:
+        # the reader of stdout went away (``trimsurf info x | head``): nothing to say to it; stdout goes to
+        # devnull so the interpreter's final flush does not complain either
+        with contextlib.suppress(OSError, ValueError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_FAILED
     except OSError as exc:
         if args.debug:
             traceback.print_exc()
