@@ -19,12 +19,11 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from trimsurf import io
 from trimsurf.cli.view import mesh_with_face_uv
 from trimsurf.tessellate import tessellate_shell
-from trimsurf.viz._exact import _seam_edges, refine_exact
+from trimsurf.viz._exact import _seam_edges, seam_exact_angles
 
 CAD = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "cad"
 FILES = ("occt__screw.step", "gmsh__t20_data.step", "occt__linkrods.step", "occtpr946__ec_soapbox-A.stp",
@@ -35,23 +34,8 @@ def seam_classes(path: Path) -> dict:
     shell = io.read_shell(path)
     res = tessellate_shell(shell)
     mesh = res.mesh
-    fine, normals, _ = refine_exact(mesh_with_face_uv(res), shell, level=0)  # exact normals, per face
-    vface = np.full(fine.n_vertices, -1)
-    vface[fine.triangles.ravel()] = np.repeat(fine.face_id, 3)
-    tol = 1e-4 * float(np.linalg.norm(np.ptp(mesh.vertices, axis=0)))
-    tree = cKDTree(fine.vertices)
-    a, b, ta, tb, smooth = _seam_edges(mesh)
-
-    def normal(v, f):
-        d, idx = tree.query(mesh.vertices[v], k=16, distance_upper_bound=tol)
-        idx = np.minimum(idx, fine.n_vertices - 1)
-        ok = (vface[idx] == f[:, None]) & (d < tol)
-        j = np.argmax(ok, axis=1)
-        r = np.arange(len(v))
-        return np.where(ok[r, j][:, None], normals[idx[r, j]], np.nan)
-
-    ends = [np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", normal(v, mesh.face_id[ta]),
-                                                   normal(v, mesh.face_id[tb])), -1, 1))) for v in (a, b)]
+    ends, smooth = seam_exact_angles(mesh, mesh_with_face_uv(res), shell)
+    _, _, ta, tb, _ = _seam_edges(mesh)
     exact = np.minimum(*ends)  # NaN where an end was not found
     tn = mesh.triangle_normals()
     tn /= np.linalg.norm(tn, axis=1, keepdims=True)
@@ -59,7 +43,7 @@ def seam_classes(path: Path) -> dict:
     found = np.isfinite(exact)
     g1, crease = found & (exact < 1.0), found & (exact > 5.0)
     blended = smooth & crease
-    return {"file": path.name, "seams": len(a), "found": int(found.sum()), "g1": int(g1.sum()),
+    return {"file": path.name, "seams": len(ta), "found": int(found.sum()), "g1": int(g1.sum()),
             "g1_shared": int((smooth & g1).sum()), "crease": int(crease.sum()), "crease_blended": int(blended.sum()),
             "blended_max_exact_deg": float(exact[blended].max()) if blended.any() else 0.0,
             "blended_max_mesh_deg": float(dihedral[blended].max()) if blended.any() else 0.0}

@@ -136,31 +136,12 @@ def test_crease_next_to_a_curved_face_stays_split():
 def seam_truth(shell):
     """Tessellate `shell`; per seam edge of the joined mesh: the exact normals' angle across it (degrees, the
     larger of its two ends; NaN where an end is not found) and whether `unshare_faces` shares it (smooth)."""
-    from scipy.spatial import cKDTree
-
     from trimsurf.cli.view import mesh_with_face_uv
     from trimsurf.tessellate import tessellate_shell
-    from trimsurf.viz._exact import _seam_edges, refine_exact
+    from trimsurf.viz._exact import seam_exact_angles
 
     res = tessellate_shell(shell)
-    mesh = res.mesh
-    fine, normals, _ = refine_exact(mesh_with_face_uv(res), shell, level=0)  # exact normals, per face
-    vface = np.full(fine.n_vertices, -1)
-    vface[fine.triangles.ravel()] = np.repeat(fine.face_id, 3)
-    tol = 1e-4 * float(np.linalg.norm(np.ptp(mesh.vertices, axis=0)))
-    tree = cKDTree(fine.vertices)
-    a, b, ta, tb, smooth = _seam_edges(mesh)
-
-    def normal(v, f):
-        d, idx = tree.query(mesh.vertices[v], k=16, distance_upper_bound=tol)
-        idx = np.minimum(idx, fine.n_vertices - 1)
-        ok = (vface[idx] == f[:, None]) & (d < tol)
-        j = np.argmax(ok, axis=1)
-        r = np.arange(len(v))
-        return np.where(ok[r, j][:, None], normals[idx[r, j]], np.nan)
-
-    ends = [np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", normal(v, mesh.face_id[ta]),
-                                                   normal(v, mesh.face_id[tb])), -1, 1))) for v in (a, b)]
+    ends, smooth = seam_exact_angles(res.mesh, mesh_with_face_uv(res), shell)
     return np.maximum(*ends), smooth  # NaN where an end was not found
 
 

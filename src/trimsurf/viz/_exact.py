@@ -114,6 +114,43 @@ def _seam_edges(mesh: TriMesh) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.n
     return a[s], b[s], ta[s], tb[s], smooth[s]
 
 
+def seam_exact_angles(mesh: TriMesh, faces_uv: TriMesh, exact: Shell) -> tuple[np.ndarray, np.ndarray]:
+    """Exact normals' angle across each seam edge of `mesh` (as `_seam_edges` lists them), and its verdict.
+
+    `mesh` is the joined mesh (seam vertices shared, ``face_id``); `faces_uv` the same faces unshared with
+    each vertex's (u, v) on its own face (as ``trimsurf view`` prepares a tessellation), from which
+    `refine_exact` gives the two faces' exact normals at the edge's ends.
+
+    Returns
+    -------
+    ends_deg : (2, k) float64
+        Angle (degrees) between the two faces' exact normals at end a and at end b; NaN where an end is
+        not found on a face.
+    smooth : (k,) bool
+        Whether `unshare_faces` shares the edge (shades it as a smooth join).
+    """
+    from scipy.spatial import cKDTree
+
+    fine, normals, _ = refine_exact(faces_uv, exact, level=0)  # exact normals, per face
+    vface = np.full(fine.n_vertices, -1)
+    vface[fine.triangles.ravel()] = np.repeat(fine.face_id, 3)
+    tol = 1e-4 * float(np.linalg.norm(np.ptp(mesh.vertices, axis=0)))
+    tree = cKDTree(fine.vertices)
+    a, b, ta, tb, smooth = _seam_edges(mesh)
+
+    def normal(v, f):
+        d, idx = tree.query(mesh.vertices[v], k=16, distance_upper_bound=tol)
+        idx = np.minimum(idx, fine.n_vertices - 1)
+        ok = (vface[idx] == f[:, None]) & (d < tol)
+        j = np.argmax(ok, axis=1)
+        r = np.arange(len(v))
+        return np.where(ok[r, j][:, None], normals[idx[r, j]], np.nan)
+
+    ends = [np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", normal(v, mesh.face_id[ta]),
+                                                   normal(v, mesh.face_id[tb])), -1, 1))) for v in (a, b)]
+    return np.array(ends), smooth
+
+
 def unshare_faces(mesh: TriMesh) -> TriMesh:
     """The mesh with its vertices duplicated along creases between CAD faces (``face_id``), so normals do not blend there.
 
