@@ -12,6 +12,7 @@ __all__ = [
     "FileFormatError",
     "StepReadError",
     "IgesReadError",
+    "BrepReadError",
     "VdafsReadError",
     "MeshReadError",
     "MeshError",
@@ -38,6 +39,10 @@ class StepReadError(FileFormatError):
 
 class IgesReadError(FileFormatError):
     """An IGES file Open CASCADE cannot read, or that holds no faces."""
+
+
+class BrepReadError(FileFormatError):
+    """An Open CASCADE .brep file that cannot be read, or that holds no faces."""
 
 
 class VdafsReadError(FileFormatError):

@@ -1,8 +1,10 @@
-"""Readers and writers: STEP/IGES (Open CASCADE), the VDAFS subset (by hand), meshes (trimesh).
+"""Readers and writers: STEP/IGES/BREP (Open CASCADE), the VDAFS subset (by hand), meshes (trimesh, meshio).
 
 `read` picks the reader from the file suffix and returns a `Shell` for CAD
 files and a `TriMesh` for mesh files. Writers write to a temporary file and
-rename it, so a failed write never leaves a partial file.
+rename it, so a failed write never leaves a partial file. `from_occ` and
+`to_occ` convert in-memory Open CASCADE shapes (plain OCP, CadQuery,
+build123d) the way the STEP reader and writer do.
 """
 
 from __future__ import annotations
@@ -18,12 +20,13 @@ from ..errors import FaceSkippedWarning, FileFormatError
 from ..model import Shell, TriMesh
 
 __all__ = ["read", "read_shell", "read_mesh", "write_shell", "write_mesh", "CAD_SUFFIXES", "MESH_SUFFIXES",
-           "occ_mesh_faces", "skipped_faces"]
+           "occ_mesh_faces", "skipped_faces", "from_occ", "to_occ"]
 
 # suffix -> private module holding read(path) and write(obj, path)
-_CAD_MODULES = {".step": "_step", ".stp": "_step", ".iges": "_iges", ".igs": "_iges",
+_CAD_MODULES = {".step": "_step", ".stp": "_step", ".iges": "_iges", ".igs": "_iges", ".brep": "_brep",
                 ".vda": "_vdafs", ".vdafs": "_vdafs", ".vdas": "_vdafs"}
-_MESH_SUFFIXES = (".obj", ".ply", ".stl", ".off", ".gltf", ".glb")
+_MESH_SUFFIXES = (".obj", ".ply", ".stl", ".off", ".gltf", ".glb",  # trimesh (and by hand)
+                  ".vtk", ".vtu", ".msh", ".inp", ".bdf", ".nas")     # meshio
 CAD_SUFFIXES = tuple(_CAD_MODULES)
 MESH_SUFFIXES = _MESH_SUFFIXES
 
@@ -50,7 +53,7 @@ def check_readable(path, error: type[FileFormatError] = FileFormatError) -> Path
 
 
 def read_shell(path: str | os.PathLike) -> Shell:
-    """Read a STEP, IGES or VDAFS file into a `Shell`."""
+    """Read a STEP, IGES, BREP (Open CASCADE) or VDAFS file into a `Shell`."""
     module = _cad_module(path)
     check_readable(path)
     return module.read(path)
@@ -77,7 +80,7 @@ def skipped_faces() -> Iterator[list[str]]:
 
 
 def read_mesh(path: str | os.PathLike) -> TriMesh:
-    """Read an OBJ, PLY, STL, OFF, glTF or GLB file into a `TriMesh`."""
+    """Read an OBJ, PLY, STL, OFF, glTF, GLB, VTK, VTU, Gmsh MSH, Abaqus INP or Nastran BDF file into a `TriMesh`."""
     if _suffix(path) not in _MESH_SUFFIXES:
         raise FileFormatError(f"{path}: unknown mesh file suffix {_suffix(path)!r}; "
                               f"expected one of {', '.join(MESH_SUFFIXES)}")
@@ -94,17 +97,29 @@ def read(path: str | os.PathLike) -> Shell | TriMesh:
 
 
 def write_shell(shell: Shell, path: str | os.PathLike) -> None:
-    """Write a `Shell` as STEP (.step/.stp) or VDAFS (.vda)."""
+    """Write a `Shell` as STEP (.step/.stp), Open CASCADE BREP (.brep) or VDAFS (.vda)."""
     _cad_module(path).write(shell, path)
 
 
 def write_mesh(mesh: TriMesh, path: str | os.PathLike) -> None:
-    """Write a `TriMesh` as OBJ, PLY, STL, OFF, glTF or GLB, by suffix."""
+    """Write a `TriMesh` as OBJ, PLY, STL, OFF, glTF, GLB, VTK, VTU, MSH, INP or BDF/NAS, by suffix."""
     if _suffix(path) not in _MESH_SUFFIXES:
         raise FileFormatError(f"{path}: unknown mesh file suffix {_suffix(path)!r}; "
                               f"expected one of {', '.join(MESH_SUFFIXES)}")
     from . import _meshfile
     _meshfile.write(mesh, path)
+
+
+def from_occ(obj, *, name: str = "") -> Shell:
+    """A `Shell` from an OCP ``TopoDS_Shape``, a CadQuery or build123d object (see `trimsurf.io._shape.from_occ`)."""
+    from ._shape import from_occ as _impl
+    return _impl(obj, name=name)
+
+
+def to_occ(shell, *, sew_tolerance: float | None = None):
+    """The Open CASCADE ``TopoDS_Shape`` of a `Shell` (see `trimsurf.io._shape.to_occ`)."""
+    from ._shape import to_occ as _impl
+    return _impl(shell, sew_tolerance=sew_tolerance)
 
 
 def occ_mesh_faces(shell: Shell, *, linear_deflection: float, angular_deflection: float = 0.5) -> list[TriMesh]:

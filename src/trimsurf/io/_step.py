@@ -104,6 +104,17 @@ def write(shell: Shell | TrimmedFace | Sequence[TrimmedFace], path: str | os.Pat
     OSError
         The target folder cannot be created or written.
     """
+    shape = shape_for_writing(shell, path, sew_tolerance=sew_tolerance)
+    with atomic_path(path) as tmp:
+        _write_step_file(shape, tmp, path)
+
+
+def shape_for_writing(shell: Shell | TrimmedFace | Sequence[TrimmedFace], path: str | os.PathLike = "", *,
+                      sew_tolerance: float | None = None, stacklevel: int = 3):
+    """The Open CASCADE shape `write` writes (also written by the BREP writer and `trimsurf.io.to_occ`).
+
+    Raises and warns as `write` does; `path` only names the target in messages.
+    """
     if sew_tolerance is not None and (isinstance(sew_tolerance, bool) or not isinstance(sew_tolerance, (int, float))
                                       or not math.isfinite(sew_tolerance) or sew_tolerance <= 0):
         raise GeometryError(f"{path}: sew_tolerance must be a positive finite number or None; got {sew_tolerance!r}")
@@ -121,9 +132,9 @@ def write(shell: Shell | TrimmedFace | Sequence[TrimmedFace], path: str | os.Pat
     if bad:
         where = "the shape" if bad == [-1] else f"{len(bad)} face(s)"
         warnings.warn(f"{path}: BRepCheck_Analyzer rejects {where} of the written shape (inconsistent input "
-                      "faces, e.g. self-intersecting trim loops); writing it anyway", TrimsurfWarning, stacklevel=2)
-    with atomic_path(path) as tmp:
-        _write_step_file(shape, tmp, path)
+                      "faces, e.g. self-intersecting trim loops); writing it anyway", TrimsurfWarning,
+                      stacklevel=stacklevel)
+    return shape
 
 
 def _write_step_file(shape, tmp: Path, path) -> None:

@@ -64,7 +64,10 @@ def read_timeout(path: str | os.PathLike) -> float:
 
 
 def convert_file(path: str, fmt: str) -> Shell:
-    """Read a STEP or IGES file into a `Shell` in this process (what the child runs)."""
+    """Read a STEP, IGES or BREP file into a `Shell` in this process (what the child runs)."""
+    if fmt == "BREP":
+        from .. import _brep
+        return _brep.read_in_process(path)
     if fmt == "IGES":
         from .. import _iges
         return _iges.read_in_process(path)
@@ -189,7 +192,7 @@ def _signal_name(code: int) -> str:
 
 
 def read_isolated(path: str | os.PathLike, fmt: str, error: type[FileFormatError]) -> Shell:
-    """Read a STEP or IGES file into a `Shell` in a child process (see the module notes).
+    """Read a STEP, IGES or BREP file into a `Shell` in a child process (see the module notes).
 
     Warnings the read gives (faces skipped, ...) are given again here.
 

@@ -79,12 +79,12 @@ def _occ_detail(lines: list[str]) -> str:
 # --------------------------------------------------------------------------------------------------------------
 
 def read_shape(path: str | os.PathLike, fmt: str, error: type[FileFormatError]):
-    """Read a STEP or IGES file into an Open CASCADE shape that holds at least one face.
+    """Read a STEP, IGES or BREP file into an Open CASCADE shape that holds at least one face.
 
     Parameters
     ----------
     path : str or PathLike
-    fmt : {"STEP", "IGES"}
+    fmt : {"STEP", "IGES", "BREP"}
     error : FileFormatError subclass
         Raised, with a one-line message naming `path`, when the file is
         missing, empty, unreadable or holds no faces.
@@ -97,6 +97,8 @@ def read_shape(path: str | os.PathLike, fmt: str, error: type[FileFormatError]):
 
     p = check_file(path, error)
     check_file_numbers(p, fmt, error)
+    if fmt == "BREP":
+        return _read_brep(p, path, error)
     if fmt == "STEP":
         from OCP.STEPControl import STEPControl_Reader
         reader = STEPControl_Reader()
@@ -125,6 +127,36 @@ def read_shape(path: str | os.PathLike, fmt: str, error: type[FileFormatError]):
         raise error(f"{path}: not a readable {fmt} file (truncated or malformed: {detail})")
     if shape.IsNull() or count_faces(shape) == 0:
         raise error(f"{path}: the {fmt} file holds no faces")
+    check_shape_geometry(shape, path, error)
+    return shape
+
+
+#: what an ASCII .brep file starts with (``BRepTools::Write``; DRAW's ``save`` adds a DBRep_DrawableShape line)
+BREP_MAGIC = b"CASCADE Topology V"
+
+
+def _read_brep(p: Path, path, error: type[FileFormatError]):
+    """An Open CASCADE ASCII .brep file (``BRepTools::Read``) as a shape with faces, checked as STEP is."""
+    from OCP.BRep import BRep_Builder
+    from OCP.BRepTools import BRepTools
+    from OCP.TopoDS import TopoDS_Shape
+
+    with open(p, "rb") as fh:
+        head = fh.read(4096)
+    if BREP_MAGIC not in head:
+        raise error(f"{path}: not an Open CASCADE BREP file (no '{BREP_MAGIC.decode()}' header; binary "
+                    "BREP is not supported)")
+    shape, ok, failure = TopoDS_Shape(), False, ""
+    with quiet_occ() as log:
+        try:
+            ok = bool(BRepTools.Read_s(shape, str(p), BRep_Builder()))
+        except Exception as exc:  # Standard_Failure
+            failure = f"{type(exc).__name__}: {exc}"
+    if not ok or shape.IsNull():
+        detail = _occ_detail(log) or failure or "Open CASCADE read no shape"
+        raise error(f"{path}: not a readable BREP file (truncated or malformed: {detail})")
+    if count_faces(shape) == 0:
+        raise error(f"{path}: the BREP file holds no faces")
     check_shape_geometry(shape, path, error)
     return shape
 

@@ -5,7 +5,7 @@ then serves requests, one line each, from the file descriptor FD_IN::
 
     ["READ", FMT, PATH, ANSWER, WORKING_FOLDER]     (a JSON array)
 
-For each it forks a child that reads the STEP or IGES file PATH into a
+For each it forks a child that reads the STEP, IGES or BREP file PATH into a
 `Shell` and writes, pickled, to the file ANSWER either ("ok", shell,
 [(warning class, message)]) or ("error", exception class name, message).
 The server answers on FD_OUT with ``PID <pid>`` right after the fork and
