@@ -150,6 +150,16 @@ class ShellCertificate:
                          "pairs": [p.as_dict(arrays=True) for p in self.pairs],
                          "problems": self.problems()})
 
+    def to_table(self) -> list[dict]:
+        """The report as a one-row table (a list with one flat dict) that ``pandas.DataFrame`` accepts."""
+        from ..viz._notebook import report_table  # viz is a higher layer: imported on use only
+        return report_table(self)
+
+    def _repr_html_(self) -> str:
+        """Jupyter: the interactive viewer inline (offline) and the report's key figures."""
+        from ..viz._notebook import repr_html
+        return repr_html(self)
+
     def well_defined_mesh(self, *, n_triangles_per_face: int = 400, min_angle_deg: float = 25.0) -> TriMesh:
         """The perturbed faces tessellated so that they meet exactly along b_k (watertight by construction)."""
         return well_defined_mesh(self.perturbed, self._edges, n_triangles_per_face=n_triangles_per_face,

@@ -53,6 +53,16 @@ class FitResult:
         """`mesh` with uv = phi(X)."""
         return TriMesh(mesh.vertices, mesh.triangles, uv=self.uv)
 
+    def to_table(self) -> list[dict]:
+        """The report as a one-row table (a list with one flat dict) that ``pandas.DataFrame`` accepts."""
+        from ..viz._notebook import report_table  # viz is a higher layer: imported on use only
+        return report_table(self)
+
+    def _repr_html_(self) -> str:
+        """Jupyter: the interactive viewer inline (offline) and the report's key figures."""
+        from ..viz._notebook import repr_html
+        return repr_html(self)
+
 
 def fit_trimmed_face(mesh: TriMesh, *, embed_method: str = "hlle", backmap_method: str = "lsq",
                      grid_shape: tuple[int, int] | None = None, trim_degree: int = 1, name: str = "fit",

@@ -1,4 +1,4 @@
-"""Mesh files (OBJ, PLY, STL, OFF, glTF/GLB) read and written through trimesh.
+"""Mesh files: OBJ, PLY, STL, OFF, glTF/GLB through trimesh; VTK, VTU, Gmsh MSH, Abaqus INP, Nastran through meshio.
 
 What each format keeps
 ----------------------
@@ -13,7 +13,26 @@ STL     binary float32                 --          --
 OFF     text, as OBJ                   --          --
 GLB     float32 (glTF accessor)        TEXCOORD_0  --
 glTF    float32, buffers embedded      TEXCOORD_0  --
+VTK     legacy 4.2 binary float64      ``uv``      cell data ``face_id``
+VTU     XML, zlib binary float64       ``uv``      cell data ``face_id``
+MSH     Gmsh 4.1 binary float64        --          --
+INP     Abaqus text ``%.16e`` (exact)  --          --
+        elements ``S3`` (shell)
+BDF     Nastran GRID* large field:     --          PSHELL id ``face_id + 1``
+NAS     11-12 significant digits
+        (16 columns), CTRIA3
 ======  =============================  ==========  ===============================
+
+The meshio formats (meshio 5.3.5) keep vertices (order and float64 bits) and
+triangles exactly, except Nastran, whose 16-column fields hold 11 to 12
+significant digits: writing it warns (`TrimsurfWarning`) with the largest
+coordinate change when one occurs. On reading, ``triangle`` cells are kept,
+``quad`` cells split into two triangles (0, 1, 2), (0, 2, 3), vertex and line
+cells dropped, and other cells of dimension 2 or 3 (polygons, tetrahedra,
+...) dropped with a `TrimsurfWarning`; all points are kept in file order.
+meshio 5.3.5's Nastran writer fails on a coordinate whose 12-digit form
+needs more than 16 columns (any negative one, e.g.): trimsurf gives it a
+formatter that shortens such a number to fit.
 
 Reading
 -------
@@ -49,10 +68,12 @@ other format through trimesh's exporters.
 from __future__ import annotations
 
 import contextlib
+import io
 import logging
 import math
 import os
 import re
+import threading
 import warnings
 from pathlib import Path
 
@@ -64,7 +85,12 @@ from ._atomic import atomic_path
 
 __all__ = ["read", "write", "FORMATS"]
 
-FORMATS = {".obj": "OBJ", ".ply": "PLY", ".stl": "STL", ".off": "OFF", ".gltf": "glTF", ".glb": "GLB"}
+FORMATS = {".obj": "OBJ", ".ply": "PLY", ".stl": "STL", ".off": "OFF", ".gltf": "glTF", ".glb": "GLB",
+           ".vtk": "VTK", ".vtu": "VTU", ".msh": "Gmsh MSH", ".inp": "Abaqus INP", ".bdf": "Nastran BDF",
+           ".nas": "Nastran"}
+#: suffix -> meshio file format of the formats written and read through meshio
+MESHIO_FORMATS = {".vtk": "vtk", ".vtu": "vtu", ".msh": "gmsh", ".inp": "abaqus", ".bdf": "nastran",
+                  ".nas": "nastran"}
 _V_LINE = re.compile(rb"^[ \t]*v[ \t]", re.MULTILINE)
 _VT_LINE = re.compile(rb"^[ \t]*vt[ \t]", re.MULTILINE)
 
@@ -218,6 +244,8 @@ def read(path: str | os.PathLike) -> TriMesh:
         raise MeshReadError(f"{path}: no such file")
     if p.stat().st_size == 0:
         raise MeshReadError(f"{path}: file is empty")
+    if suffix in MESHIO_FORMATS:
+        return _read_meshio(p, path, suffix)
     with _quiet_trimesh():
         try:
             mesh, notes, keep_uv = _load(p, suffix)
@@ -345,6 +373,9 @@ def write(mesh: TriMesh, path: str | os.PathLike) -> None:
         raise MeshError(f"{path}: expected a TriMesh to write; got {type(mesh).__name__}")
     if not mesh.n_triangles:
         raise MeshError(f"{path}: mesh has no triangles; nothing to write")
+    if suffix in MESHIO_FORMATS:
+        _write_meshio(mesh, path, suffix)
+        return
     try:
         data = _encode(mesh, suffix)
     except InputError:
@@ -353,3 +384,133 @@ def write(mesh: TriMesh, path: str | os.PathLike) -> None:
         raise MeshError(f"{path}: cannot encode {FORMATS[suffix]}: {_one_line(exc)}") from exc
     with atomic_path(path) as tmp:
         Path(tmp).write_bytes(data)
+
+
+# -- meshio formats ------------------------------------------------------------
+
+_MESHIO_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def _quiet_meshio():
+    """meshio prints its warnings on stderr (rich): keep them, and numpy's, out of the caller's output."""
+    with contextlib.redirect_stderr(io.StringIO()), warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore")
+        yield
+
+
+def _read_meshio(p: Path, path, suffix: str) -> TriMesh:
+    import meshio
+
+    name = FORMATS[suffix]
+    with _quiet_meshio():
+        try:
+            m = meshio.read(str(p), file_format=MESHIO_FORMATS[suffix])
+        except Exception as exc:  # meshio raises ReadError, ValueError, IndexError, struct.error, ...
+            raise MeshReadError(f"{path}: cannot read {name} file: {_one_line(exc)}") from exc
+    vertices = np.array(m.points, dtype=np.float64)  # native byte order (legacy VTK is big-endian)
+    if vertices.ndim != 2 or vertices.shape[1] not in (2, 3):
+        raise MeshReadError(f"{path}: {name} file holds points of shape {vertices.shape}; expected (n, 3)")
+    if vertices.shape[1] == 2:
+        vertices = np.column_stack([vertices, np.zeros(len(vertices))])
+    pieces, fids, dropped = [], [], {}
+    fid_data = m.cell_data.get("face_id") if suffix in (".vtk", ".vtu") else (
+        m.cell_data.get("nastran:ref") if MESHIO_FORMATS[suffix] == "nastran" else None)
+    for k, block in enumerate(m.cells):
+        data = np.asarray(block.data, dtype=np.int64)
+        fid = None if fid_data is None else np.asarray(fid_data[k]).astype(np.int64).ravel()
+        if suffix not in (".vtk", ".vtu") and fid is not None:
+            fid = fid - 1  # Nastran property ids: face_id + 1
+        if block.type == "triangle":
+            pieces.append(data.reshape(-1, 3))
+            fids.append(fid)
+        elif block.type == "quad":
+            q = data.reshape(-1, 4)
+            pieces.append(np.stack([q[:, [0, 1, 2]], q[:, [0, 2, 3]]], axis=1).reshape(-1, 3))
+            fids.append(None if fid is None else np.repeat(fid, 2))
+        elif getattr(block, "dim", 0) >= 2:
+            dropped[block.type] = dropped.get(block.type, 0) + len(data)
+    if dropped:
+        what = ", ".join(f"{n} {t}" for t, n in dropped.items())
+        warnings.warn(f"{path}: cells other than triangles and quads dropped: {what}", TrimsurfWarning,
+                      stacklevel=3)
+    if not len(vertices):
+        raise MeshReadError(f"{path}: no points in {name} file")
+    if not pieces or not sum(len(t) for t in pieces):
+        raise MeshReadError(f"{path}: {name} file holds {len(vertices)} points and no triangles or quads")
+    triangles = np.concatenate(pieces)
+    face_id = np.concatenate(fids) if all(f is not None and len(f) == len(t) for f, t in zip(fids, pieces)) and \
+        any(f is not None for f in fids) else None
+    uv = None
+    raw_uv = m.point_data.get("uv") if suffix in (".vtk", ".vtu") else None
+    if raw_uv is not None:
+        raw_uv = np.asarray(raw_uv, dtype=np.float64)
+        if raw_uv.ndim == 2 and raw_uv.shape[0] == len(vertices) and raw_uv.shape[1] >= 2:
+            uv = np.ascontiguousarray(raw_uv[:, :2])
+    _check_coordinates(path, vertices)
+    try:
+        return TriMesh(vertices, triangles, uv=uv, face_id=face_id)
+    except MeshError as exc:
+        raise type(exc)(f"{path}: {exc}") from exc
+
+
+def _nastran_float(value: float, length: int = 16) -> str:
+    """meshio's Nastran real (``1.23456789012E+3``) shortened until it fits `length` columns."""
+    for precision in range(11, 0, -1):
+        out = np.format_float_scientific(value, exp_digits=1, precision=precision).replace("e", "E")
+        if len(out) <= length:
+            return out
+    raise MeshError(f"Nastran writer: {value!r} does not fit a {length}-column field")
+
+
+def _write_meshio(mesh: TriMesh, path, suffix: str) -> None:
+    import meshio
+    import meshio.nastran._nastran as nastran
+
+    fmt = MESHIO_FORMATS[suffix]
+    cell_data: dict = {}
+    point_data: dict = {}
+    if suffix in (".vtk", ".vtu"):
+        if mesh.face_id is not None:
+            cell_data["face_id"] = [np.asarray(mesh.face_id)]
+        if mesh.uv is not None:  # legacy VTK vectors have 3 components
+            point_data["uv"] = np.column_stack([mesh.uv, np.zeros(len(mesh.uv))]) if suffix == ".vtk" else mesh.uv
+    if fmt == "nastran" and mesh.face_id is not None:
+        cell_data["nastran:ref"] = [np.asarray(mesh.face_id) + 1]
+    m = meshio.Mesh(np.asarray(mesh.vertices), [("triangle", np.asarray(mesh.triangles))], point_data=point_data,
+                    cell_data=cell_data)
+    moved = [0.0]
+
+    def nastran_float(value, length=16):
+        out = _nastran_float(value, length)
+        moved[0] = max(moved[0], abs(float(out) - float(value)))
+        return out
+
+    with atomic_path(path) as tmp, _MESHIO_LOCK:
+        try:
+            with _quiet_meshio():
+                if fmt == "vtk":
+                    meshio.vtk.write(str(tmp), m, fmt_version="4.2", binary=True)
+                elif fmt == "vtu":
+                    meshio.vtu.write(str(tmp), m, binary=True, compression="zlib")
+                elif fmt == "gmsh":
+                    meshio.gmsh.write(str(tmp), m, fmt_version="4.1", binary=True)
+                elif fmt == "abaqus":
+                    m.cells[0].type = "S3"  # a shell element, not meshio's default R3D3 (rigid)
+                    meshio.abaqus.write(str(tmp), m, translate_cell_names=False)
+                else:
+                    saved = nastran._float_to_nastran_string
+                    nastran._float_to_nastran_string = nastran_float
+                    try:
+                        nastran.write(str(tmp), m, point_format="fixed-large", cell_format="fixed-small")
+                    finally:
+                        nastran._float_to_nastran_string = saved
+        except InputError:
+            raise
+        except OSError:
+            raise
+        except Exception as exc:
+            raise MeshError(f"{path}: cannot write {FORMATS[suffix]}: {_one_line(exc)}") from exc
+    if moved[0] > 0:
+        warnings.warn(f"{path}: Nastran fields hold 11-12 significant digits: coordinates moved by up to "
+                      f"{moved[0]:.3g} (model units)", TrimsurfWarning, stacklevel=3)

@@ -77,6 +77,16 @@ class JoinResult:
     def __bool__(self) -> bool:
         return not self.bad_faces
 
+    def to_table(self) -> list[dict]:
+        """The report as a one-row table (a list with one flat dict) that ``pandas.DataFrame`` accepts."""
+        from ..viz._notebook import report_table  # viz is a higher layer: imported on use only
+        return report_table(self)
+
+    def _repr_html_(self) -> str:
+        """Jupyter: the interactive viewer inline (offline) and the report's key figures."""
+        from ..viz._notebook import repr_html
+        return repr_html(self)
+
 
 # boundary slopes (dimensionless heights per unit of (u, v) distance) at or below this are rounding
 SLOPE_ROUNDING = 1e-9

@@ -309,3 +309,128 @@ class TriMesh:
     def flipped(self) -> "TriMesh":
         """The same mesh with every triangle's orientation reversed."""
         return TriMesh(self.vertices, self.triangles[:, ::-1], uv=self.uv, face_id=self.face_id)
+
+    # -- other libraries -----------------------------------------------------
+    def to_trimesh(self):
+        """A ``trimesh.Trimesh`` with the same vertices and triangles (copies, in order; nothing merged).
+
+        ``uv`` goes to its ``visual.uv``, ``face_id`` to ``face_attributes["face_id"]``.
+
+        Examples
+        --------
+        >>> m = TriMesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+        >>> tm = m.to_trimesh()
+        >>> tm.faces.tolist(), TriMesh.from_trimesh(tm).vertices.shape
+        ([[0, 1, 2]], (3, 3))
+        """
+        import trimesh
+
+        visual = None
+        if self.uv is not None:
+            from trimesh.visual import TextureVisuals
+            visual = TextureVisuals(uv=np.array(self.uv))
+        attributes = {} if self.face_id is None else {"face_id": np.array(self.face_id)}
+        return trimesh.Trimesh(np.array(self.vertices), np.array(self.triangles), visual=visual,
+                               face_attributes=attributes, process=False, validate=False)
+
+    @classmethod
+    def from_trimesh(cls, mesh) -> "TriMesh":
+        """A `TriMesh` from a ``trimesh.Trimesh`` (vertices and faces as they are, uv and face_id when present).
+
+        Raises
+        ------
+        MeshError
+            `mesh` has no ``vertices``/``faces`` arrays, or they are invalid (see `TriMesh`).
+        """
+        if not (hasattr(mesh, "vertices") and hasattr(mesh, "faces")):
+            raise MeshError(f"from_trimesh: expected a trimesh.Trimesh; got {type(mesh).__name__}")
+        vertices = np.array(mesh.vertices, dtype=np.float64)
+        triangles = np.array(mesh.faces, dtype=np.int64).reshape(-1, 3)
+        uv = getattr(getattr(mesh, "visual", None), "uv", None)
+        uv = None if uv is None or np.shape(uv) != (len(vertices), 2) else np.array(uv, dtype=np.float64)
+        fid = getattr(mesh, "face_attributes", {}).get("face_id")
+        fid = None if fid is None or np.shape(fid) != (len(triangles),) else np.array(fid, dtype=np.int64)
+        return cls(vertices, triangles, uv=uv, face_id=fid)
+
+    def to_pyvista(self):
+        """A ``pyvista.PolyData`` with the same points and triangles (copies, in order).
+
+        ``uv`` goes to the point data ``"uv"`` (also the active texture
+        coordinates), ``face_id`` to the cell data ``"face_id"``.
+
+        Examples
+        --------
+        >>> m = TriMesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], face_id=[7])
+        >>> pd = m.to_pyvista()
+        >>> pd.n_cells, pd.cell_data["face_id"].tolist()
+        (1, [7])
+        """
+        import pyvista
+
+        faces = np.column_stack([np.full(self.n_triangles, 3, dtype=np.int64), self.triangles]).ravel()
+        poly = pyvista.PolyData(np.array(self.vertices), faces=faces)
+        if self.uv is not None:
+            poly.point_data["uv"] = np.array(self.uv)
+            poly.active_texture_coordinates = np.array(self.uv)
+        if self.face_id is not None:
+            poly.cell_data["face_id"] = np.array(self.face_id)
+        return poly
+
+    @classmethod
+    def from_pyvista(cls, mesh) -> "TriMesh":
+        """A `TriMesh` from a pyvista mesh of triangles (``PolyData``, or any ``DataSet`` whose cells are triangles).
+
+        Points are kept in order (unused ones too); uv from the point data
+        ``"uv"`` or the active texture coordinates, face_id from the cell data
+        ``"face_id"``.
+
+        Raises
+        ------
+        MeshError
+            Not a pyvista mesh, or a cell that is not a triangle (triangulate
+            first: ``mesh.triangulate()``); lines and vertices are refused too.
+        """
+        points = getattr(mesh, "points", None)
+        if points is None or not hasattr(mesh, "n_cells"):
+            raise MeshError(f"from_pyvista: expected a pyvista mesh; got {type(mesh).__name__}")
+        vertices = np.array(points, dtype=np.float64).reshape(-1, 3)
+        if hasattr(mesh, "faces") and hasattr(mesh, "n_lines") and not (mesh.n_lines or mesh.n_verts or
+                                                                         getattr(mesh, "n_strips", 0)):
+            raw = np.asarray(mesh.faces, dtype=np.int64)
+            if len(raw) and (len(raw) % 4 or np.any(raw[::4] != 3)):
+                raise MeshError("from_pyvista: the PolyData has faces that are not triangles; call "
+                                ".triangulate() first")
+            triangles = raw.reshape(-1, 4)[:, 1:]
+        else:
+            import pyvista
+
+            cells = mesh.cells_dict if hasattr(mesh, "cells_dict") else {}
+            other = sorted(int(k) for k in cells if int(k) != int(pyvista.CellType.TRIANGLE))
+            if other or not cells:
+                raise MeshError(f"from_pyvista: cells that are not triangles (VTK cell types {other}); "
+                                "extract and triangulate the surface first: mesh.extract_surface().triangulate()")
+            triangles = np.asarray(cells[int(pyvista.CellType.TRIANGLE)], dtype=np.int64).reshape(-1, 3)
+        uv = mesh.point_data.get("uv") if "uv" in mesh.point_data else getattr(mesh, "active_texture_coordinates",
+                                                                                  None)
+        uv = None if uv is None or np.shape(uv) != (len(vertices), 2) else np.array(uv, dtype=np.float64)
+        fid = mesh.cell_data["face_id"] if "face_id" in mesh.cell_data else None
+        fid = None if fid is None or np.shape(fid) != (len(triangles),) else np.array(fid, dtype=np.int64)
+        return cls(vertices, triangles, uv=uv, face_id=fid)
+
+    def report(self) -> dict:
+        """Sizes, bounding box, topology and triangle angles as a plain JSON-ready dict (`trimsurf.viz.report_of`)."""
+        from ..viz._notebook import report_of  # higher layers: imported on use only
+
+        return report_of(self)
+
+    def to_table(self) -> list[dict]:
+        """`report` as a one-row table (a list with one flat dict) that ``pandas.DataFrame`` accepts."""
+        from ..viz._notebook import report_table
+
+        return report_table(self)
+
+    def _repr_html_(self) -> str:
+        """The interactive viewer (inline, offline) and the mesh's figures, for Jupyter (`trimsurf.viz`)."""
+        from ..viz._notebook import repr_html  # viz is a higher layer: imported on use only
+
+        return repr_html(self)

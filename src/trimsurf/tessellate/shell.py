@@ -95,6 +95,16 @@ class TessellationResult:
     def failed_faces(self) -> list:
         return [f for f in self.faces if f.status == "failed"]
 
+    def to_table(self) -> list[dict]:
+        """The report as a one-row table (a list with one flat dict) that ``pandas.DataFrame`` accepts."""
+        from ..viz._notebook import report_table  # viz is a higher layer: imported on use only
+        return report_table(self)
+
+    def _repr_html_(self) -> str:
+        """Jupyter: the interactive viewer inline (offline) and the report's key figures."""
+        from ..viz._notebook import repr_html
+        return repr_html(self)
+
 
 def _ptol(face) -> float:
     (u0, u1), (v0, v1) = face.surface.domain

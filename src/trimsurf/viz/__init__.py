@@ -18,6 +18,7 @@ from ._exact import refine_exact, subdivide, unshare_faces
 from ._html import HTML_MODES, write_html
 from ._render import MODES, curvature_range, render_compare_png, render_png
 from ._measure import StripeStraightness, stripe_straightness
+from ._notebook import report_of, report_table, repr_html
 from ._shading import (HighlightOptions, ZebraOptions, auto_light, auto_stripe_count, auto_stripe_count_mesh,
                        highlight_colors, reflection_vectors, stripe_coordinates, vertex_normals)
 
@@ -25,4 +26,5 @@ __all__ = ["render_png", "render_compare_png", "write_html", "MODES", "HTML_MODE
            "Curvatures", "CURVATURE_KINDS", "mesh_curvatures", "surface_curvatures", "refine_exact", "subdivide",
            "unshare_faces", "curvature_range", "ZebraOptions", "HighlightOptions", "vertex_normals",
            "reflection_vectors", "stripe_coordinates", "highlight_colors", "auto_stripe_count",
-           "auto_stripe_count_mesh", "auto_light", "stripe_straightness", "StripeStraightness"]
+           "auto_stripe_count_mesh", "auto_light", "stripe_straightness", "StripeStraightness",
+           "report_of", "report_table", "repr_html"]

@@ -20,7 +20,7 @@ from ._exact import refine_exact, refinement_level, unshare_faces
 from ._render import _bounds, _check_mesh, curvature_range
 from ._shading import HighlightOptions, ZebraOptions, auto_light, auto_stripe_count_mesh, vertex_normals
 
-__all__ = ["write_html", "HTML_MODES"]
+__all__ = ["write_html", "html_page", "HTML_MODES"]
 
 HTML_MODES = ("zebra", "highlight", "curvature", "mesh")
 
@@ -115,6 +115,22 @@ def write_html(meshes: TriMesh | Sequence[TriMesh], path, *, titles: Sequence[st
     >>> "three.js" in out.read_text() or "importmap" in out.read_text()
     True
     """
+    page = html_page(meshes, titles=titles, title=title, mode=mode, exact=exact, camera=camera, n_stripes=n_stripes,
+                     stripe_angle_deg=stripe_angle_deg, stripe_width=stripe_width, light=light,
+                     shininess=shininess, curvature=curvature)
+    from ..io._atomic import atomic_path
+
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        tmp.write_text(page, encoding="utf-8")
+    return path
+
+
+def html_page(meshes: TriMesh | Sequence[TriMesh], *, titles: Sequence[str] = (), title: str = "",
+              mode: str = "zebra", exact=None, camera=None, n_stripes: float | None = None,
+              stripe_angle_deg: float = 0.0, stripe_width: float = 0.5, light=None,
+              shininess: float = 150.0, curvature: str = "mean") -> str:
+    """The page `write_html` writes, as a string (options as there); the notebook repr embeds it."""
     if isinstance(meshes, TriMesh):
         meshes = [meshes]
     meshes = list(meshes)
@@ -176,10 +192,4 @@ def write_html(meshes: TriMesh | Sequence[TriMesh], path, *, titles: Sequence[st
              "__META__": script_json(meta), "__BLOBS__": "\n".join(blobs),
              "__VIEWER_JS__": _asset("viewer.js")}
     # one pass: a title or mesh name holding a placeholder's text is never replaced in turn
-    page = re.sub("|".join(re.escape(k) for k in parts), lambda m: parts[m.group(0)], page)
-    from ..io._atomic import atomic_path
-
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        tmp.write_text(page, encoding="utf-8")
-    return path
+    return re.sub("|".join(re.escape(k) for k in parts), lambda m: parts[m.group(0)], page)
