@@ -313,6 +313,10 @@ def test_write_does_not_mutate_mesh(tmp_path):
     m = _mesh(face_id=True)
     before = (m.vertices.copy(), m.triangles.copy(), m.uv.copy())
     for suffix in _meshfile.FORMATS:
+        if suffix in (".bdf", ".nas"):  # Nastran's 16-column fields move these coordinates: it warns
+            with pytest.warns(TrimsurfWarning, match="11-12 significant digits"):
+                _meshfile.write(m, tmp_path / f"w{suffix}")
+            continue
         _meshfile.write(m, tmp_path / f"w{suffix}")
     assert_array_equal(m.vertices, before[0])
     assert_array_equal(m.triangles, before[1])

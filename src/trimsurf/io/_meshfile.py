@@ -394,7 +394,8 @@ _MESHIO_LOCK = threading.Lock()
 @contextlib.contextmanager
 def _quiet_meshio():
     """meshio prints its warnings on stderr (rich): keep them, and numpy's, out of the caller's output."""
-    with contextlib.redirect_stderr(io.StringIO()), warnings.catch_warnings(), np.errstate(all="ignore"):
+    with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()), \
+            warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore")
         yield
 
@@ -405,8 +406,9 @@ def _read_meshio(p: Path, path, suffix: str) -> TriMesh:
     name = FORMATS[suffix]
     with _quiet_meshio():
         try:
-            m = meshio.read(str(p), file_format=MESHIO_FORMATS[suffix])
-        except Exception as exc:  # meshio raises ReadError, ValueError, IndexError, struct.error, ...
+            # the format's own reader: meshio.read prints and calls sys.exit(1) on a ReadError
+            m = getattr(meshio, MESHIO_FORMATS[suffix]).read(str(p))
+        except (Exception, SystemExit) as exc:  # ReadError, ValueError, IndexError, struct.error, ...
             raise MeshReadError(f"{path}: cannot read {name} file: {_one_line(exc)}") from exc
     vertices = np.array(m.points, dtype=np.float64)  # native byte order (legacy VTK is big-endian)
     if vertices.ndim != 2 or vertices.shape[1] not in (2, 3):
