@@ -194,4 +194,5 @@ def to_occ(shell: Shell | TrimmedFace | Sequence[TrimmedFace], *, sew_tolerance:
         if not isinstance(shell, Sequence) or not all(isinstance(f, TrimmedFace) for f in shell):
             raise InputError(f"to_occ: expected a Shell, a TrimmedFace or a sequence of TrimmedFace; got "
                              f"{type(shell).__name__}")
-    return shape_for_writing(shell, label, sew_tolerance=sew_tolerance)
+    return shape_for_writing(shell, label, sew_tolerance=sew_tolerance, stacklevel=4,
+                             action="returning it anyway")

@@ -110,7 +110,7 @@ def write(shell: Shell | TrimmedFace | Sequence[TrimmedFace], path: str | os.Pat
 
 
 def shape_for_writing(shell: Shell | TrimmedFace | Sequence[TrimmedFace], path: str | os.PathLike = "", *,
-                      sew_tolerance: float | None = None, stacklevel: int = 3):
+                      sew_tolerance: float | None = None, stacklevel: int = 3, action: str = "writing it anyway"):
     """The Open CASCADE shape `write` writes (also written by the BREP writer and `trimsurf.io.to_occ`).
 
     Raises and warns as `write` does; `path` only names the target in messages.
@@ -131,9 +131,8 @@ def shape_for_writing(shell: Shell | TrimmedFace | Sequence[TrimmedFace], path: 
                                 f"{type(exc).__name__}: {exc}") from None
     if bad:
         where = "the shape" if bad == [-1] else f"{len(bad)} face(s)"
-        warnings.warn(f"{path}: BRepCheck_Analyzer rejects {where} of the written shape (inconsistent input "
-                      "faces, e.g. self-intersecting trim loops); writing it anyway", TrimsurfWarning,
-                      stacklevel=stacklevel)
+        warnings.warn(f"{path}: BRepCheck_Analyzer rejects {where} of the built shape (inconsistent input "
+                      f"faces, e.g. self-intersecting trim loops); {action}", TrimsurfWarning, stacklevel=stacklevel)
     return shape
 
 
