@@ -101,7 +101,7 @@ def _no_faces_brep(path: Path) -> Path:
 @pytest.mark.parametrize("case, match", [
     ("empty", "empty"), ("garbage", "not an Open CASCADE BREP file"), ("truncated", "not a readable BREP"),
     ("nofaces", "holds no faces"), ("huge", "1e\\+12 is above 1e\\+10"), ("inf", "1e\\+999 is not finite"),
-    ("missing", "no such file"),
+    ("missing", "no such file"), ("nosurface", "face 0 has no surface"),
 ])
 def test_bad_brep_files_raise_one_line_and_print_nothing(case, match, tmp_path, capfd):
     path = tmp_path / f"{case}.brep"
@@ -118,6 +118,13 @@ def test_bad_brep_files_raise_one_line_and_print_nothing(case, match, tmp_path, 
         text = _occ_brep(_step_shape("occt__screw.step"), tmp_path / "full.brep").read_text()
         assert "\n1 0 0 0 1 \n" in text
         path.write_text(text.replace("\n1 0 0 0 1 \n", "\n1 %s 0 0 1 \n" % ("1e+12" if case == "huge" else "1e+999"), 1))
+    elif case == "nosurface":  # a face naming a surface the file does not have: Open CASCADE reads it, then
+        # crashes (SIGSEGV, measured) bounding or converting it; refused before that
+        from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
+
+        text = _occ_brep(BRepPrimAPI_MakeBox(1.0, 2.0, 3.0).Shape(), tmp_path / "box.brep").read_text()
+        assert "\nFa\n0  1e-07 1 0\n" in text
+        path.write_text(text.replace("\nFa\n0  1e-07 1 0\n", "\nFa\n0  1e-07 9999 0\n", 1))
     capfd.readouterr()
     with pytest.raises(FileFormatError if case in ("empty", "missing") else BrepReadError, match=match) as info:
         read_shell(path)

@@ -186,6 +186,14 @@ def test_bad_input():
     with pytest.raises(GeometryError, match="far: face .* above 1e\\+10"):
         from_occ(filleted_box(origin=(1e11, 0.0, 0.0)), name="far")
 
+    from OCP.BRep import BRep_Builder
+    from OCP.TopoDS import TopoDS_Face
+
+    no_surface = TopoDS_Face()
+    BRep_Builder().MakeFace(no_surface)  # converting it would crash the process: refused first
+    with pytest.raises(GeometryError, match="bare: face 0 has no surface"):
+        from_occ(no_surface, name="bare")
+
     class TopoDS_Solid:  # noqa: N801 - a class of another OCP build has the same name, not the same type
         pass
 

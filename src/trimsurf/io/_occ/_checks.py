@@ -178,10 +178,28 @@ def _box_is_sane(shape) -> bool:
     return bool(np.all(np.isfinite(corners)) and np.all(np.abs(corners) <= MAX_ABS))
 
 
+def _check_faces_have_surfaces(shape, path, error) -> None:
+    """Refuse a face without a surface (a .brep face naming a missing surface: bounding it or converting it
+    crashes Open CASCADE), naming the first; faces numbered as `map_topology`."""
+    from OCP.BRep import BRep_Tool
+    from OCP.collections import (
+        IndexedMap_TopoDS_Shape_TopTools_ShapeMapHasher as ShapeMap,
+    )
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopExp import TopExp
+    from OCP.TopoDS import TopoDS
+
+    faces = ShapeMap()
+    TopExp.MapShapes_s(shape, TopAbs_FACE, faces)
+    for fi in range(1, faces.Extent() + 1):
+        if BRep_Tool.Surface_s(TopoDS.Face(faces.FindKey(fi))) is None:
+            raise error(f"{path}: face {fi - 1} has no surface")
+
+
 def check_shape_geometry(shape, path: str | os.PathLike = "", error: type[FileFormatError] = FileFormatError) -> None:
     """Refuse a shape with non-finite or huge geometry (see the module notes); faces numbered as `map_topology`.
 
-    The shape's bounding box is looked at first (cheap); only when it is not
+    Every face must have a surface. The shape's bounding box is looked at first (cheap); only when it is not
     finite or not within `MAX_ABS` is every entity looked at, to name it.
 
     Raises
@@ -189,6 +207,7 @@ def check_shape_geometry(shape, path: str | os.PathLike = "", error: type[FileFo
     FileFormatError (`error`)
         One line: the file, the face (and edge or vertex), the geometry kind and the bad value.
     """
+    _check_faces_have_surfaces(shape, path, error)
     if _box_is_sane(shape):
         return
     from OCP.BRep import BRep_Tool
