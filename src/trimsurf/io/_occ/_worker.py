@@ -85,10 +85,11 @@ def serve(fd_in: int, fd_out: int) -> int:
     # everything the reader needs, imported once before any fork
     import numpy  # noqa: F401
     import OCP.BRepBuilderAPI  # noqa: F401
+    import OCP.BRepTools  # noqa: F401
     import OCP.IGESControl  # noqa: F401
     import OCP.STEPControl  # noqa: F401
 
-    from .. import _iges, _step  # noqa: F401
+    from .. import _brep, _iges, _step  # noqa: F401
     from . import _isolate  # noqa: F401
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides; Ctrl-C reaches it too
