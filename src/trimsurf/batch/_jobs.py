@@ -26,7 +26,7 @@ import warnings
 from pathlib import Path
 
 __all__ = ["JOBS", "COLUMNS", "STATUSES", "MAX_ATTEMPTS", "run_job", "died_reason", "record_path", "read_record",
-           "job_outputs", "empty_row"]
+           "job_outputs", "empty_row", "settle"]
 
 #: the jobs, in the order they run for a part
 JOBS = ("tessellate", "certify", "view")
@@ -45,6 +45,9 @@ MAX_ATTEMPTS = 2
 #: what each job writes into OUT/<part>/ (besides its record)
 _OUTPUTS = {"tessellate": ("mesh.ply", "tessellate.json"), "certify": ("certify.json",),
             "view": ("zebra.png", "thumb.png", "view.html")}
+
+#: share of its worker's memory limit a job may use before its guard stops it (Dask's nanny stops it at 0.95)
+MEMORY_SHARE = 0.9
 
 #: thumbnail size on the index page, pixels
 THUMB_SIZE = (240, 180)
@@ -91,11 +94,13 @@ _FRAME = re.compile(r'^\s*File "(?P<file>[^"]*)", line (?P<line>\d+) in (?P<func
 
 
 def _frame(lines: list[str], thread: int | None) -> str:
-    """' in FUNC (FILE:LINE)' for the innermost frame of `thread`'s block (else the first block)."""
-    start = 0
-    if thread is not None:
-        tag = f"0x{thread:016x}"
-        start = next((i for i, ln in enumerate(lines) if tag in ln and "most recent call first" in ln), 0)
+    """' in FUNC (FILE:LINE)': the innermost frame of the task's thread `thread` in a faulthandler dump."""
+    if thread is None:
+        return ""
+    tag = f"0x{thread:016x}"
+    start = next((i for i, ln in enumerate(lines) if tag in ln and "most recent call first" in ln), None)
+    if start is None:
+        return ""
     for ln in lines[start:]:
         m = _FRAME.match(ln)
         if m:
@@ -123,9 +128,22 @@ def died_reason(part_dir: str | os.PathLike, job: str) -> str:
     if head.startswith("Fatal Python error:"):
         what = head.split(":", 1)[1].strip()
         name = _FATAL.get(what, what)
-        return f"worker crashed ({name}){_frame(lines, None)}"
+        return f"worker crashed ({name}){_frame(lines, thread)}"
     return ("worker died without a crash report (killed from outside, or out of memory past the worker's "
             "limit)")
+
+
+def settle(part_dir: str | os.PathLike, job: str) -> None:
+    """After the last attempt died: drop the attempt file, keep a crash dump as ``<job>.crash.txt``."""
+    part_dir = Path(part_dir)
+    with contextlib.suppress(OSError):
+        _attempt_path(part_dir, job).unlink()
+    crash = _crash_path(part_dir, job)
+    with contextlib.suppress(OSError):
+        if crash.stat().st_size:
+            crash.replace(part_dir / f"{job}.crash.txt")
+        else:
+            crash.unlink()
 
 
 def _write_json(path: Path, value: dict) -> None:
@@ -141,6 +159,19 @@ def _worker_name() -> str:
         return get_worker().address
     except (ImportError, ValueError):
         return f"local:{os.getpid()}"
+
+
+def _memory_limit(spec: dict) -> float | None:
+    """Bytes the job may hold: the batch's per-part limit, else `MEMORY_SHARE` of the worker's limit (if any)."""
+    if spec.get("memory_limit"):
+        return float(spec["memory_limit"])
+    try:
+        from distributed import get_worker
+
+        limit = get_worker().memory_manager.memory_limit
+    except (ImportError, ValueError, AttributeError):
+        return None
+    return MEMORY_SHARE * limit if limit else None
 
 
 class _GiveUp(Exception):
@@ -189,9 +220,9 @@ def _guard(spec: dict, part_dir: Path, job: str):
         if spec.get("timeout"):
             # a C thread of faulthandler's: fires even while native code holds the GIL, dumps the frames, _exit(1)
             faulthandler.dump_traceback_later(spec["timeout"], exit=True, file=fh)
-        watch = None
-        if spec.get("memory_limit"):
-            watch = threading.Thread(target=_memory_watch, args=(spec["memory_limit"], stop, attempt_file, attempt),
+        watch, limit = None, _memory_limit(spec)
+        if limit:
+            watch = threading.Thread(target=_memory_watch, args=(limit, stop, attempt_file, attempt),
                                      daemon=True, name="trimsurf-memory-watch")
             watch.start()
         try:
@@ -342,6 +373,10 @@ def run_job(spec: dict) -> dict:
     part_dir = Path(spec["out"]) / spec["part"]
     part_dir.mkdir(parents=True, exist_ok=True)
     job, path = spec["job"], Path(spec["path"])
+    done = read_record(spec["out"], spec["part"], job)
+    if done and done.get("run") == spec["run"] and done.get("key") == spec["record"]:
+        # run already in this batch, its result lost with its worker before the client had it: Dask recomputes
+        return done["row"]
     row = empty_row(spec["part"], job, str(path))
     row.update(status="ok", reason="", worker=_worker_name())
     t0 = time.perf_counter()
@@ -354,13 +389,14 @@ def run_job(spec: dict) -> dict:
                 _test_hook(spec["hook"])
             outputs = _RUN[job](spec, part_dir, row)
     except _GiveUp as exc:
-        row.update(status="failed", reason=f"{exc} (after {MAX_ATTEMPTS} attempts)", attempts=MAX_ATTEMPTS)
+        settle(part_dir, job)
+        row.update(status="failed", reason=str(exc), attempts=MAX_ATTEMPTS)
         return row
     except (InputError, OSError, MemoryError, Exception) as exc:  # the batch goes on; the reason names the file
         row.update(status="failed", reason=_failure(exc, path), seconds=time.perf_counter() - t0)
         return row
     row["seconds"] = time.perf_counter() - t0
-    record = {"input": str(path), "input_sha256": spec["sha256"], "job": job, "key": spec["record"], "row": row,
+    record = {"input": str(path), "input_sha256": spec["sha256"], "job": job, "run": spec["run"], "key": spec["record"], "row": row,
               "outputs": outputs}
     _write_json(record_path(spec["out"], spec["part"], job), record)
     return row

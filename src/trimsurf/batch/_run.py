@@ -14,7 +14,7 @@ from pathlib import Path
 from ..errors import InputError
 from ._index import write_index
 from ._inputs import Part, collect_parts
-from ._jobs import JOBS, MAX_ATTEMPTS, died_reason, empty_row, job_outputs, read_record, run_job
+from ._jobs import JOBS, MAX_ATTEMPTS, died_reason, empty_row, job_outputs, read_record, run_job, settle
 from ._table import write_tables
 
 __all__ = ["run", "local_cluster", "record_key"]
@@ -22,8 +22,8 @@ __all__ = ["run", "local_cluster", "record_key"]
 #: tables and index page are rewritten at most this often while the batch runs (and at its end), seconds
 WRITE_EVERY_S = 2.0
 
-#: share of a worker's memory limit a job may use before its guard stops it (Dask's nanny stops it at 0.95)
-MEMORY_SHARE = 0.9
+#: seconds to wait for a --scheduler to answer
+CONNECT_TIMEOUT_S = 10.0
 
 
 def _positive(value, name: str) -> None:
@@ -68,22 +68,44 @@ def _reusable(out: Path, part: Part, job: str, key: dict) -> dict | None:
     return dict(row, reused=True, input=str(part.path))
 
 
+def _cluster_class():
+    import dask
+    from distributed import LocalCluster
+
+    class BatchCluster(LocalCluster):
+        """A LocalCluster that keeps every nanny: a worker killed by a part is always restarted.
+
+        `SpecCluster` closes a nanny for good when no worker of its name is registered 15 s
+        (``distributed.deploy.lost-worker-timeout``) after a worker left; a worker that a crashing
+        part kills again while it restarts then lost its nanny (measured: 1 of 2 workers gone
+        after a hang, a native crash and a memory hog in a row).
+        """
+
+        def _update_worker_status(self, op, msg):
+            with dask.config.set({"distributed.deploy.lost-worker-timeout": "3650 days"}):
+                super()._update_worker_status(op, msg)
+
+    return BatchCluster
+
+
 def local_cluster(n_workers: int | None = None, *, memory_limit="auto", env: dict | None = None):
     """A `distributed.LocalCluster` for batches: worker processes with one thread each, on 127.0.0.1.
 
     One worker per core by default. A job whose worker dies is retried once
-    (``distributed.scheduler.allowed-failures`` = 1). The dashboard is served
-    when bokeh is installed (on a free port).
+    (``distributed.scheduler.allowed-failures`` = 1); a worker that dies is
+    always replaced by its nanny. The dashboard is served when bokeh is
+    installed (on a free port).
     """
     import dask
-    from distributed import LocalCluster
 
     n = n_workers or os.cpu_count() or 1
-    with dask.config.set({"distributed.scheduler.allowed-failures": MAX_ATTEMPTS - 1}):
-        return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                            dashboard_address="127.0.0.1:0",
-                            worker_dashboard_address="127.0.0.1:0", silence_logs=logging.CRITICAL, memory_limit=memory_limit,
-                            env=env or {})
+    # one task at a time per worker (saturation 1): a task queued behind one that kills the worker is not
+    # counted as a suspect of that death
+    with dask.config.set({"distributed.scheduler.allowed-failures": MAX_ATTEMPTS - 1,
+                          "distributed.scheduler.worker-saturation": 1.0}):
+        return _cluster_class()(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                dashboard_address="127.0.0.1:0", worker_dashboard_address="127.0.0.1:0",
+                                silence_logs=logging.CRITICAL, memory_limit=memory_limit, env=env or {})
 
 
 @contextlib.contextmanager
@@ -96,7 +118,7 @@ def _connect(client, scheduler: str | None, n_workers: int | None):
 
     if scheduler is not None:
         try:
-            c = Client(scheduler, timeout="20s")
+            c = Client(scheduler, timeout=CONNECT_TIMEOUT_S)
         except (OSError, TimeoutError, ValueError) as exc:
             raise InputError(f"--scheduler {scheduler}: cannot connect: {' '.join(str(exc).split())}") from None
         try:
@@ -109,12 +131,17 @@ def _connect(client, scheduler: str | None, n_workers: int | None):
 
 
 def dashboard_link(client) -> str | None:
-    """The Dask dashboard's address when the scheduler serves one, else None."""
+    """The Dask dashboard's address when the scheduler serves one (it needs bokeh), else None."""
+    import urllib.request
+
     try:
-        services = client.scheduler_info().get("services", {})
-    except Exception:
+        if "dashboard" not in client.scheduler_info().get("services", {}):
+            return None
+        link = client.dashboard_link
+        with urllib.request.urlopen(link, timeout=2) as answer:
+            return link if answer.status == 200 else None
+    except Exception:  # no answer, 404 without bokeh, ...: no dashboard to show
         return None
-    return client.dashboard_link if "dashboard" in services else None
 
 
 def run(inputs: str | os.PathLike | Iterable[str | os.PathLike], *, out: str | os.PathLike,
@@ -250,12 +277,14 @@ def _submit_all(specs, rows, jobs, out: Path, client, scheduler, n_workers, prog
 
         def submit(k: tuple[str, str]) -> None:
             spec = specs[k]
-            fut = c.submit(run_job, spec, key=f"trimsurf-batch-{spec['run']}-{spec['job']}-{spec['part']}",
-                           pure=False)
+            again = resubmitted.get(k, 0)
+            fut = c.submit(run_job, spec, pure=False,
+                           key=f"trimsurf-batch-{spec['run']}-{spec['job']}-{spec['part']}" + (f"-{again}" if again else ""))
             by_key[fut.key] = k
             pending.add(fut)
 
         waiting_for_mesh = set()
+        resubmitted: dict[tuple[str, str], int] = {}
         for k in specs:
             part, job = k
             if job == "view" and "tessellate" in jobs:
@@ -280,10 +309,17 @@ def _submit_all(specs, rows, jobs, out: Path, client, scheduler, n_workers, prog
             try:
                 row = fut.result()
             except KilledWorker:
+                # Dask counts every task a dying worker held; one that did not run its attempts yet goes again
+                if _attempts(out, spec) < MAX_ATTEMPTS and resubmitted.get(k, 0) < MAX_ATTEMPTS:
+                    resubmitted[k] = resubmitted.get(k, 0) + 1
+                    fut.release()
+                    submit(k)
+                    continue
                 row = _died(spec, out)
             except Exception as exc:  # a worker lost for another reason (scheduler restart, ...): the batch goes on
                 row = empty_row(spec["part"], spec["job"], spec["path"])
                 row.update(status="failed", reason=f"task lost: {type(exc).__name__}: {' '.join(str(exc).split())}")
+            fut.release()  # the row is here: Dask need not keep (nor recompute) it when its worker dies
             finish(k, row)
             part, job = k
             if job == "tessellate" and part in waiting_for_mesh:
@@ -299,6 +335,17 @@ def _submit_all(specs, rows, jobs, out: Path, client, scheduler, n_workers, prog
     return done
 
 
+def _attempts(out: Path, spec: dict) -> int:
+    """Attempts of the job in this batch so far, from its guard's file (0 when none started)."""
+    import json
+
+    try:
+        attempt = json.loads((out / spec["part"] / f".{spec['job']}.attempt.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return 0
+    return int(attempt.get("attempt", 0)) if attempt.get("run") == spec["run"] else 0
+
+
 def _died(spec: dict, out: Path) -> dict:
     """The row of a job whose worker died on each attempt (Dask's KilledWorker), with the reason its guard left."""
     import json
@@ -307,11 +354,11 @@ def _died(spec: dict, out: Path) -> dict:
     reason = died_reason(part_dir, spec["job"])
     attempt_file = part_dir / f".{spec['job']}.attempt.json"
     try:
-        attempts = int(json.loads(attempt_file.read_text(encoding="utf-8")).get("attempt", 1))
+        worker = json.loads(attempt_file.read_text(encoding="utf-8")).get("worker")
     except (OSError, ValueError):
-        attempts = 1
-    with contextlib.suppress(OSError):
-        attempt_file.unlink()
+        worker = None
+    attempts = max(1, _attempts(out, spec))
+    settle(part_dir, spec["job"])
     row = empty_row(spec["part"], spec["job"], spec["path"])
-    row.update(status="failed", reason=reason, attempts=attempts)
+    row.update(status="failed", reason=reason, attempts=attempts, worker=worker)
     return row

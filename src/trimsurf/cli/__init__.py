@@ -22,13 +22,13 @@ import numpy as np
 
 from .. import __version__
 from ..errors import FaceSkippedWarning, InputError
-from . import certify, demo, fit, info, join, reconstruct, samples, tessellate, view
+from . import batch, certify, demo, fit, info, join, reconstruct, samples, tessellate, view
 from ._common import (_TERMINATED, EXIT_FAILED, EXIT_INPUT, EXIT_OK, Terminated, check_output_file,
                       check_output_folder, cli_warnings, examples, print_error)
 
 __all__ = ["main", "build_parser", "SUBCOMMANDS"]
 
-SUBCOMMANDS = (info, samples, tessellate, join, certify, reconstruct, fit, view, demo)
+SUBCOMMANDS = (info, samples, tessellate, join, certify, reconstruct, fit, view, batch, demo)
 
 
 #: output options checked before any work: attribute -> (option as typed, allowed suffixes or None)
