@@ -19,8 +19,9 @@ from ._table import write_tables
 
 __all__ = ["run", "local_cluster", "record_key"]
 
-#: tables and index page are rewritten at most this often while the batch runs (and at its end), seconds
-WRITE_EVERY_S = 2.0
+#: the index page is rewritten at most this often while the batch runs (and at its end), seconds; the tables
+#: with every row
+INDEX_EVERY_S = 5.0
 
 #: seconds to wait for a --scheduler to answer
 CONNECT_TIMEOUT_S = 10.0
@@ -237,7 +238,8 @@ def run(inputs: str | os.PathLike | Iterable[str | os.PathLike], *, out: str | o
             specs[(part.name, job)] = {"part": part.name, "path": str(part.path), "sha256": part.sha256, "job": job,
                                        "options": key["options"], "out": str(out.resolve()), "run": batch,
                                        "timeout": timeout, "memory_limit": per_part_memory, "mesh": None,
-                                       "env": _env, "record": key, "hook": hooks.get((part.name, job))}
+                                       "env": _env, "record": key, "hook": hooks.get((part.name, job)),
+                                       "size": part.path.stat().st_size}
     total, done = len(order), 0
     for k in order:
         if k in rows and progress is not None:
@@ -247,14 +249,14 @@ def run(inputs: str | os.PathLike | Iterable[str | os.PathLike], *, out: str | o
     def table() -> list[dict]:
         return [rows[k] for k in order if k in rows]
 
-    last_write = [0.0]
+    last_index = [0.0]
 
     def write(final: bool = False) -> None:
-        if final or time.monotonic() - last_write[0] >= WRITE_EVERY_S:
-            current = table()
-            write_tables(current, out)
+        current = table()
+        write_tables(current, out)  # each row as it arrives
+        if final or time.monotonic() - last_index[0] >= INDEX_EVERY_S:  # the page inlines every thumbnail
             write_index(current, out, jobs=jobs)
-            last_write[0] = time.monotonic()
+            last_index[0] = time.monotonic()
 
     try:
         if specs:
@@ -278,7 +280,8 @@ def _submit_all(specs, rows, jobs, out: Path, client, scheduler, n_workers, prog
         def submit(k: tuple[str, str]) -> None:
             spec = specs[k]
             again = resubmitted.get(k, 0)
-            fut = c.submit(run_job, spec, pure=False,
+            # larger files first: a long part started last would end the batch alone (benchmarks/batch_scaling.py)
+            fut = c.submit(run_job, spec, pure=False, priority=spec["size"],
                            key=f"trimsurf-batch-{spec['run']}-{spec['job']}-{spec['part']}" + (f"-{again}" if again else ""))
             by_key[fut.key] = k
             pending.add(fut)
