@@ -143,7 +143,8 @@ def main(argv=None) -> int:
     r = float(np.corrcoef(np.array([p.path.stat().st_size for p in parts], dtype=float), base_times)[0, 1])
     lines.append(f"projection, {args.parts} parts drawn from the {n} measured times (+{overhead_per_part:.2f} s each), "
                  f"list scheduling (each part to the worker that frees first) in input order, largest file first "
-                 f"(file size vs seconds: r = {r:.2f}), longest first (times known: a bound); cluster start not included")
+                 f"(file size vs seconds: r = {r:.2f}), longest first (times known: a bound); cluster start not "
+                 "included")
     lines.append(f"{'workers':>8s} {'makespan s':>11s} {'total/W s':>10s} {'longest s':>10s} {'parts/min':>10s} "
                  f"{'efficiency':>11s} {'largest file first s':>21s} {'longest first s':>16s}")
     proj = []
@@ -153,7 +154,8 @@ def main(argv=None) -> int:
         size_first = list_schedule(by_size, w)
         ideal = draw.sum() / w
         proj.append({"workers": w, "makespan_s": span, "total_over_w_s": ideal, "longest_s": float(draw.max()),
-                     "parts_per_min": 60 * args.parts / span, "efficiency": ideal / span, "largest_file_first_s": size_first,
+                     "parts_per_min": 60 * args.parts / span, "efficiency": ideal / span,
+                     "largest_file_first_s": size_first,
                      "longest_first_s": lpt})
         lines.append(f"{w:8d} {span:11.1f} {ideal:10.1f} {draw.max():10.1f} {60 * args.parts / span:10.1f} "
                      f"{ideal / span:11.2f} {size_first:21.1f} {lpt:16.1f}")

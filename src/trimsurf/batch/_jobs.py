@@ -394,7 +394,8 @@ def run_job(spec: dict) -> dict:
         row.update(status="failed", reason=_failure(exc, path), seconds=time.perf_counter() - t0)
         return row
     row["seconds"] = time.perf_counter() - t0
-    record = {"input": str(path), "input_sha256": spec["sha256"], "job": job, "run": spec["run"], "key": spec["record"], "row": row,
+    record = {"input": str(path), "input_sha256": spec["sha256"], "job": job, "run": spec["run"], "key": spec["record"],
+              "row": row,
               "outputs": outputs}
     _write_json(record_path(spec["out"], spec["part"], job), record)
     return row

@@ -50,7 +50,8 @@ def record_key(part: Part, job: str, jobs: tuple[str, ...], *, tolerance=None, m
 
     opts: dict = {}
     if job in ("tessellate", "view"):
-        opts = {"tolerance": part.options.get("tolerance", tolerance), "max_edge": part.options.get("max_edge", max_edge)}
+        opts = {"tolerance": part.options.get("tolerance", tolerance),
+                "max_edge": part.options.get("max_edge", max_edge)}
     if job == "view":
         opts["mesh_from_tessellate"] = "tessellate" in jobs
     return {"job": job, "options": opts, "trimsurf": __version__}
@@ -235,7 +236,9 @@ def run(inputs: str | os.PathLike | Iterable[str | os.PathLike], *, out: str | o
                 rows[(part.name, job)] = reused
                 continue
             timeout = part.options.get("timeout", per_part_timeout)
-            specs[(part.name, job)] = {"part": part.name, "path": str(part.path), "sha256": part.sha256, "job": job,
+            # absolute paths: the workers of a --scheduler need not share our working folder
+            specs[(part.name, job)] = {"part": part.name, "path": str(part.path.absolute()), "sha256": part.sha256,
+                                       "job": job,
                                        "options": key["options"], "out": str(out.resolve()), "run": batch,
                                        "timeout": timeout, "memory_limit": per_part_memory, "mesh": None,
                                        "env": _env, "record": key, "hook": hooks.get((part.name, job)),
@@ -282,7 +285,8 @@ def _submit_all(specs, rows, jobs, out: Path, client, scheduler, n_workers, prog
             again = resubmitted.get(k, 0)
             # larger files first: a long part started last would end the batch alone (benchmarks/batch_scaling.py)
             fut = c.submit(run_job, spec, pure=False, priority=spec["size"],
-                           key=f"trimsurf-batch-{spec['run']}-{spec['job']}-{spec['part']}" + (f"-{again}" if again else ""))
+                           key=f"trimsurf-batch-{spec['run']}-{spec['job']}-{spec['part']}"
+                           + (f"-{again}" if again else ""))
             by_key[fut.key] = k
             pending.add(fut)
 
