@@ -18,6 +18,7 @@ th,td{border-bottom:1px solid #ddd;padding:4px 8px;text-align:left;vertical-alig
 th.sort{cursor:pointer;user-select:none;background:#f3f3f3}
 th.sort:after{content:" \\2195";color:#999}
 td.num{text-align:right;font-variant-numeric:tabular-nums}
+td.status{white-space:nowrap}
 .ok{color:#17692b;font-weight:600}.not_met{color:#9a6200;font-weight:600}.failed{color:#b00020;font-weight:600}
 .reason{max-width:32em;font-size:12px;color:#555}
 img.thumb{width:160px;height:120px;object-fit:contain;background:#eee;display:block}
@@ -103,7 +104,7 @@ def write_index(rows: list[dict], out: str | Path, *, jobs: tuple[str, ...]) -> 
         cells = [
             f"<td>{_thumb(part_dir)}</td>",
             f'<td title="{html.escape(str(tess.get("input") or ""))}">{html.escape(part)}</td>',
-            f'<td data-v="{_STATUS_RANK.get(worst, -1)}">{job_status}</td>',
+            f'<td class="status" data-v="{_STATUS_RANK.get(worst, -1)}">{job_status}</td>',
             f'<td class="num" data-v="{tess.get("triangles") if tess.get("triangles") is not None else ""}">'
             f'{_num(tess.get("triangles"), "d")}</td>',
             f'<td class="num" data-v="{"" if dev is None else repr(float(dev))}">{_num(dev, ".3g")}</td>',

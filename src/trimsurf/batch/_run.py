@@ -141,7 +141,9 @@ def dashboard_link(client) -> str | None:
             return None
         link = client.dashboard_link
         with urllib.request.urlopen(link, timeout=2) as answer:
-            return link if answer.status == 200 else None
+            page = answer.read(4096).decode("utf-8", "replace")
+            # without bokeh the scheduler answers the dashboard's address with "Dask needs bokeh... for the dashboard"
+            return link if answer.status == 200 and "for the dashboard" not in page else None
     except Exception:  # no answer, 404 without bokeh, ...: no dashboard to show
         return None
 

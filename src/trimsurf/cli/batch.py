@@ -87,7 +87,8 @@ def run(args: argparse.Namespace) -> int:
             link = dashboard_link(client)
             where = args.scheduler or "local cluster"
             n = len(client.scheduler_info().get("workers", {}))
-            print(f"trimsurf: batch on {where} ({n} workers)" + (f", dashboard {link}" if link else ""),
+            print(f"trimsurf: batch on {where} ({n} workers), "
+                  + (f"dashboard {link}" if link else "no dashboard (it needs bokeh on the scheduler)"),
                   file=sys.stderr, flush=True)
 
         def tick(row: dict, done: int, total: int) -> None:
