@@ -103,6 +103,7 @@ def test_good_parts_done_bad_parts_failed_with_reasons_and_second_run_skips(clie
     # faulthandler's C watchdog stopped the hook inside re.match although it held the GIL
     assert hung["reason"].startswith("timeout: stopped after 1 s in match"), hung["reason"]
     assert not (out / "hang" / "mesh.ply").exists()
+    assert not list(out.glob("*/.*"))  # no attempt or crash files left behind
 
     # the table: both files, every column, the same rows
     assert read_table(out) == [{c: r[c] for c in COLUMNS} for r in rows]
@@ -139,14 +140,18 @@ def test_good_parts_done_bad_parts_failed_with_reasons_and_second_run_skips(clie
     print(f"first run {first_s:.1f} s")
 
 
-def test_force_redoes_and_changed_options_redo(client, parts, tmp_path):
+def test_force_redoes_and_changed_options_or_input_redo(client, parts, tmp_path):
     out = tmp_path / "out"
-    first = run([parts["gap"]], out=out, client=client)
+    gap = tmp_path / "gap_pair.step"
+    gap.write_bytes(parts["gap"].read_bytes())
+    first = run([gap], out=out, client=client)
     assert first[0]["status"] == "ok" and first[0]["reused"] is False
-    assert run([parts["gap"]], out=out, client=client)[0]["reused"] is True
-    assert run([parts["gap"]], out=out, client=client, force=True)[0]["reused"] is False
+    assert run([gap], out=out, client=client)[0]["reused"] is True
+    assert run([gap], out=out, client=client, force=True)[0]["reused"] is False
+    gap.write_bytes(parts["gap"].read_bytes() + b"\n")  # the same name, other bytes: its hash differs
+    assert run([gap], out=out, client=client)[0]["reused"] is False
     h = 0.5 * json.loads((out / "gap_pair" / "tessellate.json").read_text())["max_edge_used"]
-    finer = run([parts["gap"]], out=out, client=client, max_edge=h)[0]
+    finer = run([gap], out=out, client=client, max_edge=h)[0]
     assert finer["reused"] is False and finer["status"] == "ok", finer["reason"]
     assert json.loads((out / "gap_pair" / "tessellate.json").read_text())["max_edge_used"] == h
     assert finer["triangles"] > first[0]["triangles"]

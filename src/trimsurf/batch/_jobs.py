@@ -235,9 +235,10 @@ def _guard(spec: dict, part_dir: Path, job: str):
                 faulthandler.enable()
             if watch is not None:
                 watch.join()
-    for p in (crash_file, attempt_file):
-        with contextlib.suppress(OSError):
-            p.unlink()
+            # the job ended in this process (done, or an error the row names): nothing for the client to read
+            for p in (crash_file, attempt_file):
+                with contextlib.suppress(OSError):
+                    p.unlink()
 
 
 @contextlib.contextmanager
