@@ -266,3 +266,11 @@ def _empty(tmp_path):
     e = tmp_path / "empty"
     e.mkdir()
     return e
+
+
+def test_default_output_folder_is_beside_the_first_input(client, parts, tmp_path):
+    gap = tmp_path / "gap_pair.step"
+    gap.write_bytes(parts["gap"].read_bytes())
+    (row,) = run([gap], jobs=["tessellate"], client=client)
+    assert row["status"] == "ok"
+    assert io.read_mesh(tmp_path / "trimsurf-batch" / "gap_pair" / "mesh.ply").n_triangles == row["triangles"]

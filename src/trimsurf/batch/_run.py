@@ -148,8 +148,8 @@ def dashboard_link(client) -> str | None:
         return None
 
 
-def run(inputs: str | os.PathLike | Iterable[str | os.PathLike], *, out: str | os.PathLike,
-        jobs: str | Iterable[str] = ("tessellate",), client=None, scheduler: str | None = None,
+def run(inputs: str | os.PathLike | Iterable[str | os.PathLike], *, jobs: str | Iterable[str] = ("tessellate",),
+        client=None, out: str | os.PathLike | None = None, scheduler: str | None = None,
         n_workers: int | None = None, per_part_timeout: float | None = None, per_part_memory: float | None = None,
         force: bool = False, tolerance: float | None = None, max_edge: float | None = None,
         progress: Callable[[dict, int, int], None] | None = None, on_start: Callable[[object], None] | None = None,
@@ -161,8 +161,9 @@ def run(inputs: str | os.PathLike | Iterable[str | os.PathLike], *, out: str | o
     inputs : path or iterable of paths
         CAD files, folders (searched recursively) and manifests (``.csv`` with a
         ``path`` column and optional ``tolerance``, ``max_edge``, ``timeout``).
-    out : path
-        Output folder: ``OUT/<part>/`` per part (mesh.ply, tessellate.json,
+    out : path or None
+        Output folder (default: ``trimsurf-batch`` beside the first input, i.e.
+        in the folder holding it): ``OUT/<part>/`` per part (mesh.ply, tessellate.json,
         certify.json, zebra.png, thumb.png, view.html, ``<job>.record.json``),
         ``OUT/results.csv``, ``OUT/results.parquet``, ``OUT/index.html``.
     jobs : str or iterable of str
@@ -214,6 +215,13 @@ def run(inputs: str | os.PathLike | Iterable[str | os.PathLike], *, out: str | o
     from ..cli._common import check_output_folder
 
     jobs = _jobs(jobs)
+    if isinstance(inputs, (str, os.PathLike)):
+        inputs = [inputs]
+    inputs = list(inputs)
+    if out is None:
+        if not inputs:
+            raise InputError("no input given")
+        out = Path(inputs[0]).absolute().parent / "trimsurf-batch"
     for value, name in ((per_part_timeout, "per_part_timeout"), (per_part_memory, "per_part_memory"),
                         (tolerance, "tolerance"), (max_edge, "max_edge")):
         _positive(value, name)
