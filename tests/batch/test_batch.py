@@ -71,13 +71,19 @@ def test_good_parts_done_bad_parts_failed_with_reasons_and_second_run_skips(clie
     hang.write_bytes(parts["gap"].read_bytes() + b"\n")
     manifest = tmp_path / "parts.csv"
     manifest.write_text("path,timeout\nhang.step,1\n")
+    # the huge exponent that made Open CASCADE spin for over 100 s: refused at once by the reader
+    huge = tmp_path / "huge.step"
+    text = parts["gap"].read_text().split("\n")
+    at = next(i for i, ln in enumerate(text) if ln.startswith("#44 = CARTESIAN_POINT"))
+    text[at] = "#44 = CARTESIAN_POINT('',(250.E+999,180.,-64.389320225));"
+    huge.write_text("\n".join(text))
     out = tmp_path / "out"
-    inputs = [parts["screw"], parts["gap"], parts["crash"], manifest]
+    inputs = [parts["screw"], parts["gap"], parts["crash"], manifest, huge]
     t0 = time.perf_counter()
     rows = run(inputs, out=out, jobs="tessellate,view", client=client, _hooks={("hang", "tessellate"): "hang"})
     first_s = time.perf_counter() - t0
     by = {(r["part"], r["job"]): r for r in rows}
-    assert len(rows) == 8
+    assert len(rows) == 10
     for part in ("occt__screw", "gap_pair"):
         tess = by[(part, "tessellate")]
         assert tess["status"] == "ok", tess["reason"]
@@ -98,6 +104,8 @@ def test_good_parts_done_bad_parts_failed_with_reasons_and_second_run_skips(clie
     assert crash["reason"].startswith(f"{parts['crash']}: Open CASCADE crashed (SIGSEGV) while reading the IGES")
     assert by[("blank_knot", "view")]["status"] == "failed"
     assert by[("blank_knot", "view")]["reason"] == "no mesh to show: the tessellate job failed"
+    assert by[("huge", "tessellate")]["status"] == "failed" and by[("huge", "tessellate")]["attempts"] == 1
+    assert by[("huge", "tessellate")]["reason"] == f"{huge}: line {at + 1} (#44): the number 250.E+999 is not finite"
     hung = by[("hang", "tessellate")]
     assert hung["status"] == "failed" and hung["attempts"] == 2, (hung["attempts"], hung["reason"])
     # faulthandler's C watchdog stopped the hook inside re.match although it held the GIL
