@@ -105,12 +105,15 @@ def sample_edge_curve(curve, t0: float, t1: float, spacing: float, *, min_segmen
     if chord_tolerance is not None and chord_tolerance > 0:
         for _ in range(max_rounds):
             tm = 0.5 * (t[:-1] + t[1:])
-            dev = np.linalg.norm(curve.evaluate(tm) - 0.5 * (pts[:-1] + pts[1:]), axis=1)
+            pm = curve.evaluate(tm)
+            dev = np.linalg.norm(pm - 0.5 * (pts[:-1] + pts[1:]), axis=1)
             bad = dev > chord_tolerance
             if not bad.any() or len(t) > 100000:
                 break
-            t = np.sort(np.r_[t, tm[bad]])
-            pts = curve.evaluate(t)
+            # the midpoints just evaluated join the polyline (no second evaluation of b)
+            t = np.r_[t, tm[bad]]
+            order = np.argsort(t, kind="stable")
+            t, pts = t[order], np.concatenate([pts, pm[bad]])[order]
     return pts, t
 
 

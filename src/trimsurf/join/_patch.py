@@ -116,6 +116,15 @@ def parameter_scale(face: TrimmedFace, uv: np.ndarray) -> np.ndarray:
     return out
 
 
+def cached_scale(face: TrimmedFace, proj: MeshProjection, cache: dict | None) -> np.ndarray:
+    """`parameter_scale` of a projected mesh, computed once per face (``cache["scale"]``)."""
+    if cache is None:
+        return parameter_scale(face, proj.uv)
+    if "scale" not in cache:
+        cache["scale"] = parameter_scale(face, proj.uv)
+    return cache["scale"]
+
+
 def _newton_from_uv(face: TrimmedFace, points: np.ndarray, uv0: np.ndarray, *, tol: float, max_dist: float,
                     iterations: int = 4):
     """Closest points by Gauss-Newton from the mesh's own (u, v); returns (uv, foot, distance, ok).
@@ -382,7 +391,7 @@ def join_patch(face: TrimmedFace, proj: MeshProjection, mesh: TriMesh, loops_uv:
 
     # work in scaled parameters w = (u |Su|, v |Sv|) (median speeds over the mesh): an affine change of
     # parameters, so every statement of the paper holds in w, and the Ruppert angles mean something in 3D
-    scale = parameter_scale(face, proj.uv)
+    scale = cached_scale(face, proj, cache)
     uv = proj.uv * scale
     loops_uv = [lp * scale for lp in loops_uv]
     tris = proj.triangles
@@ -443,10 +452,15 @@ def join_patch(face: TrimmedFace, proj: MeshProjection, mesh: TriMesh, loops_uv:
     t_tri = time.perf_counter() - t0
     t0 = time.perf_counter()
     n_refine = 0
+    reused = None   # step 5 at Triangle's vertices, from the refinement's last pass
     if max_deviation is not None and np.isfinite(max_deviation):
-        out, n_refine = _refine_to_deviation(face, out, flags, nr, np.concatenate(loops_xyz), bdata, lipschitz,
-                                             scale, float(max_deviation),
-                                             float(np.abs(np.concatenate(loops_eps)).max(initial=0.0)))
+        if cache is not None and "second_derivatives" not in cache:
+            cache["second_derivatives"] = _second_derivative_bound(face.surface, scale)
+        m2 = _second_derivative_bound(face.surface, scale) if cache is None else cache["second_derivatives"]
+        out, n_refine, reused = _refine_to_deviation(face, out, flags, nr, np.concatenate(loops_xyz), bdata,
+                                                     lipschitz, scale, float(max_deviation),
+                                                     float(np.abs(np.concatenate(loops_eps)).max(initial=0.0)),
+                                                     second_derivatives=m2)
     t_refine = time.perf_counter() - t0
     tv = np.asarray(out["vertices"], dtype=np.float64)
     tt = np.asarray(out["triangles"], dtype=np.int64)
@@ -499,28 +513,39 @@ def join_patch(face: TrimmedFace, proj: MeshProjection, mesh: TriMesh, loops_uv:
     used = np.zeros(nt, dtype=bool)
     used[tris_all.ravel()] = True
     used[n:n + nr] = True
+    a_all = np.zeros(nt)
+    foot, nrm = np.zeros((nt, 3)), np.zeros((nt, 3))
+    known_a = np.zeros(nt, dtype=bool)      # a(p) already evaluated (the refinement's last pass)
+    known_f = np.zeros(nt, dtype=bool)      # F(p), n(p) already evaluated
+    if reused is not None:
+        # the refinement evaluated a(p) at every Triangle vertex (the central boundary's w are the mesh's own,
+        # bit for bit) and F, n at the dR and new points: step 5 does not evaluate them again
+        a_all[tmap] = reused.average
+        known_a[tmap] = True
+        new_pt = tmap >= n
+        foot[tmap[new_pt]], nrm[tmap[new_pt]] = reused.foot[new_pt], reused.normal[new_pt]
+        known_f[tmap[new_pt]] = True
     t0 = time.perf_counter()
-    wa = whitney_average(bdata, all_uv[used], lipschitz=lipschitz)
+    ask = used & ~known_a
+    wa = whitney_average(bdata, all_uv[ask], lipschitz=lipschitz)
     t_whitney = time.perf_counter() - t0
+    a_all[ask] = wa.average
+    n_q = int(ask.sum()) + (0 if reused is None else len(reused.average))
+    blocks = ((wa.mean_blocks_visited * int(ask.sum()) + (0.0 if reused is None else
+                                                          reused.blocks * len(reused.average))) / max(n_q, 1))
     all_w = all_uv
     all_uv = all_w / scale
     all_uv[:n] = proj.uv                     # the central mesh's (u, v) exactly as projected
     all_uv[n:n + nr] = rverts / scale
-    a_all = np.zeros(nt)
-    a_all[used] = wa.average
     eps_r = np.concatenate(loops_eps)
     a_all[n:n + nr] = eps_r  # exact on dR (a = eps there, eq. 3-4)
     pts = np.zeros((nt, 3))
-    foot, nrm = np.zeros((nt, 3)), np.zeros((nt, 3))
     # F and n at the mesh's own vertices depend only on their (u, v): evaluated once per face
-    mine = used.copy()
-    mine[n:] = False
+    need = used & ~known_f
     if cache is not None and "foot" in cache:
         foot[:n], nrm[:n] = cache["foot"], cache["normal"]
-        need = used.copy()
         need[:n] = False
     else:
-        need = used.copy()
         need[:n] = True
     f_, n_ = _foot_normal(face, all_uv[need])
     foot[need], nrm[need] = f_, n_
@@ -538,7 +563,7 @@ def join_patch(face: TrimmedFace, proj: MeshProjection, mesh: TriMesh, loops_uv:
     steiner = [(li, si, frac, int(remap[tmap[vi]])) for li, si, frac, vi in steiner]
     return PatchResult(all_uv[used], pts[used], a_all[used], gid[used], remap[tris_all], external,
                        src[used], float(wa.lipschitz), float(np.abs(eps_r).max()), min_ext, min_in, steiner,
-                       int(keep.sum()), n_removed, n_split, wa.mean_blocks_visited, scale, bdata,
+                       int(keep.sum()), n_removed, n_split, float(blocks), scale, bdata,
                        {"central": t_central, "triangulate": t_tri, "whitney": t_whitney,
                         "refine": t_refine, "refine_passes": n_refine}, keep,
                        bool(allow_boundary_steiner))
@@ -550,8 +575,66 @@ _REFINE_DENSITY = 4      # barycentric divisions per edge of the samples (15 per
 _REFINE_MAX_TRIANGLES = 400_000   # per face: a tolerance that needs more is not met (the report says so)
 
 
+class _Reprojection(NamedTuple):
+    """Step 5 at Triangle's vertices (the refinement's last pass), reused by step 5."""
+
+    average: np.ndarray   # (k,) a(p)
+    foot: np.ndarray      # (k, 3) F(p)
+    normal: np.ndarray    # (k, 3) n(p) (zero where undefined)
+    blocks: float         # mean pruning blocks per query
+
+
+def _second_derivative_bound(surface, scale: np.ndarray) -> float:
+    """M >= |D^2 F(w)[h, h]| / |h|^2 over the whole domain, in the working parameters w = (u, v) * scale.
+
+    From the control points of F_uu, F_uv and F_vv (the B-spline hodographs: the derivative of a B-spline
+    is a B-spline whose control points are the scaled differences, and a B-spline lies in the convex hull
+    of its control points): with A = max|F_uu| / s_u^2, B = max|F_uv| / (s_u s_v), C = max|F_vv| / s_v^2,
+    ``|D^2 F[h, h]| <= A h_1^2 + 2 B |h_1 h_2| + C h_2^2 <= lambda_max([[A, B], [B, C]]) |h|^2``.
+    Infinite for a rational surface (no such control-net bound of the quotient here: its triangles are
+    always sampled).
+
+    Examples
+    --------
+    >>> from trimsurf.model import NurbsSurface
+    >>> k = [0, 0, 0, 1, 1, 1]
+    >>> cp = [[[x, y, z] for y in (0, 0.5, 1)] for x, z in ((0, 0), (0.5, 0), (1, 1))]   # (u, v, u^2)
+    >>> float(_second_derivative_bound(NurbsSurface(2, 2, k, k, cp), np.array([1.0, 1.0])))
+    2.0
+    """
+    if surface.is_rational:
+        return float("inf")
+
+    def hodograph(cp, degree, knots, axis):
+        n = cp.shape[axis]
+        if degree < 1 or n < 2:
+            return None, degree - 1, knots[1:-1]
+        den = knots[degree + 1:degree + n] - knots[1:n]
+        shape = [1, 1, 1]
+        shape[axis] = n - 1
+        den = den.reshape(shape)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            q = np.where(den > 0, degree * np.diff(cp, axis=axis) / np.where(den > 0, den, 1.0), 0.0)
+        return q, degree - 1, knots[1:-1]
+
+    def max_norm(q):
+        return 0.0 if q is None or not q.size else float(np.sqrt((q * q).sum(axis=-1)).max())
+
+    cp = surface.control_points
+    pu, pv = surface.degree_u, surface.degree_v
+    qu, pu1, ku1 = hodograph(cp, pu, surface.knots_u, 0)
+    qv, pv1, kv1 = hodograph(cp, pv, surface.knots_v, 1)
+    quu = hodograph(qu, pu1, ku1, 0)[0] if qu is not None else None
+    qvv = hodograph(qv, pv1, kv1, 1)[0] if qv is not None else None
+    quv = hodograph(qu, pv, surface.knots_v, 1)[0] if qu is not None else None
+    su, sv = float(scale[0]), float(scale[1])
+    a, b, c = max_norm(quu) / su ** 2, max_norm(quv) / (su * sv), max_norm(qvv) / sv ** 2
+    return 0.5 * (a + c) + float(np.hypot(0.5 * (a - c), b))
+
+
 def _refine_to_deviation(face: TrimmedFace, out: dict, flags: str, nr: int, r_xyz: np.ndarray, bdata, lipschitz,
-                         scale: np.ndarray, tol: float, eps_max: float) -> tuple[dict, int]:
+                         scale: np.ndarray, tol: float, eps_max: float, *, second_derivatives: float = np.inf
+                         ) -> tuple[dict, int, _Reprojection]:
     """Refine Triangle's external region until each triangle, reprojected, is within `tol` of the surface.
 
     Every vertex goes where step 5 puts it (F(p) + a(p) n(p); the dR points are the shared points
@@ -559,7 +642,15 @@ def _refine_to_deviation(face: TrimmedFace, out: dict, flags: str, nr: int, r_xy
     area limit shrunk by the ratio (chord error ~ area), for Triangle's ``-r -a`` refinement with the same
     quality bound (so the angle guarantee of Sec. III-B holds for the refined region too). The target is
     ``max(0.9 tol, 1.5 max|eps|)``: a triangle cannot be closer to the surface than the heights a(p)
-    at its corners, up to max|eps| on dR (Sec. III-A). Returns Triangle's output and the passes run.
+    at its corners, up to max|eps| on dR (Sec. III-A).
+
+    A triangle that provably meets the target is not sampled: with X_i its corners, w_i their working
+    parameters and M = `second_derivatives` (`_second_derivative_bound`), every point of the triangle is
+    within ``max_i |X_i - F(w_i)| + M r^2 / 2`` of F at its interpolated parameter, r <= (longest edge in
+    w) / sqrt(3) the radius of its smallest enclosing disc (linear interpolation error, Waldron 1998;
+    Jung's theorem). The sampled figure of such a triangle is below that bound too, so skipping it
+    changes nothing. Returns Triangle's output, the passes run, and a(p), F(p), n(p) at its vertices
+    (the last pass's; step 5 reuses them).
     """
     import triangle
 
@@ -567,7 +658,8 @@ def _refine_to_deviation(face: TrimmedFace, out: dict, flags: str, nr: int, r_xy
 
     target = max(_REFINE_SAFETY * tol, 1.5 * eps_max)
     rflags = "r" + flags.replace("Q", "aQ")
-    for it in range(_REFINE_ROUNDS + 1):
+    it = 0
+    while True:
         tv = np.asarray(out["vertices"], dtype=np.float64)
         tt = np.asarray(out["triangles"], dtype=np.int64)
         wa = whitney_average(bdata, tv, lipschitz=lipschitz)
@@ -575,6 +667,17 @@ def _refine_to_deviation(face: TrimmedFace, out: dict, flags: str, nr: int, r_xy
         foot, nrm = _foot_normal(face, uv)
         pts = foot + wa.average[:, None] * nrm
         pts[:nr] = r_xyz
+        reproj = _Reprojection(wa.average, foot, nrm, wa.mean_blocks_visited)
+        # the a-priori bound: corners' distance to F plus the interpolation error of F over the triangle
+        off = np.linalg.norm(pts - foot, axis=1)
+        p = tv[tt]
+        l2 = np.maximum.reduce([((p[:, 1] - p[:, 0]) ** 2).sum(1), ((p[:, 2] - p[:, 1]) ** 2).sum(1),
+                                ((p[:, 0] - p[:, 2]) ** 2).sum(1)])
+        bound = off[tt].max(axis=1) + second_derivatives * l2 / 6.0
+        check = np.flatnonzero(~(bound * (1.0 + 1e-9) <= target))
+        if not len(check):
+            return out, it, reproj
+        tc = tt[check]
         # the dR segments themselves are left out: their deviation is the boundary's own (the error already
         # present along the edges, Sec. III), which no refinement of the region changes (a point Triangle puts
         # on dR lies on b(t) or, in Case 2, on the polyline itself); refining for it only makes slivers
@@ -582,13 +685,15 @@ def _refine_to_deviation(face: TrimmedFace, out: dict, flags: str, nr: int, r_xy
         on_r = np.asarray(out["segment_markers"]).ravel() < 2 + nr
         n_v = len(tv)
         r_seg = np.sort(seg[on_r], axis=1)
-        e = np.sort(np.stack([tt, np.roll(tt, -1, axis=1)], axis=2), axis=2)   # edge c: corners c, c + 1
+        e = np.sort(np.stack([tc, np.roll(tc, -1, axis=1)], axis=2), axis=2)   # edge c: corners c, c + 1
         skip = np.isin(e[..., 0] * n_v + e[..., 1], r_seg[:, 0] * n_v + r_seg[:, 1])
-        dev = triangle_deviation(face, pts, uv, tt, density=_REFINE_DENSITY, exact_above=target, skip_edges=skip)
+        dev = np.zeros(len(tt))
+        dev[check] = triangle_deviation(face, pts, uv, tc, density=_REFINE_DENSITY, exact_above=target,
+                                        skip_edges=skip)
         bad = dev > target
         if not bad.any() or it == _REFINE_ROUNDS or len(tt) > _REFINE_MAX_TRIANGLES:
-            return out, it
-        p = tv[tt[bad]]
+            return out, it, reproj
+        p = p[bad]
         area = 0.5 * np.abs((p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1])
                             - (p[:, 2, 0] - p[:, 0, 0]) * (p[:, 1, 1] - p[:, 0, 1]))
         limit = np.full(len(tt), -1.0)
@@ -597,7 +702,7 @@ def _refine_to_deviation(face: TrimmedFace, out: dict, flags: str, nr: int, r_xy
                 "segments": out["segments"], "segment_markers": out["segment_markers"],
                 "triangle_max_area": limit}
         out = triangle.triangulate(data, rflags)
-    return out, _REFINE_ROUNDS
+        it += 1
 
 
 def _check_pslg(face: TrimmedFace, vertices: np.ndarray, segments: np.ndarray, n_loops: int) -> None:

@@ -13,7 +13,7 @@ from ..model import Shell, TriMesh
 from ._boundary import EdgePolyline, arc_length_fractions, delete_loops, edge_table, median_polyline, \
     sample_edge_curve
 from ._chains import mesh_chains
-from ._patch import PAPER_BOUNDARY_ANGLE_DEG, PAPER_MIN_ANGLE_DEG, _angles_deg, parameter_scale, MeshProjection, PatchResult, heights, join_patch, project_mesh, \
+from ._patch import PAPER_BOUNDARY_ANGLE_DEG, PAPER_MIN_ANGLE_DEG, _angles_deg, cached_scale, MeshProjection, PatchResult, heights, join_patch, project_mesh, \
     project_near, project_points, split_edges
 
 __all__ = ["FaceReport", "JoinResult", "join_shell"]
@@ -442,7 +442,8 @@ def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool
             # Sec. III-B's hypothesis: dR's corners >= 26.45 deg. Where it fails, Ruppert refinement splits the
             # dR segments near the sharp corner again at every pass (the neighbour's points move them a little):
             # such a face keeps its dR as given (Triangle's -Y) and claims no angle bound
-            corner = _min_corner_angle([lp[0] for lp in loops], parameter_scale(face, projs[i].uv))
+            corner = _min_corner_angle([lp[0] for lp in loops],
+                                       cached_scale(face, projs[i], caches.setdefault(i, {})))
             try:
                 res = join_patch(face, projs[i], meshes[i], [lp[0] for lp in loops], [lp[1] for lp in loops],
                                  [lp[2] for lp in loops], [lp[3] for lp in loops], min_angle_deg=min_angle_deg,
