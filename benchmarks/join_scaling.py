@@ -19,7 +19,13 @@ boundary has about sigma segments. Columns:
   same process; "-" where it would take long); ``allpairs/pruned`` the speed-up of the pruning on
   that face. Both give the same values (max difference printed as ``max|diff|``).
 
-Usage: python benchmarks/join_scaling.py [--json out.json] [--quick]
+Side by side (``--reference SRC``): the same sizes joined alternately by this checkout's trimsurf and by
+the one whose ``src`` folder is SRC (e.g. ``git archive 671caca src | tar -x -C /tmp/ref`` then
+``--reference /tmp/ref/src``), each in a fresh child process, ``--rounds`` times; printed per size: the
+best-of-``--repeats`` join time of every round and their medians, so both see the same machine load. A
+reference without the ``deflection`` argument (before issue 13) joins without the size refinement.
+
+Usage: python benchmarks/join_scaling.py [--json out.json] [--quick] [--reference SRC [--rounds K]]
 """
 
 from __future__ import annotations
@@ -90,14 +96,18 @@ def grid_deviation(shell, meshes, n: int) -> float:
     return input_deviation(shell, subs)
 
 
-def run_size(shell, n: int, sigma: int, repeats: int) -> dict:
+def run_size(shell, n: int, sigma: int, repeats: int, allpairs: bool = True) -> dict:
+    import inspect
+
     meshes = grid_meshes(shell, n)
     spacing = max(perimeter(f) for f in shell.faces) / sigma
-    deflection = grid_deviation(shell, meshes, n)
+    sized = "deflection" in inspect.signature(join_shell).parameters   # False: a version before issue 13
+    deflection = grid_deviation(shell, meshes, n) if sized else None
+    kw = {"deflection": deflection} if sized else {}
     best, res = float("inf"), None
     for _ in range(repeats):
         t = time.perf_counter()
-        r = join_shell(shell, meshes, edge_spacing=spacing, measure=False, deflection=deflection)
+        r = join_shell(shell, meshes, edge_spacing=spacing, measure=False, **kw)
         dt = time.perf_counter() - t
         if dt < best:
             best, res = dt, r
@@ -110,8 +120,8 @@ def run_size(shell, n: int, sigma: int, repeats: int) -> dict:
            "paper_s": paper, "paper_over_ours": paper / best, "allpairs_s": None, "allpairs_over_pruned": None,
            "max_abs_diff": None, "output_triangles": res.mesh.n_triangles,
            "watertight_joint": res.report["boundary_edges_on_joins"] == 0, "deflection": deflection,
-           "refine_s": res.report["seconds_steps"]["refine"]}
-    if n_act <= ALLPAIRS_MAX_N:
+           "refine_s": res.report["seconds_steps"].get("refine", 0.0)}
+    if allpairs and n_act <= ALLPAIRS_MAX_N:
         r0 = res.patches[0]
         bd = r0.boundary
         q = r0.uv * r0.scale
@@ -126,18 +136,67 @@ def run_size(shell, n: int, sigma: int, repeats: int) -> dict:
     return row
 
 
+def side_by_side(reference: Path, sizes, rounds: int, repeats: int) -> list[dict]:
+    """Join every size alternately with the reference's src and this checkout's, `rounds` times (child processes)."""
+    import os
+    import subprocess
+
+    mine = Path(__file__).resolve().parents[1] / "src"
+    runs: dict[str, list[list[dict]]] = {"reference": [], "this": []}
+    for k in range(rounds):
+        for label, src in (("reference", reference), ("this", mine)):
+            env = dict(os.environ, PYTHONPATH=str(src))
+            cmd = [sys.executable, __file__, "--child", ",".join(f"{n}:{s}" for n, s in sizes),
+                   "--repeats", str(repeats)]
+            out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True).stdout
+            runs[label].append(json.loads(out.strip().splitlines()[-1]))
+            print(f"round {k + 1} {label:<9} " + "  ".join(f"n={r['n']}: {1e3 * r['join_s']:.1f} ms"
+                                                          for r in runs[label][-1]), flush=True)
+    rows = []
+    print(f"{'n':>9} {'sigma':>6} {'ref_ms (median)':>16} {'this_ms (median)':>17} {'this/ref':>8}")
+    for j in range(len(sizes)):
+        ref = [r[j]["join_s"] for r in runs["reference"]]
+        new = [r[j]["join_s"] for r in runs["this"]]
+        row = {"n": runs["this"][0][j]["n"], "sigma": runs["this"][0][j]["sigma"], "reference_s": ref,
+               "this_s": new, "reference_median_s": float(np.median(ref)), "this_median_s": float(np.median(new))}
+        rows.append(row)
+        print(f"{row['n']:>9} {row['sigma']:>6} {1e3 * row['reference_median_s']:>16.1f} "
+              f"{1e3 * row['this_median_s']:>17.1f} {row['this_median_s'] / row['reference_median_s']:>8.3f}")
+    return rows
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--json", type=Path, help="also write the rows as JSON")
     parser.add_argument("--quick", action="store_true", help="only the two smallest sizes")
+    parser.add_argument("--reference", type=Path, help="src folder of another trimsurf: run side by side")
+    parser.add_argument("--rounds", type=int, default=3, help="side by side: alternations (default 3)")
+    parser.add_argument("--repeats", type=int, help=f"joins per size, the best kept (default {REPEATS}; "
+                                                    f"1 from 300K vertices)")
+    parser.add_argument("--child", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    sizes = QUICK if args.quick else SIZES
+    if args.reference:
+        rows = side_by_side(args.reference.resolve(), sizes, args.rounds, args.repeats or REPEATS)
+        if args.json:
+            args.json.write_text(json.dumps(rows, indent=2) + "\n")
+        return 0
     shell = folding_pair()
+    if args.child:   # one side of --reference: rows as one JSON line, no Whitney-only comparison
+        join_shell(shell, grid_meshes(shell, 2100))
+        out = []
+        for item in args.child.split(","):
+            n, sigma = (int(x) for x in item.split(":"))
+            r = run_size(shell, n, sigma, (args.repeats or REPEATS) if n <= 100_000 else 1, allpairs=False)
+            out.append({k: r[k] for k in ("n", "sigma", "join_s", "output_triangles")})
+        print(json.dumps(out))
+        return 0
     join_shell(shell, grid_meshes(shell, 2100))  # compile the numba kernels outside the timing
     rows = []
     print(f"{'n':>9} {'sigma':>6} {'join_s':>8} {'proj_s':>8} {'whit_s':>8} {'refi_s':>8} {'paper_s':>10} {'paper/ours':>10} "
           f"{'allpairs_s':>10} {'allp/prun':>9} {'max|diff|':>9}", flush=True)
-    for n, sigma in (QUICK if args.quick else SIZES):
-        r = run_size(shell, n, sigma, REPEATS if n <= 100_000 else 1)
+    for n, sigma in sizes:
+        r = run_size(shell, n, sigma, (args.repeats or REPEATS) if n <= 100_000 else 1)
         rows.append(r)
         ap = "-" if r["allpairs_s"] is None else f"{r['allpairs_s']:.3f}"
         apr = "-" if r["allpairs_over_pruned"] is None else f"{r['allpairs_over_pruned']:.1f}"
