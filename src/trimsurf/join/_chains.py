@@ -11,11 +11,46 @@ __all__ = ["mesh_boundary_loops", "loops_from_edges", "mesh_chains"]
 
 
 def mesh_boundary_loops(triangles: np.ndarray, n: int) -> list[np.ndarray]:
-    """Boundary loops (vertex indices in the direction of the triangles' boundary edges)."""
+    """Boundary loops (vertex indices in the direction of the triangles' boundary edges).
+
+    Where the boundary passes a vertex twice (a pinch: two fans of triangles meeting at one vertex, e.g.
+    a face whose hole touches its outer loop), each loop goes on along the boundary edge of the fan it
+    came in by, so the two loops stay apart (both hold the pinch vertex).
+    """
+    triangles = np.asarray(triangles, dtype=np.int64)
     he = np.stack([triangles, np.roll(triangles, -1, axis=1)], axis=2).reshape(-1, 2)
     key = np.minimum(he[:, 0], he[:, 1]) * n + np.maximum(he[:, 0], he[:, 1])
     _, inv, cnt = np.unique(key, return_inverse=True, return_counts=True)
-    return loops_from_edges(he[cnt[inv] == 1], min_length=2)
+    be = he[cnt[inv] == 1]
+    if not len(be) or np.bincount(be[:, 0], minlength=n).max() <= 1:
+        return loops_from_edges(be, min_length=2)
+    # pinches: follow the fan around the vertex from the incoming boundary edge to its outgoing one
+    third = {}
+    for t in triangles.tolist():
+        for c in range(3):
+            third[(t[c], t[(c + 1) % 3])] = t[(c + 2) % 3]
+    boundary = {(int(a), int(b)) for a, b in be.tolist()}
+
+    def successor(a: int, b: int) -> int:
+        x = third[(a, b)]                      # (b, x) is the next edge around b in the triangle of (a, b)
+        for _ in range(len(third)):
+            if (b, x) in boundary:
+                return x
+            x = third[(x, b)]                  # cross the interior edge (b, x) into the triangle of (x, b)
+        raise RuntimeError("boundary walk did not end")   # pragma: no cover - not a triangle mesh
+
+    loops, used = [], set()
+    for a, b in sorted(boundary):
+        if (a, b) in used:
+            continue
+        lp, e = [], (a, b)
+        while e not in used:
+            used.add(e)
+            lp.append(e[0])
+            e = (e[1], successor(*e))
+        if len(lp) >= 2:
+            loops.append(np.array(lp, dtype=np.int64))
+    return loops
 
 
 def loops_from_edges(be: np.ndarray, *, min_length: int = 3) -> list[np.ndarray]:
@@ -68,13 +103,31 @@ def mesh_chains(face: TrimmedFace, uv: np.ndarray, triangles: np.ndarray) -> dic
         kp = pos[k]
         m = len(mloop)
         nseg = len(loop.segments)
+        # a pinch vertex (a hole touching the outer loop) lies twice on the mesh loop: every occurrence of
+        # a corner is a candidate end, and the chain that runs closest to the segment's p-curve is taken
+        occ = [np.flatnonzero(mloop == mloop[p]) for p in kp]
+        pinched = any(len(o) > 1 for o in occ)
         for si in range(nseg):
-            a, b = int(kp[si]), int(kp[(si + 1) % nseg])
-            if nseg == 1:
-                idx = np.r_[np.arange(a, a + m), a] % m
-            else:
-                steps = (b - a) % m
-                idx = (a + np.arange(steps + 1)) % m
+            cands = []
+            for a in (occ[si] if pinched else [int(kp[si])]):
+                if nseg == 1:
+                    later = (occ[si] - a) % m
+                    steps = int(later[later > 0].min()) if np.any(later > 0) else m
+                    cands.append((a + np.arange(steps + 1)) % m)
+                    continue
+                for b in (occ[(si + 1) % nseg] if pinched else [int(kp[(si + 1) % nseg])]):
+                    steps = (int(b) - int(a)) % m
+                    cands.append((int(a) + np.arange(steps + 1)) % m)
+            idx = cands[0] if len(cands) == 1 else cands[int(np.argmin(
+                [_distance_to_segment(loop.segments[si], uv[mloop[c]]) for c in cands]))]
             if len(idx) >= 2:
                 out[(li, si)] = mloop[idx]
     return out
+
+
+
+def _distance_to_segment(seg, uv: np.ndarray) -> float:
+    """Median (u, v) distance of the points `uv` to the trim segment's p-curve (sampled densely)."""
+    t = np.linspace(seg.t0, seg.t1, 257)
+    dist, _ = cKDTree(seg.curve.evaluate(t)).query(uv)
+    return float(np.median(dist))
