@@ -33,7 +33,8 @@ def check_patch(face, r, *, diag: float) -> dict:
     ext_min = float(ang[r.external].min(initial=180.0))
     # (when the last pass had to forbid points on dR -- the neighbours' points never settled -- Triangle
     # cannot refine along dR and the bound is not claimed; the report says so)
-    if r.min_input_angle_deg >= PAPER_BOUNDARY_ANGLE_DEG and r.boundary_steiner_allowed:
+    # (nor beside a pole where edges were flipped: the parametrization is singular there, outside Sec. II)
+    if r.min_input_angle_deg >= PAPER_BOUNDARY_ANGLE_DEG and r.boundary_steiner_allowed and not r.pole_flips:
         assert ext_min >= PAPER_MIN_ANGLE_DEG - 1e-6
     # inclination bound (Sec. III-D) for every reprojected triangle with (u, v) angles >= 21.96 deg
     p = w[r.triangles]

@@ -33,7 +33,8 @@ from ..model import TrimmedFace, TriMesh
 from ..geom.whitney import BoundaryData, boundary_data, whitney_average
 from ._chains import loops_from_edges
 
-__all__ = ["MeshProjection", "project_mesh", "PatchResult", "join_patch", "PAPER_MIN_ANGLE_DEG"]
+__all__ = ["MeshProjection", "project_mesh", "PatchResult", "join_patch", "repair_pole_turns",
+           "PAPER_MIN_ANGLE_DEG"]
 
 #: The paper's guaranteed minimum angle of the external region (Sec. III-B): arctan(sin t / (2 - cos t)),
 #: t = 26.45 deg.
@@ -213,6 +214,7 @@ class PatchResult(NamedTuple):
     seconds: dict              # time per step: central, triangulate, whitney
     central_keep: np.ndarray   # (m,) bool: input triangles kept in the central mesh
     boundary_steiner_allowed: bool  # False: the last pass forbade points on dR (the angle bound may fail there)
+    pole_flips: int = 0        # edges flipped beside a pole (`repair_pole_turns`): no angle bound claimed
 
 
 def _boundary_edges(tris: np.ndarray, n: int) -> np.ndarray:
@@ -335,6 +337,46 @@ def central_mask(uv: np.ndarray, tris: np.ndarray, loops_uv: list[np.ndarray], *
     return keep, be
 
 
+def _pole_ring(loops_w: list[np.ndarray], loops_gid: list[np.ndarray], segments: np.ndarray,
+               vertices: np.ndarray, central_loops: list) -> np.ndarray:
+    """Points Triangle is given beside a pole: one apex of an equilateral triangle over every pole piece of dR.
+
+    Along a collapsed edge the parametrization is singular (the paper assumes a Jacobian of full rank,
+    Sec. II): a triangle with a corner at the pole and its two other corners at different distances
+    from the pole can turn over in 3D although it is well shaped in (u, v). With the apexes at one
+    distance from the pole line, the triangles between the pole and the apexes have their two
+    non-pole corners at the same distance, which keeps their 3D orientation. Apexes outside R, in the
+    central mesh, or nearer than half their height to any other segment are left out.
+    """
+    out = []
+    for lp, g in zip(loops_w, loops_gid):
+        k = len(lp)
+        nxt = (np.arange(k) + 1) % k
+        pole = np.flatnonzero((g == g[nxt]) & (g >= 0))
+        if not len(pole):
+            continue
+        a, b = lp[pole], lp[nxt[pole]]
+        d = b - a
+        h = np.linalg.norm(d, axis=1)
+        ok = h > 0
+        a, b, d, h = a[ok], b[ok], d[ok], h[ok]
+        left = np.column_stack([-d[:, 1], d[:, 0]]) / h[:, None]
+        mid = 0.5 * (a + b)
+        height = 0.5 * np.sqrt(3.0) * h
+        for side in (1.0, -1.0):
+            q = mid + side * left * height[:, None]
+            inside = points_in_polygons(q, loops_w)
+            if central_loops:
+                inside &= ~points_in_polygons(q, central_loops)
+            if inside.sum() * 2 >= len(q):
+                break
+        sa, sb = vertices[segments[:, 0]], vertices[segments[:, 1]]
+        near = _point_segment_distance(q, sa, sb)
+        keep = inside & (near >= 0.5 * height * (1 - 1e-9))
+        out.append(q[keep])
+    return np.concatenate(out) if out else np.zeros((0, 2))
+
+
 def _interior_point(poly: np.ndarray) -> np.ndarray:
     """A point strictly inside a simple polygon (centroid of the largest triangle of its triangulation)."""
     import triangle
@@ -440,7 +482,10 @@ def join_patch(face: TrimmedFace, proj: MeshProjection, mesh: TriMesh, loops_uv:
         _, lab = csgraph.connected_components(g, directed=False)
         first = np.unique(lab[central[:, 0]], return_index=True)[1]
         holes.extend(uv[central[first]].mean(axis=1))
-    pv = np.concatenate([rverts, uv[cb_vertices]])
+    n_fixed = nr + len(cb_vertices)       # dR and central boundary; then the pole rings' points, if any
+    ring = _pole_ring(loops_uv, loops_gid, np.concatenate(segs), np.concatenate([rverts, uv[cb_vertices]]),
+                      [uv[lp] for lp in loops_from_edges(central_be)] if len(central) else [])
+    pv = np.concatenate([rverts, uv[cb_vertices], ring])
     _check_pslg(face, pv, np.concatenate(segs), len(loops_uv))
     data = {"vertices": pv, "segments": np.concatenate(segs), "segment_markers": np.concatenate(marks)[:, None]}
     if holes:
@@ -470,7 +515,7 @@ def join_patch(face: TrimmedFace, proj: MeshProjection, mesh: TriMesh, loops_uv:
     p = tv[tt]
     area2 = (p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1]) - (p[:, 2, 0] - p[:, 0, 0]) * (p[:, 1, 1] - p[:, 0, 1])
     tt = np.where((area2 < 0)[:, None], tt[:, ::-1], tt)
-    new = np.arange(n_in, len(tv))
+    new = np.arange(n_fixed, len(tv))
     on_seg = vm[new] >= 2
     seg_of = vm[new] - 2
     # points on dR: reported back (loop, segment, fraction) for the caller to share with the neighbour
@@ -487,14 +532,14 @@ def join_patch(face: TrimmedFace, proj: MeshProjection, mesh: TriMesh, loops_uv:
             steiner.append((li, si, frac, int(vi)))
     ext_angles = _angles_deg(tv[tt]) if len(tt) else np.zeros((0, 3))
     min_ext = float(ext_angles.min(initial=180.0))
-    min_in = _pslg_min_angle(tv, tt, n_in)
+    min_in = _pslg_min_angle(tv, tt, n_fixed)
     # ---- assemble the combined mesh: central vertices (input ids), dR, central boundary, new points
     # vertex numbering: [0, n) input mesh vertices; [n, n + nr) dR vertices; then Triangle's new points
     tmap = np.empty(len(tv), dtype=np.int64)
     tmap[:nr] = n + np.arange(nr)
-    tmap[nr:n_in] = cb_vertices
-    tmap[n_in:] = n + nr + np.arange(len(new))
-    all_uv = np.concatenate([uv, rverts, tv[n_in:]])
+    tmap[nr:n_fixed] = cb_vertices
+    tmap[n_fixed:] = n + nr + np.arange(len(new))
+    all_uv = np.concatenate([uv, rverts, tv[n_fixed:]])
     ext_tris = tmap[tt]
     # merging (step 6): central triangles with points inserted on their boundary edges are split
     on_c = on_seg & (seg_of >= nr)
@@ -908,3 +953,69 @@ def split_boundary_edge(result: PatchResult, a: int, b: int, uv: np.ndarray) -> 
                            points=np.concatenate([result.points, np.zeros((1, 3))]),
                            heights=np.r_[result.heights, 0.0], gid=np.r_[result.gid, -1],
                            triangles=tris, external=ext, central_source=np.r_[result.central_source, -1]), v
+
+
+def _turned_in_3d(face: TrimmedFace, uv: np.ndarray, points: np.ndarray, tris: np.ndarray,
+                  gid: np.ndarray) -> np.ndarray:
+    """Triangles (counter-clockwise in (u, v)) whose 3D normal points against Su x Sv at their (u, v) centroid.
+
+    Triangles collapsed at a pole (two corners with one shared id: dropped when the faces are merged) and
+    triangles of zero area are not counted.
+    """
+    p = points[tris]
+    n3 = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    _, ns = _foot_normal(face, uv[tris].mean(axis=1))
+    g = np.where(gid[tris] >= 0, gid[tris], -1 - tris)
+    collapsed = (g[:, 0] == g[:, 1]) | (g[:, 1] == g[:, 2]) | (g[:, 0] == g[:, 2])
+    return (np.einsum("ij,ij->i", n3, ns) < 0) & ~collapsed
+
+
+def repair_pole_turns(face: TrimmedFace, result: PatchResult, *, max_passes: int = 20) -> tuple[PatchResult, int]:
+    """Flip interior edges of the external region where a triangle near a pole turns over in 3D.
+
+    Near a collapsed edge (a pole) the parametrization is singular -- the paper assumes a Jacobian of
+    full rank (Sec. II) -- and a triangle that is well shaped in (u, v) can be a sliver in 3D whose
+    orientation the reprojection's heights decide. Such a triangle's edge is flipped when the two
+    triangles on it form a strictly convex quadrilateral in (u, v) (so the patch stays a triangulation of
+    its region: M^-1 stays injective) and both new triangles face the surface normal's way. Edges on dR,
+    on the central mesh's boundary, or whose flip would join two shared boundary points are not flipped.
+    Returns the patch and the number of flips.
+    """
+    tris = result.triangles.copy()
+    ext = result.external
+    uv, pts, gid = result.uv, result.points, result.gid
+    n_flips = 0
+    for _ in range(max_passes):
+        bad = np.flatnonzero(_turned_in_3d(face, uv, pts, tris, gid) & ext)
+        if not len(bad):
+            break
+        # directed edge (a, b) -> triangle
+        he = np.stack([tris, np.roll(tris, -1, axis=1)], axis=2).reshape(-1, 2)
+        owner = {(int(a), int(b)): k // 3 for k, (a, b) in enumerate(he.tolist())}
+        changed = False
+        for t in bad.tolist():
+            for c in range(3):
+                a, b, x = (int(v) for v in (tris[t, c], tris[t, (c + 1) % 3], tris[t, (c + 2) % 3]))
+                o = owner.get((b, a))
+                if o is None or not ext[o]:
+                    continue
+                y = int(next(v for v in tris[o] if v != a and v != b))
+                if gid[x] >= 0 and gid[y] >= 0:
+                    continue
+                new = np.array([[a, y, x], [y, b, x]], dtype=np.int64)
+                w = uv[new]
+                if not np.all(orient2d(w[:, 0], w[:, 1], w[:, 2]) > 0):
+                    continue
+                if _turned_in_3d(face, uv, pts, new, gid).any():
+                    continue
+                tris[t], tris[o] = new
+                n_flips += 1
+                changed = True
+                break
+            if changed:
+                break
+        if not changed:
+            break
+    if not n_flips:
+        return result, 0
+    return result._replace(triangles=tris, pole_flips=result.pole_flips + n_flips), n_flips

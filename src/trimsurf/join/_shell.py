@@ -14,7 +14,7 @@ from ._boundary import EdgePolyline, arc_length_fractions, delete_loops, edge_ta
     sample_edge_curve
 from ._chains import mesh_chains
 from ._patch import PAPER_BOUNDARY_ANGLE_DEG, PAPER_MIN_ANGLE_DEG, _angles_deg, cached_scale, MeshProjection, PatchResult, heights, join_patch, project_mesh, \
-    project_near, project_points, split_edges
+    project_near, project_points, repair_pole_turns, split_edges
 
 __all__ = ["FaceReport", "JoinResult", "join_shell"]
 
@@ -50,6 +50,7 @@ class FaceReport:
     whitney_blocks: float = 0.0
     boundary_steiner_allowed: bool = True   # False: last pass without points on dR (no angle guarantee)
     refine_passes: int = 0           # Triangle size-refinement passes until the strip met the deflection
+    pole_flips: int = 0              # edges flipped beside a pole where a triangle turned over in 3D
 
     def as_dict(self) -> dict:
         return {k: (float(v) if isinstance(v, (float, np.floating)) else v) for k, v in self.__dict__.items()}
@@ -478,6 +479,12 @@ def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool
                                                            merge=_MERGE_FRACTION)
             todo |= {u[0] for u in ed.uses if results[u[0]] is not None}
     n_chords = _split_conflicting_chords(shell, results)
+    # beside a pole the parametrization is singular (outside Sec. II's hypothesis): edges of the external
+    # region are flipped where a triangle turns over in 3D (`repair_pole_turns`)
+    pole_faces = {u[0] for e in edges if e.degenerate for u in e.uses}
+    for i in sorted(pole_faces):
+        if results[i] is not None:
+            results[i], _ = repair_pole_turns(shell.faces[i], results[i])
     gpos = ids.positions()
     mesh_out, vertex_of = _merge(shell, meshes, results, reports, gpos)
     res = JoinResult(mesh_out, reports, results, vertex_of, edges)
@@ -492,6 +499,7 @@ def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool
         rep.n_central, rep.n_removed, rep.n_split_long = r.n_central, r.n_removed, r.n_split_long
         rep.whitney_blocks = r.whitney_blocks
         rep.boundary_steiner_allowed = r.boundary_steiner_allowed
+        rep.pole_flips = int(r.pole_flips)
         rep.refine_passes = int(r.seconds.get("refine_passes", 0))
         face = shell.faces[i]
         if measure:
@@ -582,10 +590,12 @@ def _summary(shell: Shell, res: JoinResult, measure: bool = True) -> dict:
         "max_slope_over_lipschitz": slope_ratio,
         "min_angle_external_deg": fmin([f.min_angle_external_deg for f in ok]),
         "min_boundary_angle_deg": fmin([f.min_input_angle_deg for f in ok]),
-        "faces_angle_bound_claimed": int(sum(1 for f in ok if f.boundary_steiner_allowed
+        "faces_angle_bound_claimed": int(sum(1 for f in ok if f.boundary_steiner_allowed and not f.pole_flips
                                              and f.min_input_angle_deg >= 26.45)),
         "faces_angle_bound_not_claimed": [f.face for f in ok if not (f.boundary_steiner_allowed
+                                                                     and not f.pole_flips
                                                                      and f.min_input_angle_deg >= 26.45)],
+        "pole_flips": int(sum(f.pole_flips for f in ok)),
         "boundary_edges_on_joins": n_on_joins,
         "boundary_edges": int(len(res.mesh.boundary_edges())) if measure else None,
         "non_manifold_edges": int(len(res.mesh.non_manifold_edges())) if measure else None,
