@@ -25,7 +25,8 @@ the one whose ``src`` folder is SRC (e.g. ``git archive 671caca src | tar -x -C 
 best-of-``--repeats`` join time of every round and their medians, so both see the same machine load. A
 reference without the ``deflection`` argument (before issue 13) joins without the size refinement.
 
-Usage: python benchmarks/join_scaling.py [--json out.json] [--quick] [--reference SRC [--rounds K]]
+Usage: python benchmarks/join_scaling.py [--json out.json] [--quick | --sizes N:SIGMA,...]
+       [--reference SRC [--rounds K] [--repeats R]]
 """
 
 from __future__ import annotations
@@ -169,6 +170,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--json", type=Path, help="also write the rows as JSON")
     parser.add_argument("--quick", action="store_true", help="only the two smallest sizes")
+    parser.add_argument("--sizes", help="only these sizes, e.g. 1000000:1000 (n:sigma, comma separated)")
     parser.add_argument("--reference", type=Path, help="src folder of another trimsurf: run side by side")
     parser.add_argument("--rounds", type=int, default=3, help="side by side: alternations (default 3)")
     parser.add_argument("--repeats", type=int, help=f"joins per size, the best kept (default {REPEATS}; "
@@ -176,6 +178,8 @@ def main(argv=None) -> int:
     parser.add_argument("--child", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     sizes = QUICK if args.quick else SIZES
+    if args.sizes:
+        sizes = [tuple(int(x) for x in item.split(":")) for item in args.sizes.split(",")]
     if args.reference:
         rows = side_by_side(args.reference.resolve(), sizes, args.rounds, args.repeats or REPEATS)
         if args.json:

@@ -337,43 +337,61 @@ def central_mask(uv: np.ndarray, tris: np.ndarray, loops_uv: list[np.ndarray], *
     return keep, be
 
 
-def _pole_ring(loops_w: list[np.ndarray], loops_gid: list[np.ndarray], segments: np.ndarray,
-               vertices: np.ndarray, central_loops: list) -> np.ndarray:
-    """Points Triangle is given beside a pole: one apex of an equilateral triangle over every pole piece of dR.
+_CUSP_FAN_DEG = 1.0    # a pole whose face opens by less than this (seen from the pole, one ring away) is a cusp
+
+
+def _pole_ring(face: TrimmedFace, scale: np.ndarray, loops_w: list[np.ndarray], loops_xyz: list[np.ndarray],
+               loops_gid: list[np.ndarray], segments: np.ndarray, vertices: np.ndarray,
+               central_loops: list) -> np.ndarray:
+    """Points Triangle is given beside a cusp pole: one apex of an equilateral triangle over every pole piece.
 
     Along a collapsed edge the parametrization is singular (the paper assumes a Jacobian of full rank,
-    Sec. II): a triangle with a corner at the pole and its two other corners at different distances
-    from the pole can turn over in 3D although it is well shaped in (u, v). With the apexes at one
-    distance from the pole line, the triangles between the pole and the apexes have their two
-    non-pole corners at the same distance, which keeps their 3D orientation. Apexes outside R, in the
-    central mesh, or nearer than half their height to any other segment are left out.
+    Sec. II). Where the face ends in a cusp -- its width falls faster than the distance to the pole, so
+    seen from the pole it opens by less than `_CUSP_FAN_DEG` at the apexes' distance (U_Joint's thin
+    faces: 0.006-0.04 deg) -- a triangle with a corner at the pole and its two other corners at
+    different distances from the pole line turns over in 3D although it is well shaped in (u, v). With
+    the apexes at one distance from the pole line, the triangles between the pole and the apexes have
+    their two other corners at the same distance, which keeps their 3D orientation. A pole where the
+    face opens by more (a cone's or a sphere's apex, a surface of revolution's axis) gets no ring: its
+    parametrization is polar and Triangle's strip does not turn there. Apexes outside R, in the central
+    mesh, or nearer than half their height to any other segment are left out.
     """
     out = []
-    for lp, g in zip(loops_w, loops_gid):
+    sa, sb = vertices[segments[:, 0]], vertices[segments[:, 1]]
+    for lp, xyz, g in zip(loops_w, loops_xyz, loops_gid):
         k = len(lp)
         nxt = (np.arange(k) + 1) % k
-        pole = np.flatnonzero((g == g[nxt]) & (g >= 0))
-        if not len(pole):
-            continue
-        a, b = lp[pole], lp[nxt[pole]]
-        d = b - a
-        h = np.linalg.norm(d, axis=1)
-        ok = h > 0
-        a, b, d, h = a[ok], b[ok], d[ok], h[ok]
-        left = np.column_stack([-d[:, 1], d[:, 0]]) / h[:, None]
-        mid = 0.5 * (a + b)
-        height = 0.5 * np.sqrt(3.0) * h
-        for side in (1.0, -1.0):
-            q = mid + side * left * height[:, None]
-            inside = points_in_polygons(q, loops_w)
-            if central_loops:
-                inside &= ~points_in_polygons(q, central_loops)
-            if inside.sum() * 2 >= len(q):
-                break
-        sa, sb = vertices[segments[:, 0]], vertices[segments[:, 1]]
-        near = _point_segment_distance(q, sa, sb)
-        keep = inside & (near >= 0.5 * height * (1 - 1e-9))
-        out.append(q[keep])
+        on_pole = (g == g[nxt]) & (g >= 0)
+        for pole_id in np.unique(g[on_pole]):
+            piece = np.flatnonzero(on_pole & (g == pole_id))
+            a, b = lp[piece], lp[nxt[piece]]
+            d = b - a
+            h = np.linalg.norm(d, axis=1)
+            ok = h > 0
+            if not ok.any():
+                continue
+            a, b, d, h = a[ok], b[ok], d[ok], h[ok]
+            left = np.column_stack([-d[:, 1], d[:, 0]]) / h[:, None]
+            mid = 0.5 * (a + b)
+            height = 0.5 * np.sqrt(3.0) * h
+            for side in (1.0, -1.0):
+                q = mid + side * left * height[:, None]
+                inside = points_in_polygons(q, loops_w)
+                if central_loops:
+                    inside &= ~points_in_polygons(q, central_loops)
+                if inside.sum() * 2 >= len(q):
+                    break
+            keep = inside & (_point_segment_distance(q, sa, sb) >= 0.5 * height * (1 - 1e-9))
+            if keep.sum() < 2:
+                continue
+            ray = face.surface.evaluate(q[keep] / scale) - xyz[piece[0]]
+            ln = np.linalg.norm(ray, axis=1)
+            if not np.all(ln > 0):
+                continue
+            ray /= ln[:, None]
+            fan = float(np.degrees(np.arccos(np.clip(ray @ ray.T, -1.0, 1.0))).max())
+            if fan < _CUSP_FAN_DEG:
+                out.append(q[keep])
     return np.concatenate(out) if out else np.zeros((0, 2))
 
 
@@ -483,7 +501,8 @@ def join_patch(face: TrimmedFace, proj: MeshProjection, mesh: TriMesh, loops_uv:
         first = np.unique(lab[central[:, 0]], return_index=True)[1]
         holes.extend(uv[central[first]].mean(axis=1))
     n_fixed = nr + len(cb_vertices)       # dR and central boundary; then the pole rings' points, if any
-    ring = _pole_ring(loops_uv, loops_gid, np.concatenate(segs), np.concatenate([rverts, uv[cb_vertices]]),
+    ring = _pole_ring(face, scale, loops_uv, loops_xyz, loops_gid, np.concatenate(segs),
+                      np.concatenate([rverts, uv[cb_vertices]]),
                       [uv[lp] for lp in loops_from_edges(central_be)] if len(central) else [])
     pv = np.concatenate([rverts, uv[cb_vertices], ring])
     _check_pslg(face, pv, np.concatenate(segs), len(loops_uv))
