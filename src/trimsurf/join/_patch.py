@@ -18,6 +18,12 @@ use its edge. Here, for one face:
 * step 5 -- every vertex is reprojected to F(p) + a(p) n(p), a the Whitney
   average of the boundary discrepancy eps (eqs. 3, 4); vertices on dR are
   the shared boundary points themselves.
+
+Beside a collapsed edge (a pole) the parametrization is singular, outside
+Sec. II's hypothesis of a Jacobian of full rank. Where the face ends in a
+cusp there, Triangle is given a ring of points beside the pole (`_pole_ring`)
+and the caller flips external edges where a triangle still turns over in 3D
+(`repair_pole_turns`); such faces claim no angle bound.
 """
 
 from __future__ import annotations
