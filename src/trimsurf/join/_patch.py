@@ -61,6 +61,8 @@ class MeshProjection(NamedTuple):
     n_turned: int             # triangles turned over in (u, v) (M^-1 not injective if > 0)
     max_distance: float
     boundary_edges: np.ndarray  # (k, 2) directed boundary edges of the mesh (in `triangles`' orientation)
+    foot: np.ndarray | None = None    # (n, 3) F(uv) where the projection evaluated it last (NaN rows: not known)
+    normal: np.ndarray | None = None  # (n, 3) unit Su x Sv there (zero where undefined)
 
 
 def _surface_args(face: TrimmedFace):
@@ -76,6 +78,8 @@ def project_points(face: TrimmedFace, points, uv0=None):
 class _Proj(NamedTuple):
     uv: np.ndarray
     distance: np.ndarray
+    foot: np.ndarray | None = None     # F(uv) from the last Gauss-Newton evaluation (NaN rows: not known)
+    normal: np.ndarray | None = None
 
 
 def project_near(face: TrimmedFace, points: np.ndarray, uv0: np.ndarray, *, spacing: float) -> _Proj:
@@ -89,12 +93,14 @@ def project_near(face: TrimmedFace, points: np.ndarray, uv0: np.ndarray, *, spac
         return _Proj(np.zeros((0, 2)), np.zeros(0))
     lo_c, hi_c = face.surface.control_bbox()
     tol = 1e-10 * float(np.linalg.norm(hi_c - lo_c))
-    uv, _, dist, ok = _newton_from_uv(face, points, np.asarray(uv0, dtype=np.float64), tol=tol,
-                                      max_dist=0.25 * spacing)
+    uv, foot, dist, ok, nrm = _newton_from_uv(face, points, np.asarray(uv0, dtype=np.float64), tol=tol,
+                                              max_dist=0.25 * spacing, with_normals=True)
     if not ok.all():
         rest = project_points(face, points[~ok], uv0=np.asarray(uv0)[~ok])
         uv[~ok], dist[~ok] = rest.uv, rest.distance
-    return _Proj(uv, dist)
+        foot[~ok] = np.nan
+        nrm[~ok] = np.nan
+    return _Proj(uv, dist, foot, nrm)
 
 
 def heights(face: TrimmedFace, uv, points) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -133,7 +139,7 @@ def cached_scale(face: TrimmedFace, proj: MeshProjection, cache: dict | None) ->
 
 
 def _newton_from_uv(face: TrimmedFace, points: np.ndarray, uv0: np.ndarray, *, tol: float, max_dist: float,
-                    iterations: int = 4):
+                    iterations: int = 4, with_normals: bool = False):
     """Closest points by Gauss-Newton from the mesh's own (u, v); returns (uv, foot, distance, ok).
 
     ``ok`` marks points that converged (tangential residual |(S - P).S_u| / |S_u| and the same for v at
@@ -169,7 +175,13 @@ def _newton_from_uv(face: TrimmedFace, points: np.ndarray, uv0: np.ndarray, *, t
         step[~np.isfinite(step).all(axis=1) | conv | (held_u & held_v)] = 0.0
         uv = np.clip(uv + step, lo, hi)
     dist = np.linalg.norm(foot - points, axis=1)
-    return uv, foot, dist, conv & (dist <= max_dist)
+    if not with_normals:
+        return uv, foot, dist, conv & (dist <= max_dist)
+    # F and n at the returned (u, v) (the last evaluation): as `_foot_normal` would give them
+    nrm = np.cross(su, sv)
+    ln = np.linalg.norm(nrm, axis=1)
+    nrm = np.where(ln[:, None] > 0, nrm / np.where(ln > 0, ln, 1.0)[:, None], 0.0)
+    return uv, foot.copy(), dist, conv & (dist <= max_dist), nrm
 
 
 def project_mesh(face: TrimmedFace, mesh: TriMesh) -> MeshProjection:
@@ -193,7 +205,7 @@ def project_mesh(face: TrimmedFace, mesh: TriMesh) -> MeshProjection:
     ext = float(np.ptp(pr.uv, axis=0).max()) if len(pr.uv) else 0.0
     n_turned = int(np.count_nonzero((sign == -major) & (np.abs(area) > _SLIVER_REL * ext * ext)))
     return MeshProjection(pr.uv, pr.distance, tris, n_turned, float(pr.distance.max(initial=0.0)),
-                          _boundary_edges(tris, len(pr.uv)))
+                          _boundary_edges(tris, len(pr.uv)), getattr(pr, "foot", None), getattr(pr, "normal", None))
 
 
 class PatchResult(NamedTuple):
@@ -615,6 +627,10 @@ def join_patch(face: TrimmedFace, proj: MeshProjection, mesh: TriMesh, loops_uv:
     if cache is not None and "foot" in cache:
         foot[:n], nrm[:n] = cache["foot"], cache["normal"]
         need[:n] = False
+    elif proj.foot is not None:
+        # step 1 evaluated F and its normal at these (u, v) already (its last Gauss-Newton step)
+        foot[:n], nrm[:n] = proj.foot, proj.normal
+        need[:n] = ~np.isfinite(proj.foot).all(axis=1)
     else:
         need[:n] = True
     f_, n_ = _foot_normal(face, all_uv[need])
