@@ -63,6 +63,7 @@ class MeshProjection(NamedTuple):
     boundary_edges: np.ndarray  # (k, 2) directed boundary edges of the mesh (in `triangles`' orientation)
     foot: np.ndarray | None = None    # (n, 3) F(uv) where the projection evaluated it last (NaN rows: not known)
     normal: np.ndarray | None = None  # (n, 3) unit Su x Sv there (zero where undefined)
+    speeds: np.ndarray | None = None  # (n, 2) |Su|, |Sv| there
 
 
 def _surface_args(face: TrimmedFace):
@@ -80,6 +81,7 @@ class _Proj(NamedTuple):
     distance: np.ndarray
     foot: np.ndarray | None = None     # F(uv) from the last Gauss-Newton evaluation (NaN rows: not known)
     normal: np.ndarray | None = None
+    speeds: np.ndarray | None = None   # |Su|, |Sv| there
 
 
 def project_near(face: TrimmedFace, points: np.ndarray, uv0: np.ndarray, *, spacing: float) -> _Proj:
@@ -93,14 +95,15 @@ def project_near(face: TrimmedFace, points: np.ndarray, uv0: np.ndarray, *, spac
         return _Proj(np.zeros((0, 2)), np.zeros(0))
     lo_c, hi_c = face.surface.control_bbox()
     tol = 1e-10 * float(np.linalg.norm(hi_c - lo_c))
-    uv, foot, dist, ok, nrm = _newton_from_uv(face, points, np.asarray(uv0, dtype=np.float64), tol=tol,
-                                              max_dist=0.25 * spacing, with_normals=True)
+    uv, foot, dist, ok, nrm, speeds = _newton_from_uv(face, points, np.asarray(uv0, dtype=np.float64), tol=tol,
+                                                      max_dist=0.25 * spacing, with_normals=True)
     if not ok.all():
         rest = project_points(face, points[~ok], uv0=np.asarray(uv0)[~ok])
         uv[~ok], dist[~ok] = rest.uv, rest.distance
         foot[~ok] = np.nan
         nrm[~ok] = np.nan
-    return _Proj(uv, dist, foot, nrm)
+        speeds[~ok] = np.nan
+    return _Proj(uv, dist, foot, nrm, speeds)
 
 
 def heights(face: TrimmedFace, uv, points) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -118,12 +121,19 @@ def heights(face: TrimmedFace, uv, points) -> tuple[np.ndarray, np.ndarray, np.n
     return eta, foot, nrm
 
 
-def parameter_scale(face: TrimmedFace, uv: np.ndarray) -> np.ndarray:
-    """(|Su|, |Sv|) medians over `uv` (at most 2000 of them): the scale of the working parameters w."""
-    pick = uv[:: max(1, len(uv) // 2000)]
-    d = face.surface.derivatives(pick, 1)
-    su = np.linalg.norm(d[1, 0], axis=1)
-    sv = np.linalg.norm(d[0, 1], axis=1)
+def parameter_scale(face: TrimmedFace, uv: np.ndarray, speeds: np.ndarray | None = None) -> np.ndarray:
+    """(|Su|, |Sv|) medians over `uv` (at most 2000 of them): the scale of the working parameters w.
+
+    `speeds`: (|Su|, |Sv|) at `uv` if already evaluated (NaN rows: not known).
+    """
+    step = max(1, len(uv) // 2000)
+    known = None if speeds is None else speeds[::step]
+    if known is not None and np.isfinite(known).all():
+        su, sv = known[:, 0], known[:, 1]
+    else:
+        d = face.surface.derivatives(uv[::step], 1)
+        su = np.linalg.norm(d[1, 0], axis=1)
+        sv = np.linalg.norm(d[0, 1], axis=1)
     out = np.array([np.median(su[su > 0]) if np.any(su > 0) else 1.0,
                     np.median(sv[sv > 0]) if np.any(sv > 0) else 1.0])
     return out
@@ -132,9 +142,9 @@ def parameter_scale(face: TrimmedFace, uv: np.ndarray) -> np.ndarray:
 def cached_scale(face: TrimmedFace, proj: MeshProjection, cache: dict | None) -> np.ndarray:
     """`parameter_scale` of a projected mesh, computed once per face (``cache["scale"]``)."""
     if cache is None:
-        return parameter_scale(face, proj.uv)
+        return parameter_scale(face, proj.uv, proj.speeds)
     if "scale" not in cache:
-        cache["scale"] = parameter_scale(face, proj.uv)
+        cache["scale"] = parameter_scale(face, proj.uv, proj.speeds)
     return cache["scale"]
 
 
@@ -181,7 +191,8 @@ def _newton_from_uv(face: TrimmedFace, points: np.ndarray, uv0: np.ndarray, *, t
     nrm = np.cross(su, sv)
     ln = np.linalg.norm(nrm, axis=1)
     nrm = np.where(ln[:, None] > 0, nrm / np.where(ln > 0, ln, 1.0)[:, None], 0.0)
-    return uv, foot.copy(), dist, conv & (dist <= max_dist), nrm
+    speeds = np.column_stack([np.linalg.norm(su, axis=1), np.linalg.norm(sv, axis=1)])   # as parameter_scale
+    return uv, foot.copy(), dist, conv & (dist <= max_dist), nrm, speeds
 
 
 def project_mesh(face: TrimmedFace, mesh: TriMesh) -> MeshProjection:
@@ -205,7 +216,8 @@ def project_mesh(face: TrimmedFace, mesh: TriMesh) -> MeshProjection:
     ext = float(np.ptp(pr.uv, axis=0).max()) if len(pr.uv) else 0.0
     n_turned = int(np.count_nonzero((sign == -major) & (np.abs(area) > _SLIVER_REL * ext * ext)))
     return MeshProjection(pr.uv, pr.distance, tris, n_turned, float(pr.distance.max(initial=0.0)),
-                          _boundary_edges(tris, len(pr.uv)), getattr(pr, "foot", None), getattr(pr, "normal", None))
+                          _boundary_edges(tris, len(pr.uv)), getattr(pr, "foot", None), getattr(pr, "normal", None),
+                          getattr(pr, "speeds", None))
 
 
 class PatchResult(NamedTuple):
