@@ -47,3 +47,10 @@ def test_turbine_pinched_face_chains_and_baseline_sews(shared_data):
     be = base.mesh.boundary_edges()
     assert not base.on_joint[be].all(axis=1).any()
     assert len(base.mesh.non_manifold_edges()) == 0
+
+
+def test_pinch_in_an_inconsistently_oriented_mesh_does_not_crash():
+    # the second fan turned the other way: no fan walk exists; the plain walk is taken instead of a KeyError
+    tris = np.array([[0, 1, 2], [0, 2, 3], [0, 4, 5], [0, 6, 5]])
+    loops = mesh_boundary_loops(tris, 7)
+    assert sum(len(lp) for lp in loops) >= 4

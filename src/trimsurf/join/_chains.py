@@ -40,16 +40,19 @@ def mesh_boundary_loops(triangles: np.ndarray, n: int) -> list[np.ndarray]:
         raise RuntimeError("boundary walk did not end")   # pragma: no cover - not a triangle mesh
 
     loops, used = [], set()
-    for a, b in sorted(boundary):
-        if (a, b) in used:
-            continue
-        lp, e = [], (a, b)
-        while e not in used:
-            used.add(e)
-            lp.append(e[0])
-            e = (e[1], successor(*e))
-        if len(lp) >= 2:
-            loops.append(np.array(lp, dtype=np.int64))
+    try:
+        for a, b in sorted(boundary):
+            if (a, b) in used:
+                continue
+            lp, e = [], (a, b)
+            while e not in used:
+                used.add(e)
+                lp.append(e[0])
+                e = (e[1], successor(*e))
+            if len(lp) >= 2:
+                loops.append(np.array(lp, dtype=np.int64))
+    except KeyError:   # not consistently oriented around the pinch: no fan to follow, the plain walk
+        return loops_from_edges(be, min_length=2)
     return loops
 
 
