@@ -48,7 +48,7 @@ EPILOG = examples("trimsurf batch cad/ -o review/ --jobs tessellate,view",
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("inputs", nargs="+", type=Path, metavar="INPUT",
-                        help="CAD files (STEP, IGES, VDAFS), folders of them (recursive), or manifest .csv files")
+                        help="CAD files (STEP, IGES, BREP, VDAFS), folders of them (recursive), or manifest .csv files")
     parser.add_argument("-o", "--output", dest="out", type=Path, required=True, metavar="OUT/",
                         help="output folder (created; parts that are already done there are skipped)")
     parser.add_argument("--jobs", default="tessellate", metavar="JOB,...",

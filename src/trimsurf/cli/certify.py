@@ -43,7 +43,7 @@ points (gap_max).
 Exit status 0 when everything is certified, 1 when something is not (the
 lines say which faces and where), 2 for unreadable input.
 
-MODEL is a STEP, IGES or VDAFS file, or the name of an embedded sample
+MODEL is a STEP, IGES, BREP or VDAFS file, or the name of an embedded sample
 (`trimsurf samples --list`)."""
 EPILOG = examples("trimsurf certify part.step --report part-cert.json",
                   "trimsurf certify part.step --write-mesh well-defined.ply",

@@ -18,7 +18,8 @@ __all__ = ["NAME", "HELP", "add_args", "run", "shell_report", "mesh_report", "fo
 NAME = "info"
 HELP = "describe a CAD file (faces, surfaces, loops, edges, problems) or a mesh file (topology, quality)"
 DESCRIPTION = """\
-Describe a CAD file (STEP, IGES, VDAFS) or a mesh file (OBJ, PLY, STL, OFF, glTF).
+Describe a CAD file (STEP, IGES, BREP, VDAFS) or a mesh file (OBJ, PLY, STL, OFF, glTF,
+VTK/VTU, Gmsh MSH, Abaqus INP, Nastran BDF).
 
 For CAD files: faces, surface kinds (degrees, rational or not, control-net size),
 loops and their segments, bounding box and diagonal, edges (shared, free,

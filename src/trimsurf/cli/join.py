@@ -26,7 +26,7 @@ result is one mesh whose patch boundaries share their vertices exactly, with
 absolute error and slope no larger than along the boundary, and no flipped
 triangle.
 
-MODEL is a STEP/IGES/VDAFS file or the name of an embedded sample
+MODEL is a STEP/IGES/BREP/VDAFS file or the name of an embedded sample
 (`trimsurf samples --list`, e.g. folding_pair). Without --meshes the faces
 are meshed first (Open CASCADE's mesher, or trimsurf's tessellator with
 --mesher trimsurf); with --independent every face is meshed alone at its own

@@ -15,8 +15,9 @@ NAME = "samples"
 HELP = "list the embedded sample models or write one to a file"
 DESCRIPTION = """\
 List the embedded sample models (built procedurally, no download) or write one.
-CAD samples (trimmed B-spline faces) are written as STEP (.step/.stp) or VDAFS
-(.vda); mesh samples as OBJ, PLY, STL, OFF, glTF or GLB, chosen by the suffix."""
+CAD samples (trimmed B-spline faces) are written as STEP (.step/.stp), Open
+CASCADE BREP (.brep) or VDAFS (.vda); mesh samples as OBJ, PLY, STL, OFF, glTF,
+GLB, VTK/VTU, Gmsh MSH, Abaqus INP or Nastran BDF, chosen by the suffix."""
 EPILOG = examples("trimsurf samples --list",
                   "trimsurf samples fender --out fender.step",
                   "trimsurf samples s_cone --out s_cone.obj")

@@ -27,7 +27,7 @@ Gaussian, mean or max |principal| curvature as a red-to-blue colour map with a
 colour bar (discrete estimate on meshes; exact from the NURBS derivatives with
 --exact). mesh: flat shading with the triangle edges.
 
-CAD input (STEP, IGES, VDAFS) is tessellated with `trimsurf tessellate`'s
+CAD input (STEP, IGES, BREP, VDAFS) is tessellated with `trimsurf tessellate`'s
 defaults first; --exact adds the exact surface (dense (u, v) refinement with
 exact normals and curvatures) beside it, to tell mesh artefacts from surface
 features. --compare puts a second model beside the first, same camera.
@@ -53,7 +53,7 @@ def _pair(text: str, kind, n: int, name: str):
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("input", metavar="INPUT", help="mesh (OBJ, PLY, STL, OFF, glTF) or CAD file "
-                        "(STEP, IGES, VDAFS), or a sample name")
+                        "(STEP, IGES, BREP, VDAFS), or a sample name")
     parser.add_argument("--mode", choices=("zebra", "highlight", "curvature", "mesh"), default="zebra",
                         help="what to show (default: zebra)")
     parser.add_argument("--png", type=Path, metavar="OUT.png", help="write an offscreen picture")
