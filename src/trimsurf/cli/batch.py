@@ -87,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
             link = dashboard_link(client)
             where = args.scheduler or "local cluster"
             n = len(client.scheduler_info().get("workers", {}))
-            print(f"trimsurf: batch on {where} ({n} workers), "
+            print(f"trimsurf: batch on {where} ({n} worker{'' if n == 1 else 's'}), "
                   + (f"dashboard {link}" if link else "no dashboard (it needs bokeh on the scheduler)"),
                   file=sys.stderr, flush=True)
 
