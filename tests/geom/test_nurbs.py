@@ -141,3 +141,33 @@ def test_bad_input():
         s.evaluate(np.zeros((3, 3)))
     with pytest.raises(GeometryError, match="NaN"):
         s.evaluate([[np.nan, 0.0]])
+
+
+@settings(max_examples=25, deadline=None)
+@given(p=st.integers(1, 7), dim=st.sampled_from([2, 3]), rational=st.booleans(), seed=st.integers(0, 2**31))
+def test_curve_points_kernel_matches_scipy(p, dim, rational, seed):
+    # points only (n_derivs=0) go through the compiled kernel; t beyond the domain is clamped
+    rng = np.random.default_rng(seed)
+    n = p + 1 + rng.integers(0, 6)
+    k = random_knots(rng, p, n)
+    cp = rng.normal(size=(n, dim))
+    w = rng.uniform(0.3, 3.0, n) if rational else np.ones(n)
+    t = np.r_[rng.uniform(0, 4, 40), k[p], k[-p - 1]]
+    ref = BSpline(k, cp * w[:, None], p)(t) / BSpline(k, w, p)(t)[:, None]
+    ours = geom.curve_points(p, k, cp, w if rational else None, t)
+    assert_allclose(ours, ref, rtol=0, atol=1e-12 * max(1.0, np.abs(ref).max()))
+    lo = geom.curve_points(p, k, cp, w if rational else None, [k[p] - 1.0])
+    assert_allclose(lo[0], ref[-2], rtol=0, atol=1e-12 * max(1.0, np.abs(ref).max()))
+
+
+def test_homogeneous_net_cached_only_for_read_only_arrays():
+    from trimsurf.geom.nurbs import _homogeneous
+
+    cp = np.arange(12.0).reshape(4, 3)
+    w = np.array([1.0, 2.0, 1.0, 0.5])
+    a = _homogeneous(cp, w)
+    cp[0, 0] = 100.0                    # a writable array may change: never served from the cache
+    assert _homogeneous(cp, w)[0, 0] == 100.0 and a[0, 0] == 0.0
+    cp.setflags(write=False)
+    w.setflags(write=False)
+    assert _homogeneous(cp, w) is _homogeneous(cp, w)

@@ -74,71 +74,121 @@ def _ders_basis(span, t, p, knots, nd, ndu, a, left, right, ders):
 
 
 @njit(cache=True, nogil=True)
-def surface_derivatives_kernel(pu, pv, ku, kv, pw, rational, u, v, nd, out):
-    """out[k, l, i, :] = d^(k+l) S / du^k dv^l at (u[i], v[i]); pw homogeneous if rational."""
-    nu_ctrl, nv_ctrl, dimw = pw.shape
-    dim = dimw - 1 if rational else dimw
-    ndu_u = np.empty((pu + 1, pu + 1))
-    ndu_v = np.empty((pv + 1, pv + 1))
-    a_u = np.empty((2, pu + 1))
-    a_v = np.empty((2, pv + 1))
-    l_u = np.empty(pu + 1)
-    r_u = np.empty(pu + 1)
-    l_v = np.empty(pv + 1)
-    r_v = np.empty(pv + 1)
-    bu = np.empty((nd + 1, pu + 1))
-    bv = np.empty((nd + 1, pv + 1))
-    tmp = np.empty((nd + 1, pu + 1, dimw))
-    skl = np.empty((nd + 1, nd + 1, dimw))
+def _surface_scratch(pu, pv, nd, dimw):
+    """Work arrays of `_surface_point` (allocated once per kernel call, not per point)."""
     binom = np.zeros((nd + 1, nd + 1))
     for i in range(nd + 1):
         binom[i, 0] = 1.0
         for j in range(1, i + 1):
             binom[i, j] = binom[i - 1, j - 1] + (binom[i - 1, j] if j < i else 0.0)
-    for i in range(u.shape[0]):
-        su = _span(pu, ku, nu_ctrl, u[i])
-        sv = _span(pv, kv, nv_ctrl, v[i])
-        _ders_basis(su, u[i], pu, ku, nd, ndu_u, a_u, l_u, r_u, bu)
-        _ders_basis(sv, v[i], pv, kv, nd, ndu_v, a_v, l_v, r_v, bv)
-        # contract v: tmp[l, r] = sum_s bv[l, s] P[su - pu + r, sv - pv + s]
-        for l in range(nd + 1):
-            for r in range(pu + 1):
-                for d in range(dimw):
-                    tmp[l, r, d] = 0.0
-                for s in range(pv + 1):
-                    b = bv[l, s]
-                    if b != 0.0:
-                        row = su - pu + r
-                        col = sv - pv + s
-                        for d in range(dimw):
-                            tmp[l, r, d] += b * pw[row, col, d]
-        for k in range(nd + 1):
-            for l in range(nd + 1 - k):
-                for d in range(dimw):
-                    acc = 0.0
-                    for r in range(pu + 1):
-                        acc += bu[k, r] * tmp[l, r, d]
-                    skl[k, l, d] = acc
-        if not rational:
-            for k in range(nd + 1):
-                for l in range(nd + 1 - k):
-                    for d in range(dim):
-                        out[k, l, i, d] = skl[k, l, d]
-            continue
-        w0 = skl[0, 0, dim]
+    return (np.empty((pu + 1, pu + 1)), np.empty((pv + 1, pv + 1)), np.empty((2, pu + 1)), np.empty((2, pv + 1)),
+            np.empty(pu + 1), np.empty(pu + 1), np.empty(pv + 1), np.empty(pv + 1),
+            np.empty((nd + 1, pu + 1)), np.empty((nd + 1, pv + 1)), np.empty((nd + 1, pu + 1, dimw)),
+            np.empty((nd + 1, nd + 1, dimw)), binom)
+
+
+@njit(cache=True, nogil=True)
+def _surface_point(pu, pv, ku, kv, pw, rational, u, v, nd, scratch, out, i):
+    """out[k, l, i, :] = d^(k+l) S / du^k dv^l at (u, v) (A3.6, A4.4)."""
+    ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, binom = scratch
+    nu_ctrl, nv_ctrl, dimw = pw.shape
+    dim = dimw - 1 if rational else dimw
+    su = _span(pu, ku, nu_ctrl, u)
+    sv = _span(pv, kv, nv_ctrl, v)
+    _ders_basis(su, u, pu, ku, nd, ndu_u, a_u, l_u, r_u, bu)
+    _ders_basis(sv, v, pv, kv, nd, ndu_v, a_v, l_v, r_v, bv)
+    # contract v: tmp[l, r] = sum_s bv[l, s] P[su - pu + r, sv - pv + s]
+    for l in range(nd + 1):
+        for r in range(pu + 1):
+            for d in range(dimw):
+                tmp[l, r, d] = 0.0
+            for s in range(pv + 1):
+                b = bv[l, s]
+                if b != 0.0:
+                    row = su - pu + r
+                    col = sv - pv + s
+                    for d in range(dimw):
+                        tmp[l, r, d] += b * pw[row, col, d]
+    for k in range(nd + 1):
+        for l in range(nd + 1 - k):
+            for d in range(dimw):
+                acc = 0.0
+                for r in range(pu + 1):
+                    acc += bu[k, r] * tmp[l, r, d]
+                skl[k, l, d] = acc
+    if not rational:
         for k in range(nd + 1):
             for l in range(nd + 1 - k):
                 for d in range(dim):
-                    val = skl[k, l, d]
+                    out[k, l, i, d] = skl[k, l, d]
+        return
+    w0 = skl[0, 0, dim]
+    for k in range(nd + 1):
+        for l in range(nd + 1 - k):
+            for d in range(dim):
+                val = skl[k, l, d]
+                for j in range(1, l + 1):
+                    val -= binom[l, j] * skl[0, j, dim] * out[k, l - j, i, d]
+                for q in range(1, k + 1):
+                    val -= binom[k, q] * skl[q, 0, dim] * out[k - q, l, i, d]
+                    v2 = 0.0
                     for j in range(1, l + 1):
-                        val -= binom[l, j] * skl[0, j, dim] * out[k, l - j, i, d]
-                    for q in range(1, k + 1):
-                        val -= binom[k, q] * skl[q, 0, dim] * out[k - q, l, i, d]
-                        v2 = 0.0
-                        for j in range(1, l + 1):
-                            v2 += binom[l, j] * skl[q, j, dim] * out[k - q, l - j, i, d]
-                        val -= binom[k, q] * v2
-                    out[k, l, i, d] = val / w0
+                        v2 += binom[l, j] * skl[q, j, dim] * out[k - q, l - j, i, d]
+                    val -= binom[k, q] * v2
+                out[k, l, i, d] = val / w0
+
+
+@njit(cache=True, nogil=True)
+def surface_derivatives_kernel(pu, pv, ku, kv, pw, rational, u, v, nd, out):
+    """out[k, l, i, :] = d^(k+l) S / du^k dv^l at (u[i], v[i]); pw homogeneous if rational."""
+    scratch = _surface_scratch(pu, pv, nd, pw.shape[2])
+    for i in range(u.shape[0]):
+        _surface_point(pu, pv, ku, kv, pw, rational, u[i], v[i], nd, scratch, out, i)
+
+
+@njit(cache=True, nogil=True)
+def surface_distance_kernel(pu, pv, ku, kv, pw, rational, uv, x, steps, best):
+    """`trimsurf.tessellate.face.surface_distance` per point: |S(uv) - x| and `steps` Gauss-Newton
+    steps of the foot point (clipped to the domain), the smallest distance met."""
+    u0, u1 = ku[pu], ku[ku.shape[0] - pu - 1]
+    v0, v1 = kv[pv], kv[kv.shape[0] - pv - 1]
+    s1 = _surface_scratch(pu, pv, 1, pw.shape[2])
+    s0 = _surface_scratch(pu, pv, 0, pw.shape[2])
+    d1 = np.zeros((2, 2, 1, 3))
+    d0 = np.zeros((1, 1, 1, 3))
+    for i in range(uv.shape[0]):
+        u, v = uv[i, 0], uv[i, 1]
+        b = np.inf
+        for it in range(steps + 1):
+            uc = min(max(u, u0), u1)
+            vc = min(max(v, v0), v1)
+            if it < steps:
+                _surface_point(pu, pv, ku, kv, pw, rational, uc, vc, 1, s1, d1, 0)
+                p0, p1, p2 = d1[0, 0, 0, 0], d1[0, 0, 0, 1], d1[0, 0, 0, 2]
+            else:
+                _surface_point(pu, pv, ku, kv, pw, rational, uc, vc, 0, s0, d0, 0)
+                p0, p1, p2 = d0[0, 0, 0, 0], d0[0, 0, 0, 1], d0[0, 0, 0, 2]
+            r0, r1, r2 = x[i, 0] - p0, x[i, 1] - p1, x[i, 2] - p2
+            dist = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+            if it == 0 or dist < b:
+                b = dist
+            if it == steps:
+                break
+            su0, su1, su2 = d1[1, 0, 0, 0], d1[1, 0, 0, 1], d1[1, 0, 0, 2]
+            sv0, sv1, sv2 = d1[0, 1, 0, 0], d1[0, 1, 0, 1], d1[0, 1, 0, 2]
+            a = su0 * su0 + su1 * su1 + su2 * su2
+            bb = su0 * sv0 + su1 * sv1 + su2 * sv2
+            c = sv0 * sv0 + sv1 * sv1 + sv2 * sv2
+            ru = su0 * r0 + su1 * r1 + su2 * r2
+            rv = sv0 * r0 + sv1 * r1 + sv2 * r2
+            det = a * c - bb * bb
+            if np.isfinite(det) and det > 1e-12 * max(a * c, 1e-300):
+                u = min(max(u + (c * ru - bb * rv) / det, u0), u1)
+                v = min(max(v + (a * rv - bb * ru) / det, v0), v1)
+            else:
+                u = min(max(u, u0), u1)
+                v = min(max(v, v0), v1)
+        best[i] = b
 
 
 @njit(cache=True, nogil=True)
@@ -154,3 +204,203 @@ def basis_functions_kernel(p, knots, spans, t, nd, out):
         for k in range(nd + 1):
             for r in range(p + 1):
                 out[k, i, r] = ders[k, r]
+
+
+@njit(cache=True, nogil=True)
+def _moving_basis(p, knots, n_ctrl, t, spans, basis):
+    """spans[i, k], basis[i, k, :] of the parameters t[i, k] (A2.1, A2.3 without derivatives)."""
+    ndu = np.empty((p + 1, p + 1))
+    a = np.empty((2, p + 1))
+    left = np.empty(p + 1)
+    right = np.empty(p + 1)
+    ders = np.empty((1, p + 1))
+    for i in range(t.shape[0]):
+        for k in range(t.shape[1]):
+            s = _span(p, knots, n_ctrl, t[i, k])
+            _ders_basis(s, t[i, k], p, knots, 0, ndu, a, left, right, ders)
+            spans[i, k] = s
+            for r in range(p + 1):
+                basis[i, k, r] = ders[0, r]
+
+
+@njit(cache=True, nogil=True)
+def iso_line_criteria_kernel(pu, pv, ku, kv, pw, rational, axis, lines, xs, weights, length, deviation):
+    """Chord length and chord deviation of intervals on iso-lines of a surface (`interval_criteria`).
+
+    Line l is v = lines[l] (axis 0: the points move in u) or u = lines[l] (axis 1). Interval i is
+    sampled at the parameters xs[i, :] (its two ends first and last); only the pairs (i, l) with
+    weights[i, l] count (the others are not evaluated). length[i] = the largest chord |S(b) - S(a)|,
+    deviation[i] = the largest distance of a sample from its chord (foot clipped to the chord). The
+    points are computed exactly as `surface_derivatives_kernel` computes them (same operations in the
+    same order), so the result equals the batched numpy path bit for bit.
+    """
+    nu_ctrl, nv_ctrl, dimw = pw.shape
+    dim = dimw - 1 if rational else dimw
+    n, m = xs.shape
+    n_lines = lines.shape[0]
+    # the fixed parameter's basis, once per line
+    if axis == 0:
+        pf, kf, nf, pm, km, nm = pv, kv, nv_ctrl, pu, ku, nu_ctrl
+    else:
+        pf, kf, nf, pm, km, nm = pu, ku, nu_ctrl, pv, kv, nv_ctrl
+    lspan = np.empty((1, n_lines), dtype=np.int64)
+    lbasis = np.empty((1, n_lines, pf + 1))
+    _moving_basis(pf, kf, nf, lines.reshape(1, n_lines), lspan, lbasis)
+    mspan = np.empty((n, m), dtype=np.int64)
+    mbasis = np.empty((n, m, pm + 1))
+    _moving_basis(pm, km, nm, xs, mspan, mbasis)
+    tmp = np.empty((pu + 1, dimw))
+    pts = np.empty((m, 3))
+    for i in range(n):
+        lmax = 0.0
+        dmax = 0.0
+        for l in range(n_lines):
+            if not weights[i, l]:
+                continue
+            for k in range(m):
+                if axis == 0:
+                    su = mspan[i, k]
+                    sv = lspan[0, l]
+                else:
+                    su = lspan[0, l]
+                    sv = mspan[i, k]
+                for r in range(pu + 1):
+                    for d in range(dimw):
+                        tmp[r, d] = 0.0
+                    for s in range(pv + 1):
+                        b = lbasis[0, l, s] if axis == 0 else mbasis[i, k, s]
+                        if b != 0.0:
+                            row = su - pu + r
+                            col = sv - pv + s
+                            for d in range(dimw):
+                                tmp[r, d] += b * pw[row, col, d]
+                for d in range(dimw):
+                    acc = 0.0
+                    for r in range(pu + 1):
+                        bu = mbasis[i, k, r] if axis == 0 else lbasis[0, l, r]
+                        acc += bu * tmp[r, d]
+                    if d < 3:
+                        pts[k, d] = acc
+                    else:
+                        w0 = acc
+                if rational:
+                    for d in range(dim):
+                        pts[k, d] = pts[k, d] / w0
+            a0, a1, a2 = pts[0, 0], pts[0, 1], pts[0, 2]
+            ab0, ab1, ab2 = pts[m - 1, 0] - a0, pts[m - 1, 1] - a1, pts[m - 1, 2] - a2
+            # sums in numpy's order (einsum pairs lanes 0 and 2; reduce runs left to right), so that
+            # the result is the numpy path's bit for bit
+            den = (ab0 * ab0 + ab2 * ab2) + ab1 * ab1
+            ln = np.sqrt(den)
+            if ln > lmax:
+                lmax = ln
+            dd = den if den > 0 else 1.0
+            worst = 0.0
+            for k in range(1, m - 1):
+                q0, q1, q2 = pts[k, 0] - a0, pts[k, 1] - a1, pts[k, 2] - a2
+                t = ((q0 * ab0 + q2 * ab2) + q1 * ab1) / dd
+                if t < 0.0:
+                    t = 0.0
+                elif t > 1.0:
+                    t = 1.0
+                r0, r1, r2 = q0 - t * ab0, q1 - t * ab1, q2 - t * ab2
+                dist = np.sqrt((r0 * r0 + r1 * r1) + r2 * r2)
+                if dist > worst or k == 1:
+                    worst = dist
+            if worst > dmax:
+                dmax = worst
+        length[i] = lmax
+        deviation[i] = dmax
+
+
+@njit(cache=True, nogil=True)
+def _curve_point(p, knots, pw, rational, t, ndu, a, left, right, ders, out_row):
+    n_ctrl, dimw = pw.shape
+    s = _span(p, knots, n_ctrl, t)
+    _ders_basis(s, t, p, knots, 0, ndu, a, left, right, ders)
+    dim = dimw - 1 if rational else dimw
+    w = 1.0
+    if rational:
+        w = 0.0
+        for r in range(p + 1):
+            w += ders[0, r] * pw[s - p + r, dim]
+    for d in range(dim):
+        acc = 0.0
+        for r in range(p + 1):
+            acc += ders[0, r] * pw[s - p + r, d]
+        out_row[d] = acc / w if rational else acc
+
+
+@njit(cache=True, nogil=True)
+def curve_points_kernel(p, knots, pw, rational, t, out):
+    """out[i] = C(t[i]) (A2.1, A2.2, A4.1 per point); pw homogeneous if rational, t clamped."""
+    ndu = np.empty((p + 1, p + 1))
+    a = np.empty((2, p + 1))
+    left = np.empty(p + 1)
+    right = np.empty(p + 1)
+    ders = np.empty((1, p + 1))
+    for i in range(t.shape[0]):
+        _curve_point(p, knots, pw, rational, t[i], ndu, a, left, right, ders, out[i])
+
+
+@njit(cache=True, nogil=True)
+def pcurve_surface_kernel(cp, ck, cpw, crat, lo, hi, box, pu, pv, ku, kv, pw, srat, s, with_xyz, out_uv, out_xyz):
+    """Points of a p-curve on its surface: t = lo + s (hi - lo), uv = p(t) clipped into
+    box = (u0, u1, v0, v1), xyz = S(uv) (with_xyz); out_uv (n, 2), out_xyz (n, 3)."""
+    ndu = np.empty((cp + 1, cp + 1))
+    a = np.empty((2, cp + 1))
+    left = np.empty(cp + 1)
+    right = np.empty(cp + 1)
+    ders = np.empty((1, cp + 1))
+    t0, t1 = ck[cp], ck[ck.shape[0] - cp - 1]
+    su0, su1 = ku[pu], ku[ku.shape[0] - pu - 1]
+    sv0, sv1 = kv[pv], kv[kv.shape[0] - pv - 1]
+    uv = np.empty(2)
+    res = np.empty((1, 1, 1, 3))
+    scratch = _surface_scratch(pu, pv, 0, pw.shape[2])
+    for i in range(s.shape[0]):
+        t = lo + s[i] * (hi - lo)
+        t = min(max(t, t0), t1)
+        _curve_point(cp, ck, cpw, crat, t, ndu, a, left, right, ders, uv)
+        uu = min(max(uv[0], box[0]), box[1])
+        vv = min(max(uv[1], box[2]), box[3])
+        out_uv[i, 0] = uu
+        out_uv[i, 1] = vv
+        if not with_xyz:
+            continue
+        _surface_point(pu, pv, ku, kv, pw, srat, min(max(uu, su0), su1), min(max(vv, sv0), sv1), 0, scratch, res, 0)
+        for d in range(3):
+            out_xyz[i, d] = res[0, 0, 0, d]
+
+
+@njit(cache=True, nogil=True)
+def chord_criteria_kernel(p, weights, length, deviation):
+    """`interval_criteria` from sampled points p (n, m, L, 3): the two ends of interval i are
+    p[i, 0] and p[i, m - 1]; only lines l with weights[i, l] count."""
+    n, m, n_lines, _ = p.shape
+    for i in range(n):
+        lmax = 0.0
+        dmax = 0.0
+        for l in range(n_lines):
+            if not weights[i, l]:
+                continue
+            a0, a1, a2 = p[i, 0, l, 0], p[i, 0, l, 1], p[i, 0, l, 2]
+            ab0, ab1, ab2 = p[i, m - 1, l, 0] - a0, p[i, m - 1, l, 1] - a1, p[i, m - 1, l, 2] - a2
+            den = ab0 * ab0 + ab1 * ab1 + ab2 * ab2
+            ln = np.sqrt(den)
+            if ln > lmax:
+                lmax = ln
+            dd = den if den > 0 else 1.0
+            for k in range(1, m - 1):
+                q0, q1, q2 = p[i, k, l, 0] - a0, p[i, k, l, 1] - a1, p[i, k, l, 2] - a2
+                t = (q0 * ab0 + q1 * ab1 + q2 * ab2) / dd
+                if t < 0.0:
+                    t = 0.0
+                elif t > 1.0:
+                    t = 1.0
+                r0, r1, r2 = q0 - t * ab0, q1 - t * ab1, q2 - t * ab2
+                dist = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+                if dist > dmax:
+                    dmax = dist
+        length[i] = lmax
+        deviation[i] = dmax

@@ -19,7 +19,7 @@ from math import comb
 import numpy as np
 
 from ..errors import GeometryError
-from ._nurbs_kernels import basis_functions_kernel, surface_derivatives_kernel
+from ._nurbs_kernels import basis_functions_kernel, curve_points_kernel, surface_derivatives_kernel
 
 __all__ = ["find_spans", "basis_functions", "curve_derivatives", "curve_points", "surface_derivatives",
            "surface_points", "unit_normals", "first_fundamental_form"]
@@ -89,12 +89,27 @@ def basis_functions(degree: int, knots: np.ndarray, spans: np.ndarray, t: np.nda
     return ders
 
 
+_HOMOGENEOUS: dict = {}     # id(control points) -> (control points, weights, homogeneous array)
+
+
 def _homogeneous(control_points: np.ndarray, weights: np.ndarray | None) -> np.ndarray:
     cp = np.asarray(control_points, dtype=np.float64)
     if weights is None:
         return cp
+    # read-only arrays (the model's) cannot change: their homogeneous array is built once (the entry
+    # keeps both arrays alive, so an id is never reused while it is cached)
+    frozen = (not cp.flags.writeable and isinstance(weights, np.ndarray) and not weights.flags.writeable)
+    hit = _HOMOGENEOUS.get(id(cp)) if frozen else None
+    if hit is not None and hit[0] is cp and hit[1] is weights:
+        return hit[2]
     w = np.asarray(weights, dtype=np.float64)[..., None]
-    return np.concatenate([cp * w, w], axis=-1)
+    pw = np.ascontiguousarray(np.concatenate([cp * w, w], axis=-1))
+    if not frozen:
+        return pw
+    if len(_HOMOGENEOUS) > 4096:
+        _HOMOGENEOUS.clear()
+    _HOMOGENEOUS[id(cp)] = (cp, weights, pw)
+    return pw
 
 
 def _clamp(t: np.ndarray, knots: np.ndarray, degree: int) -> np.ndarray:
@@ -130,6 +145,11 @@ def curve_derivatives(degree: int, knots, control_points, weights, t, *, n_deriv
     pw = _homogeneous(control_points, weights)
     dim = pw.shape[-1] - (weights is not None)
     nd = int(n_derivs)
+    if nd == 0:         # points only: the compiled kernel, one pass per point
+        out = np.empty((1, t.shape[0], dim))
+        curve_points_kernel(int(degree), np.ascontiguousarray(knots), np.ascontiguousarray(pw, dtype=np.float64),
+                            weights is not None, np.ascontiguousarray(t), out[0])
+        return out
     out = np.empty((nd + 1, t.shape[0], dim))
     for s in range(0, t.shape[0], _CHUNK):
         tc = t[s:s + _CHUNK]

@@ -14,6 +14,7 @@ from __future__ import annotations
 from fractions import Fraction
 
 import numpy as np
+from numba import njit
 from scipy.spatial import cKDTree
 
 __all__ = ["orient2d", "points_in_polygons", "segment_intersections", "polyline_self_intersections",
@@ -75,20 +76,53 @@ def points_in_polygons(points, polygons, *, chunk_size: int = 1 << 22) -> np.nda
     -------
     (n,) bool
     """
-    pts = np.atleast_2d(np.asarray(points, dtype=np.float64))
+    pts = np.ascontiguousarray(np.atleast_2d(np.asarray(points, dtype=np.float64)))
     a = np.concatenate([np.asarray(p, dtype=np.float64) for p in polygons])
     b = np.concatenate([np.roll(np.asarray(p, dtype=np.float64), -1, axis=0) for p in polygons])
     inside = np.zeros(len(pts), dtype=bool)
-    step = max(1, chunk_size // max(1, len(a)))
-    for s in range(0, len(pts), step):
-        x = pts[s:s + step, 0:1]
-        y = pts[s:s + step, 1:2]
-        straddle = (a[:, 1] > y) != (b[:, 1] > y)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            xcross = a[:, 0] + (y - a[:, 1]) * (b[:, 0] - a[:, 0]) / (b[:, 1] - a[:, 1])
-        crossings = np.count_nonzero(straddle & (x < xcross), axis=1)
-        inside[s:s + step] = crossings % 2 == 1
+    if not len(pts) or not len(a):
+        return inside
+    # edges bucketed into horizontal slabs (about one edge per slab and row): each point tests only
+    # the edges of its slab, with the same crossing test as the brute-force count
+    ylo = np.minimum(a[:, 1], b[:, 1])
+    yhi = np.maximum(a[:, 1], b[:, 1])
+    y0, y1 = float(ylo.min()), float(yhi.max())
+    n_slab = int(min(max(1, len(a)), 1 << 16))
+    while True:
+        h = (y1 - y0) / n_slab if y1 > y0 else 1.0
+        first = np.clip(((ylo - y0) / h).astype(np.int64), 0, n_slab - 1)
+        last = np.clip(((yhi - y0) / h).astype(np.int64), 0, n_slab - 1)
+        cnt = last - first + 1
+        if n_slab == 1 or int(cnt.sum()) <= 8 * len(a) + (1 << 16):    # tall edges: fewer slabs
+            break
+        n_slab //= 4
+    edge = np.repeat(np.arange(len(a)), cnt)
+    slab = np.repeat(first, cnt) + (np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt))
+    order = np.argsort(slab, kind="stable")
+    start = np.searchsorted(slab[order], np.arange(n_slab + 1))
+    _points_in_polygons_kernel(pts, np.ascontiguousarray(a), np.ascontiguousarray(b), y0, h, n_slab,
+                               start, np.ascontiguousarray(edge[order]), inside)
     return inside
+
+
+@njit(cache=True, nogil=True)
+def _points_in_polygons_kernel(pts, a, b, y0, h, n_slab, start, edges, inside):
+    for i in range(pts.shape[0]):
+        x, y = pts[i, 0], pts[i, 1]
+        if not y >= y0:          # below every edge (or NaN): no crossing
+            inside[i] = False
+            continue
+        # the same monotone expression as the edges' slabs: an edge with ylo <= y < yhi is in slab k
+        k = min(int((y - y0) / h), n_slab - 1)
+        c = 0
+        for j in range(start[k], start[k + 1]):
+            e = edges[j]
+            ay, by = a[e, 1], b[e, 1]
+            if (ay > y) != (by > y):
+                xc = a[e, 0] + (y - ay) * (b[e, 0] - a[e, 0]) / (by - ay)
+                if x < xc:
+                    c += 1
+        inside[i] = c % 2 == 1
 
 
 def segment_intersections(p0, p1, q0, q1) -> np.ndarray:

@@ -72,6 +72,9 @@ def interval_criteria(evaluate: LineFamily, x: np.ndarray, *, n_sub: int = _N_SU
         its chord over the lines.
     """
     x = np.asarray(x, dtype=np.float64)
+    compiled = getattr(evaluate, "criteria", None)
+    if compiled is not None:        # a family that computes the criteria itself (face iso-lines)
+        return compiled(x, n_sub, weights)
     n = len(x) - 1
     s = np.linspace(0.0, 1.0, n_sub + 2)
     xs = (x[:-1, None] + (x[1:] - x[:-1])[:, None] * s[None, :]).ravel()
@@ -159,16 +162,32 @@ def _equidistributed(evaluate: LineFamily, a: float, b: float, tolerance: float,
                      init: np.ndarray, weights_fn=None, max_values: int = MAX_VALUES) -> np.ndarray:
     # fine sampling: split intervals until each is well below both criteria
     x = np.unique(np.clip(np.r_[a, init, b], a, b))
+    w = None if weights_fn is None else weights_fn(x)
+    length, dev = interval_criteria(evaluate, x, n_sub=3, weights=w)
     for _ in range(8):
-        w = None if weights_fn is None else weights_fn(x)
-        length, dev = interval_criteria(evaluate, x, n_sub=3, weights=w)
         bad = (length > 0.25 * max_edge) | (dev > 0.0625 * tolerance)
         if not bad.any() or len(x) > 20000:
             break
-        mids = 0.5 * (x[:-1] + x[1:])[bad]
+        # only the halves of the split intervals are new: their criteria, from the sequence
+        # lo, mid, hi of each (the interval from one hi to the next lo is computed and dropped)
+        lo, hi = x[:-1][bad], x[1:][bad]
+        mids = 0.5 * (lo + hi)
+        seq = np.column_stack([lo, mids, hi]).ravel()
+        keep = np.ones(len(seq) - 1, dtype=bool)
+        keep[2::3] = False
+        w = None if weights_fn is None else weights_fn(seq)
+        sub_len, sub_dev = (v[keep] for v in interval_criteria(evaluate, seq, n_sub=3, weights=w))
+        # interval i of the old x becomes 1 (kept) or 2 (split) intervals, in order
+        count = np.where(bad, 2, 1)
+        first = np.cumsum(count) - count
+        new_len, new_dev = np.empty(int(count.sum())), np.empty(int(count.sum()))
+        ok = ~bad
+        new_len[first[ok]], new_dev[first[ok]] = length[ok], dev[ok]
+        fb = first[bad]
+        new_len[fb], new_dev[fb] = sub_len[0::2], sub_dev[0::2]
+        new_len[fb + 1], new_dev[fb + 1] = sub_len[1::2], sub_dev[1::2]
         x = np.sort(np.r_[x, mids])
-    w = None if weights_fn is None else weights_fn(x)
-    length, dev = interval_criteria(evaluate, x, n_sub=3, weights=w)
+        length, dev = new_len, new_dev
     need = np.maximum(length / max_edge, np.sqrt(dev / tolerance))
     cum = np.r_[0.0, np.cumsum(need)]
     if not cum[-1] > 0:

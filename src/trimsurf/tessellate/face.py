@@ -93,6 +93,52 @@ def _inside_raster(polys: list, lo: np.ndarray, hi: np.ndarray, n: int = 96):
     return lookup
 
 
+class IsoLines:
+    """The line family of a face's iso-lines: x (k,) -> S(x, lines) (axis 0) or S(lines, x) (axis 1),
+    shape (k, L, 3), with `criteria` computing `interval_criteria` in one compiled pass (the points of
+    pairs (interval, line) that do not count are not evaluated; the result is bit for bit the numpy one).
+    """
+
+    def __init__(self, surface, axis: int, lines: np.ndarray):
+        self.surface = surface
+        self.axis = axis
+        self.lines = np.asarray(lines, dtype=np.float64)
+        s = surface
+        self._ku = np.ascontiguousarray(s.knots_u, dtype=np.float64)
+        self._kv = np.ascontiguousarray(s.knots_v, dtype=np.float64)
+        cp = np.asarray(s.control_points, dtype=np.float64)
+        if s.weights is None:
+            self._pw = np.ascontiguousarray(cp)
+        else:
+            w = np.asarray(s.weights, dtype=np.float64)[..., None]
+            self._pw = np.ascontiguousarray(np.concatenate([cp * w, w], axis=-1))
+        (u0, u1), (v0, v1) = s.domain
+        self._xr = (u0, u1) if axis == 0 else (v0, v1)
+        lr = (v0, v1) if axis == 0 else (u0, u1)
+        self._lines_c = np.ascontiguousarray(np.clip(self.lines, lr[0], lr[1]))
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        uv = np.empty((len(x), len(self.lines), 2))
+        uv[..., self.axis] = x[:, None]
+        uv[..., 1 - self.axis] = self.lines[None, :]
+        return self.surface.evaluate(uv.reshape(-1, 2)).reshape(len(x), len(self.lines), 3)
+
+    def criteria(self, x: np.ndarray, n_sub: int, weights) -> tuple[np.ndarray, np.ndarray]:
+        """`interval_criteria` of this family."""
+        from ..geom._nurbs_kernels import iso_line_criteria_kernel
+
+        n = len(x) - 1
+        t = np.linspace(0.0, 1.0, n_sub + 2)
+        xs = np.clip(x[:-1, None] + (x[1:] - x[:-1])[:, None] * t[None, :], self._xr[0], self._xr[1])
+        w = (np.ones((n, len(self.lines)), dtype=np.bool_) if weights is None
+             else np.ascontiguousarray(weights, dtype=np.bool_))
+        length, dev = np.empty(n), np.empty(n)
+        s = self.surface
+        iso_line_criteria_kernel(s.degree_u, s.degree_v, self._ku, self._kv, self._pw, s.weights is not None,
+                                 self.axis, self._lines_c, np.ascontiguousarray(xs), w, length, dev)
+        return length, dev
+
+
 def _knots_in(knots: np.ndarray, a: float, b: float) -> np.ndarray:
     k = np.unique(knots)
     return k[(k > a) & (k < b)]
@@ -135,11 +181,7 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
             other = lines[axis]
             knots = s.knots_u if axis == 0 else s.knots_v
 
-            def evaluate(x, axis=axis, other=other):
-                uv = np.empty((len(x), len(other), 2))
-                uv[..., axis] = x[:, None]
-                uv[..., 1 - axis] = other[None, :]
-                return s.evaluate(uv.reshape(-1, 2)).reshape(len(x), len(other), 3)
+            evaluate = IsoLines(s, axis, other)
 
             weights_fn = None
             if polys is not None:
@@ -166,19 +208,20 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
         return out
 
     us, vs = place(tolerance)
+    cache = _CellCache(s)
     if strategy == "uniform":
-        return refine_cells(face, us, vs, tolerance=tolerance, max_edge=max_edge)
+        return refine_cells(face, us, vs, tolerance=tolerance, max_edge=max_edge, cache=cache)
     # iso-lines within the tolerance still leave cells whose triangles deviate more (curvature in both
     # directions adds up at a triangle's centre, plus the twist). Mid-lines through the bad cells
     # (refine_cells) halve every row and column they cross and overshoot 4x; lines placed for the
     # tolerance divided by the worst cell ratio r (about sqrt(r) x the lines) land near the tolerance.
     # The grid with fewer cells wins.
-    best = refine_cells(face, us, vs, tolerance=tolerance, max_edge=max_edge)
-    r = _worst_cell_ratio(face, us, vs, tolerance, polys)
+    best = refine_cells(face, us, vs, tolerance=tolerance, max_edge=max_edge, cache=cache)
+    r = _worst_cell_ratio(face, us, vs, tolerance, polys, cache)
     if r > 1.0:
         try:
             alt = place(tolerance / (1.05 * r))
-            alt = refine_cells(face, alt[0], alt[1], tolerance=tolerance, max_edge=max_edge)
+            alt = refine_cells(face, alt[0], alt[1], tolerance=tolerance, max_edge=max_edge, cache=cache)
         except InputError:          # the alternative would exceed the cell budget: keep the first
             return best
         if (len(alt[0]) - 1) * (len(alt[1]) - 1) < (len(best[0]) - 1) * (len(best[1]) - 1):
@@ -206,16 +249,16 @@ def _near_trim(us, vs, polys):
     return near, interior
 
 
-def _worst_cell_ratio(face: TrimmedFace, us, vs, tolerance: float, polys) -> float:
+def _worst_cell_ratio(face: TrimmedFace, us, vs, tolerance: float, polys, cache=None) -> float:
     """Largest deviation / tolerance of the split cells at (or near) the trimmed region."""
-    dev = _cell_deviation(face.surface, us, vs, tolerance)[0]
+    dev = _cell_deviation(face.surface, us, vs, tolerance, cache)[0]
     if polys is not None:
         dev = np.where(_near_trim(us, vs, polys)[0], dev, 0.0)
     return float(dev.max(initial=0.0)) / tolerance
 
 
 def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance: float,
-                 max_edge: float, aspect: float | None = ASPECT) -> tuple[np.ndarray, np.ndarray]:
+                 max_edge: float, aspect: float | None = ASPECT, cache=None) -> tuple[np.ndarray, np.ndarray]:
     """Mid-lines through the grid cells (near the trim) whose split leaves the tolerance, whose
     diagonal is longer than max_edge or whose sides differ by more than `aspect` (None: no limit);
     returns the refined (us, vs)."""
@@ -224,7 +267,7 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
     # the twist of the cells: split along the better diagonal, refine rows/columns where it fails;
     # the same for a diagonal longer than max_edge (split across its longer side)
     for _ in range(6):
-        dev, diag, diag_max, side_u, side_v = _cell_deviation(s, us, vs, tolerance)
+        dev, diag, diag_max, side_u, side_v = _cell_deviation(s, us, vs, tolerance, cache)
         if polys is not None:
             # cells crossed by the trim count too (one cell dilation); in the band along the trim
             # the CDT may use either diagonal: both must be short enough (its triangles that leave
@@ -362,13 +405,108 @@ def _prefer_main(surface, us, vs) -> bool:
     return bool(d[0] <= d[1])
 
 
-def _cell_deviation(surface, us, vs, tolerance=None):
+def _cell_deviation(surface, us, vs, tolerance=None, cache=None):
     """Per cell: deviation bound of its better split, that diagonal's length, the longer diagonal,
-    longest u side, longest v side."""
+    longest u side, longest v side. With a `_CellCache` (and a tolerance), what an earlier call
+    computed for the same cell is taken from it (the same numbers)."""
+    if cache is not None and tolerance is not None:
+        return cache.deviation(us, vs, tolerance)
     ki, kj = np.meshgrid(np.arange(len(us) - 1), np.arange(len(vs) - 1), indexing="ij")
     pm = None if tolerance is None else _prefer_main(surface, us, vs)
     out = _cell_split(surface, us, vs, ki.ravel(), kj.ravel(), tolerance, pm)[1:]
     return tuple(a.reshape(len(us) - 1, len(vs) - 1) for a in out)
+
+
+class _CellCache:
+    """`_cell_deviation` of one face's grids, each cell's surface work done once.
+
+    The refinement rounds and the two placements of `face_domain_values` check grids that share most
+    of their cells. Per cell (keyed by its four parameter values) the cache keeps the surface points
+    and diagonal-midpoint distances (`_prefer_main`, the first half of `_cell_split`) and the deviation
+    of each split as far as it was needed; a cell's numbers do not depend on the other cells, so the
+    result is the uncached one.
+    """
+
+    def __init__(self, surface):
+        self.surface = surface
+        self.ids = ({}, {})                 # per direction: (x0, x1) interval -> id
+        self.codes = np.zeros(0, dtype=np.int64)
+        self.rows = np.zeros(0, dtype=np.int64)
+        self.uv = np.zeros((0, 5, 2))
+        self.p = np.zeros((0, 5, 3))
+        self.d = np.zeros((0, 2))           # distances of the two diagonals' midpoints
+        self.dev = np.zeros((0, 2))         # deviation of the main / anti split (NaN: not yet)
+
+    def _interval_ids(self, axis, x):
+        ids = self.ids[axis]
+        return np.array([ids.setdefault((a, b), len(ids)) for a, b in zip(x[:-1].tolist(), x[1:].tolist())],
+                        dtype=np.int64)
+
+    def _cells(self, us, vs):
+        """Rows of the grid's cells (computing the new ones' points and midpoint distances), in
+        `_cell_split`'s order (ki, kj = meshgrid(..., indexing="ij"), raveled)."""
+        iu, iv = self._interval_ids(0, us), self._interval_ids(1, vs)
+        code = (iu[:, None] * (1 << 31) + iv[None, :]).ravel()
+        pos = np.searchsorted(self.codes, code)
+        pos_c = np.minimum(pos, max(len(self.codes) - 1, 0))
+        known = (len(self.codes) > 0) & (self.codes[pos_c] == code) if len(self.codes) else np.zeros(len(code), bool)
+        rows = np.where(known, self.rows[pos_c] if len(self.rows) else 0, -1)
+        new = np.flatnonzero(~known)
+        if len(new):
+            ki, kj = np.meshgrid(np.arange(len(us) - 1), np.arange(len(vs) - 1), indexing="ij")
+            ki, kj = ki.ravel()[new], kj.ravel()[new]
+            u0, u1, v0, v1 = us[ki], us[ki + 1], vs[kj], vs[kj + 1]
+            uv = np.stack([np.column_stack([u0, v0]), np.column_stack([u1, v0]), np.column_stack([u1, v1]),
+                           np.column_stack([u0, v1]), np.column_stack([0.5 * (u0 + u1), 0.5 * (v0 + v1)])], axis=1)
+            p = self.surface.evaluate(uv.reshape(-1, 2)).reshape(-1, 5, 3)
+            cuv = np.repeat(uv[:, 4], 2, axis=0)
+            mids = np.stack([0.5 * (p[:, 0] + p[:, 2]), 0.5 * (p[:, 1] + p[:, 3])], axis=1).reshape(-1, 3)
+            d = surface_distance(self.surface, cuv, mids, steps=1).reshape(-1, 2)
+            first = len(self.p)
+            rows[new] = first + np.arange(len(new))
+            self.uv = np.concatenate([self.uv, uv])
+            self.p = np.concatenate([self.p, p])
+            self.d = np.concatenate([self.d, d])
+            self.dev = np.concatenate([self.dev, np.full((len(new), 2), np.nan)])
+            codes = np.r_[self.codes, code[new]]
+            allrows = np.r_[self.rows, rows[new]]
+            order = np.argsort(codes, kind="stable")
+            self.codes, self.rows = codes[order], allrows[order]
+        return rows
+
+    def deviation(self, us, vs, tolerance):
+        rows = self._cells(us, vs)
+        d = self.d[rows]
+        # _prefer_main: the same sum over the same cells in the same order
+        tot = d.sum(axis=0)
+        pref = bool(tot[0] <= tot[1])
+        d_main, d_anti = d[:, 0], d[:, 1]
+        d_pref, d_other = (d_main, d_anti) if pref else (d_anti, d_main)
+        switch = (((d_pref > 0.5 * tolerance) & (d_other < 0.8 * d_pref))
+                  | ((d_pref > 0.9 * tolerance) & (d_other < 0.98 * d_pref)))
+        main = np.where(switch, not pref, pref)
+        col = np.where(main, 0, 1)
+        need = np.isnan(self.dev[rows, col])
+        if need.any():
+            r, m = rows[need], main[need]
+            uv, p = self.uv[r], self.p[r]
+            t = np.where(m[:, None, None], np.array([[0, 1, 2], [0, 2, 3]])[None],
+                         np.array([[0, 1, 3], [1, 2, 3]])[None])
+            k = np.arange(len(r))[:, None, None]
+            tuv = np.einsum("bk,nskd->nsbd", _BARY, uv[k, t])
+            tx = np.einsum("bk,nskd->nsbd", _BARY, p[k, t])
+            dev = surface_distance(self.surface, tuv.reshape(-1, 2), tx.reshape(-1, 3)).reshape(len(r), -1).max(axis=1)
+            self.dev[r, np.where(m, 0, 1)] = dev
+        dev = self.dev[rows, col]
+        p = self.p[rows]
+        d02 = np.linalg.norm(p[:, 2] - p[:, 0], axis=1)
+        d13 = np.linalg.norm(p[:, 3] - p[:, 1], axis=1)
+        diag = np.where(main, d02, d13)
+        diag_max = np.maximum(d02, d13)
+        side_u = np.maximum(np.linalg.norm(p[:, 1] - p[:, 0], axis=1), np.linalg.norm(p[:, 2] - p[:, 3], axis=1))
+        side_v = np.maximum(np.linalg.norm(p[:, 3] - p[:, 0], axis=1), np.linalg.norm(p[:, 2] - p[:, 1], axis=1))
+        shape = (len(us) - 1, len(vs) - 1)
+        return tuple(a.reshape(shape) for a in (dev, diag, diag_max, side_u, side_v))
 
 
 @dataclass(eq=False)
@@ -602,6 +740,20 @@ def surface_distance(surface, uv: np.ndarray, x: np.ndarray, steps: int = 2) -> 
     -------
     (n,) float64
     """
+    from ..geom._nurbs_kernels import surface_distance_kernel
+    from ..geom.nurbs import _homogeneous
+
+    uv = np.ascontiguousarray(uv, dtype=np.float64).reshape(-1, 2)
+    x = np.ascontiguousarray(x, dtype=np.float64).reshape(-1, 3)
+    s = surface
+    best = np.empty(len(uv))
+    surface_distance_kernel(s.degree_u, s.degree_v, s.knots_u, s.knots_v, _homogeneous(s.control_points, s.weights),
+                            s.weights is not None, uv, x, int(steps), best)
+    return best
+
+
+def _surface_distance_numpy(surface, uv: np.ndarray, x: np.ndarray, steps: int = 2) -> np.ndarray:
+    """`surface_distance` in numpy (the reference of the compiled kernel, for the tests)."""
     uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2).copy()
     x = np.asarray(x, dtype=np.float64).reshape(-1, 3)
     (u0, u1), (v0, v1) = surface.domain

@@ -12,7 +12,7 @@ from ..model import Shell, TriMesh
 from .face import (FaceMesh, _rectangle_face, check_parameters, face_domain_values, loose_chunks,
                    mesh_face_from_chunks)
 from .repair import repair_face
-from .trims import ChunkUse, discretize_chunk
+from .trims import Chunk, ChunkUse, discretize_chunk
 
 __all__ = ["TessellationResult", "FaceStatus", "tessellate_shell", "default_parameters"]
 
@@ -106,13 +106,46 @@ class TessellationResult:
         return repr_html(self)
 
 
+_TASK = None     # the function a forked worker runs (inherited at fork time, never pickled)
+
+
+def _run_task(item):
+    return _TASK(item)
+
+
+def parallel_map(fn, items, jobs: int) -> list:
+    """[fn(x) for x in items], in `jobs` worker processes (forked: they see the caller's data as it is
+    when the pool starts; items and results are pickled), threads where fork is unavailable.
+
+    The result is the sequential one whatever `jobs`: each item is computed by the same code from the
+    same data and the results come back in the items' order.
+    """
+    items = list(items)
+    if jobs <= 1 or len(items) < 2:
+        return [fn(x) for x in items]
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
+
+    jobs = min(jobs, len(items))
+    if "fork" not in multiprocessing.get_all_start_methods():
+        with ThreadPoolExecutor(max_workers=jobs) as ex:
+            return list(ex.map(fn, items))
+    global _TASK
+    _TASK = fn
+    try:
+        with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("fork")) as ex:
+            return list(ex.map(_run_task, items, chunksize=max(1, len(items) // (4 * jobs))))
+    finally:
+        _TASK = None
+
+
 def _ptol(face) -> float:
     (u0, u1), (v0, v1) = face.surface.domain
     return 1e-7 * min(u1 - u0, v1 - v0)
 
 
 def _conforming_chunks(shell: Shell, faces: list, grids: dict, *, tolerance: float, max_edge: float,
-                       strategy: str, reduce: bool, next_id: list):
+                       strategy: str, reduce: bool, next_id: list, jobs: int = 1):
     """Discretize every shared edge once; returns per face, per loop, the (chunk, use, ids) entries."""
     entries: dict = {i: [[None] * len(faces[i].loops[li].segments) for li in range(len(faces[i].loops))]
                      for i in grids}
@@ -127,6 +160,7 @@ def _conforming_chunks(shell: Shell, faces: list, grids: dict, *, tolerance: flo
         return vertex_ids[shell_vertex]
 
     done = set()
+    edge_uses = []
     for ei, edge in enumerate(shell.edges):
         uses = []
         for (fi, li, si) in edge.uses:
@@ -137,10 +171,33 @@ def _conforming_chunks(shell: Shell, faces: list, grids: dict, *, tolerance: flo
                 continue
             us, vs = grids[fi]
             uses.append(ChunkUse(fi, li, si, seg, faces[fi].surface, us, vs, _ptol(faces[fi])))
-        if not uses:
-            continue
-        chunk = discretize_chunk(uses, tolerance=tolerance, max_edge=max_edge, strategy=strategy, reduce=reduce,
-                                 degenerate=True if edge.is_degenerate else None)
+        if uses:
+            edge_uses.append((ei, uses))
+    # the same for the segments without an edge (filled gaps, faces without topology): their own chunk
+    shared = {(u.face, u.loop, u.segment) for _, uses in edge_uses for u in uses}
+    own = []
+    for fi in grids:
+        us, vs = grids[fi]
+        for li, loop in enumerate(faces[fi].loops):
+            for si, seg in enumerate(loop.segments):
+                if (fi, li, si) not in shared:
+                    own.append((fi, li, si, ChunkUse(fi, li, si, seg, faces[fi].surface, us, vs, _ptol(faces[fi]))))
+
+    def discretize(k):
+        if k < len(edge_uses):
+            ei, uses = edge_uses[k]
+            degenerate = True if shell.edges[ei].is_degenerate else None
+        else:
+            uses, degenerate = [own[k - len(edge_uses)][3]], None
+        ch = discretize_chunk(uses, tolerance=tolerance, max_edge=max_edge, strategy=strategy, reduce=reduce,
+                              degenerate=degenerate)
+        return ch.s, ch.uv, ch.xyz, ch.is_iso, ch.degenerate
+
+    out = parallel_map(discretize, range(len(edge_uses) + len(own)), jobs)
+    chunks = [Chunk(s_, list(uses), uv, xyz, iso, deg)
+              for (s_, uv, xyz, iso, deg), uses in zip(out, [u for _, u in edge_uses] + [[o[3]] for o in own])]
+    for (ei, uses), chunk in zip(edge_uses, chunks):
+        edge = shell.edges[ei]
         k = len(chunk.s)
         ids = np.arange(next_id[0], next_id[0] + k, dtype=np.int64)
         next_id[0] += k
@@ -167,22 +224,14 @@ def _conforming_chunks(shell: Shell, faces: list, grids: dict, *, tolerance: flo
         return int(ids[-1] if fwd == at_end else ids[0])
 
     pending = []
-    for fi in grids:
-        us, vs = grids[fi]
-        for li, loop in enumerate(faces[fi].loops):
-            for si, seg in enumerate(loop.segments):
-                if (fi, li, si) in done:
-                    continue
-                use = ChunkUse(fi, li, si, seg, faces[fi].surface, us, vs, _ptol(faces[fi]))
-                chunk = discretize_chunk([use], tolerance=tolerance, max_edge=max_edge, strategy=strategy,
-                                         reduce=reduce)
-                ids = np.arange(next_id[0], next_id[0] + len(chunk.s), dtype=np.int64)
-                next_id[0] += len(chunk.s)
-                if chunk.degenerate:
-                    ids[:] = ids[0]
-                entries[fi][li][si] = (chunk, 0, ids)
-                if float(np.linalg.norm(chunk.xyz - chunk.xyz[0], axis=1).max()) <= tolerance:
-                    pending.append((fi, li, si))
+    for (fi, li, si, _), chunk in zip(own, chunks[len(edge_uses):]):
+        ids = np.arange(next_id[0], next_id[0] + len(chunk.s), dtype=np.int64)
+        next_id[0] += len(chunk.s)
+        if chunk.degenerate:
+            ids[:] = ids[0]
+        entries[fi][li][si] = (chunk, 0, ids)
+        if float(np.linalg.norm(chunk.xyz - chunk.xyz[0], axis=1).max()) <= tolerance:
+            pending.append((fi, li, si))
     for fi, li, si in pending:
         loop = entries[fi][li]
         n = len(loop)
@@ -203,7 +252,7 @@ def _conforming_chunks(shell: Shell, faces: list, grids: dict, *, tolerance: flo
 def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: float | None = None,
                      mode: str = "auto", strategy: str = "equidistributed", reduce: bool = True,
                      stitch: bool = True, reduce_seams: bool = True, common: bool = False,
-                     measure: bool = True, progress=None) -> TessellationResult:
+                     measure: bool = True, progress=None, jobs: int = 1) -> TessellationResult:
     """Tessellate every face of a shell and join them into one mesh (paper Sec. 4-5).
 
     Parameters
@@ -236,6 +285,11 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
         angles, topology, flips) into ``report``.
     progress : callable or None
         Called with (done, total) after each face.
+    jobs : int
+        Worker processes for the per-face and per-edge stages (repair and domain values, edge
+        discretization, face triangulation); threads where the platform cannot fork. The output is
+        the same whatever `jobs` (each face and edge is computed by the same code from the same data,
+        results are joined in order).
 
     Returns
     -------
@@ -259,6 +313,9 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
         raise InputError(f"tessellate_shell needs a Shell; got {type(shell).__name__}")
     if not shell.faces:
         raise InputError(f"{shell.name or 'shell'}: no faces to tessellate")
+    if isinstance(jobs, bool) or not isinstance(jobs, (int, np.integer)) or jobs < 1:
+        raise InputError(f"jobs must be a positive integer; got {jobs!r}")
+    jobs = int(jobs)
     if mode not in ("auto", "conforming", "loose"):
         raise InputError(f"mode must be 'auto', 'conforming' or 'loose'; got {mode!r}")
     d_tol, d_h = (None, None) if tolerance is not None and max_edge is not None else default_parameters(shell)
@@ -272,22 +329,31 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
     n = len(shell.faces)
     faces, statuses = [], {}
     grids: dict = {}
-    for i, face in enumerate(shell.faces):
+
+    def prepare(i):     # repair and domain values of face i: (face, status, grid or None)
+        face = shell.faces[i]
         name = face.name or f"face {i}"
         rep = repair_face(face, tolerance=face_tol)
         f = rep.face
         if rep.status == "failed":
-            statuses[i] = FaceStatus(i, name, "failed", tuple(rep.messages))
-            faces.append(f)
-            continue
+            return f, FaceStatus(i, name, "failed", tuple(rep.messages)), None
         if not f.loops:
             f = _rectangle_face(f)
         try:
-            grids[i] = face_domain_values(f, tolerance=face_tol, max_edge=max_edge, strategy=strategy)
-            statuses[i] = FaceStatus(i, name, rep.status, tuple(rep.messages))
+            grid = face_domain_values(f, tolerance=face_tol, max_edge=max_edge, strategy=strategy)
+            return f, FaceStatus(i, name, rep.status, tuple(rep.messages)), grid
         except InputError as exc:
-            statuses[i] = FaceStatus(i, name, "failed", tuple(rep.messages) + (str(exc),))
-        faces.append(f)
+            return f, FaceStatus(i, name, "failed", tuple(rep.messages) + (str(exc),)), None
+
+    def prepare_face(i):    # a face repair left as it was comes back as None (not copied back)
+        f, st, grid = prepare(i)
+        return (None if f is shell.faces[i] else f), st, grid
+
+    for i, (f, st, grid) in enumerate(parallel_map(prepare_face, range(n), jobs)):
+        faces.append(shell.faces[i] if f is None else f)
+        statuses[i] = st
+        if grid is not None:
+            grids[i] = grid
     n_common = 0
     if common and mode == "conforming":
         from .common import common_parameterization
@@ -302,18 +368,26 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
     next_id = [0]
     if mode == "conforming":
         entries = _conforming_chunks(shell, faces, grids, tolerance=tolerance, max_edge=max_edge,
-                                     strategy=strategy, reduce=reduce, next_id=next_id)
-    done = 0
-    for i in sorted(grids):
+                                     strategy=strategy, reduce=reduce, next_id=next_id, jobs=jobs)
+    def mesh_face(i):   # the triangulation of face i, or the InputError that stopped it
         us, vs = grids[i]
         try:
             if mode == "conforming":
-                fm = mesh_face_from_chunks(faces[i], us, vs, entries[i], tolerance=face_tol, max_edge=max_edge)
-            else:
-                fm = mesh_face_from_chunks(faces[i], us, vs,
-                                           loose_chunks(faces[i], i, us, vs, tolerance=face_tol,
-                                                        max_edge=max_edge, strategy=strategy, reduce=reduce),
-                                           tolerance=face_tol, max_edge=max_edge)
+                return mesh_face_from_chunks(faces[i], us, vs, entries[i], tolerance=face_tol, max_edge=max_edge)
+            return mesh_face_from_chunks(faces[i], us, vs,
+                                         loose_chunks(faces[i], i, us, vs, tolerance=face_tol,
+                                                      max_edge=max_edge, strategy=strategy, reduce=reduce),
+                                         tolerance=face_tol, max_edge=max_edge)
+        except InputError as exc:
+            return exc
+
+    done = 0
+    order = sorted(grids)
+    for i, fm in zip(order, parallel_map(mesh_face, order, jobs)):
+        us, vs = grids[i]
+        try:
+            if isinstance(fm, InputError):
+                raise fm
             face_meshes[i] = fm
             st = statuses[i]
             status, msgs = st.status, st.messages
@@ -403,9 +477,12 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
     report.update({k: v for k, v in stitch_info.items()})
     report["seconds_tessellate"] = time.perf_counter() - t_start
     result = TessellationResult(mesh, fm_out, faces_t, report, tolerance, max_edge, mode, quads)
+    report["seconds_measure"] = 0.0
     if measure and mesh.n_triangles:
         from .measure import measure_result
+        t_measure = time.perf_counter()
         report.update(measure_result(result, shell))
+        report["seconds_measure"] = time.perf_counter() - t_measure
     report["seconds"] = time.perf_counter() - t_start
     return result
 

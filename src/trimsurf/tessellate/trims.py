@@ -11,7 +11,7 @@ s in [0, 1], mapped linearly onto each use's p-curve range.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -41,6 +41,7 @@ class ChunkUse:
     us: np.ndarray          # the face's domain values (iso-lines), u
     vs: np.ndarray          # and v
     param_tol: float        # (u, v) distance below which two parameters are the same
+    _kernel_args: tuple | None = field(default=None, init=False, repr=False)   # `points`' arrays, built once
 
     @property
     def forward(self) -> bool:
@@ -52,9 +53,32 @@ class ChunkUse:
 
     def uv(self, s: np.ndarray) -> np.ndarray:
         """p(t(s)) clipped into the grid box of the face."""
-        uv = self.pcurve.curve.evaluate(self.t_of(s))
-        return np.column_stack([np.clip(uv[:, 0], self.us[0], self.us[-1]),
-                                np.clip(uv[:, 1], self.vs[0], self.vs[-1])])
+        return self.points(s, with_xyz=False)[0]
+
+    def xyz(self, s: np.ndarray) -> np.ndarray:
+        """S(p(t(s))), p clipped into the grid box of the face, shape (n, 3)."""
+        return self.points(s)[1]
+
+    def points(self, s: np.ndarray, with_xyz: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """(uv (n, 2), xyz (n, 3)) at the chunk parameters s, in one compiled pass (xyz left
+        uninitialized without `with_xyz`)."""
+        from ..geom._nurbs_kernels import pcurve_surface_kernel
+
+        if self._kernel_args is None:
+            from ..geom.nurbs import _homogeneous
+
+            c, f = self.pcurve.curve, self.surface
+            lo, hi = sorted((self.pcurve.t0, self.pcurve.t1))
+            box = np.array([self.us[0], self.us[-1], self.vs[0], self.vs[-1]], dtype=np.float64)
+            self._kernel_args = (
+                (c.degree, np.ascontiguousarray(c.knots), _homogeneous(c.control_points, c.weights),
+                 c.weights is not None, lo, hi, box, f.degree_u, f.degree_v, np.ascontiguousarray(f.knots_u),
+                 np.ascontiguousarray(f.knots_v), np.ascontiguousarray(_homogeneous(f.control_points, f.weights)),
+                 f.weights is not None))
+        s = np.ascontiguousarray(s, dtype=np.float64).reshape(-1)
+        uv, xyz = np.empty((len(s), 2)), np.empty((len(s) if with_xyz else 0, 3))
+        pcurve_surface_kernel(*self._kernel_args, s, with_xyz, uv, xyz)
+        return uv, xyz
 
 
 @dataclass(eq=False)
@@ -139,10 +163,32 @@ def _refine_crossing(use: ChunkUse, s: np.ndarray, axis: int, value: np.ndarray,
     return s
 
 
+class _ChunkLines:
+    """The line family of a chunk: s (k,) -> the points of every use, (k, len(uses), 3), with
+    `criteria` computing `interval_criteria` in compiled passes."""
+
+    def __init__(self, uses: list):
+        self.uses = uses
+
+    def __call__(self, s: np.ndarray) -> np.ndarray:
+        return np.stack([u.xyz(s) for u in self.uses], axis=1)
+
+    def criteria(self, x: np.ndarray, n_sub: int, weights) -> tuple[np.ndarray, np.ndarray]:
+        from ..geom._nurbs_kernels import chord_criteria_kernel
+
+        n, m = len(x) - 1, n_sub + 2
+        t = np.linspace(0.0, 1.0, m)
+        xs = (x[:-1, None] + (x[1:] - x[:-1])[:, None] * t[None, :]).ravel()
+        p = self(xs).reshape(n, m, len(self.uses), 3)
+        w = (np.ones((n, len(self.uses)), dtype=np.bool_) if weights is None
+             else np.ascontiguousarray(weights, dtype=np.bool_))
+        length, dev = np.empty(n), np.empty(n)
+        chord_criteria_kernel(p, w, length, dev)
+        return length, dev
+
+
 def _evaluator(uses: list):
-    def evaluate(s: np.ndarray) -> np.ndarray:
-        return np.stack([u.surface.evaluate(u.uv(s)) for u in uses], axis=1)
-    return evaluate
+    return _ChunkLines(uses)
 
 
 def discretize_chunk(uses: list, *, tolerance: float, max_edge: float, strategy: str = "equidistributed",

@@ -1,0 +1,84 @@
+"""The compiled tessellation kernels against the numpy code they replace (same maths, same results)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from trimsurf.io import read_shell
+from trimsurf.samples import build_sample
+from trimsurf.tessellate import domain
+from trimsurf.tessellate.face import IsoLines, _surface_distance_numpy, surface_distance
+from trimsurf.tessellate.trims import ChunkUse, _ChunkLines
+
+
+def _numpy_criteria(family, x, n_sub, weights):
+    # interval_criteria's numpy path: the family seen as a plain callable
+    return domain.interval_criteria(lambda t: family(t), x, n_sub=n_sub, weights=weights)
+
+
+@pytest.fixture(scope="module")
+def t20(shared_data):
+    return read_shell(shared_data / "cad" / "gmsh__t20_data.step")
+
+
+def _faces(t20):
+    # rational (cylinders, cones) and polynomial surfaces of a real file, and a sample's B-spline panel
+    return [f for f in t20.faces[:8]] + [build_sample("fender").faces[0]]
+
+
+def test_iso_line_criteria_equal_numpy(t20):
+    rng = np.random.default_rng(3)
+    for face in _faces(t20):
+        s = face.surface
+        for axis in (0, 1):
+            (a, b), (c, d) = s.domain[axis], s.domain[1 - axis]
+            lines = np.r_[np.linspace(c, d, 7), c - 0.1 * (d - c)]      # one line beyond the domain: clamped
+            fam = IsoLines(s, axis, lines)
+            x = np.unique(np.r_[a, rng.uniform(a, b, 20), b])
+            w = rng.random((len(x) - 1, len(lines))) < 0.7
+            for weights in (None, w):
+                got = fam.criteria(x, 7, weights)
+                ref = _numpy_criteria(fam, x, 7, weights)
+                # the same operations; only summation order may differ in the last bit
+                for g, r in zip(got, ref):
+                    assert_allclose(g, r, rtol=1e-12, atol=1e-14 * max(1.0, np.abs(r).max()))
+
+
+def test_chunk_criteria_and_points_equal_numpy(t20):
+    for fi, face in enumerate(t20.faces[:6]):
+        s = face.surface
+        (u0, u1), (v0, v1) = s.domain
+        us, vs = np.linspace(u0, u1, 9), np.linspace(v0, v1, 7)
+        uses = [ChunkUse(fi, 0, si, seg, s, us, vs, 1e-9) for si, seg in enumerate(face.loops[0].segments[:3])]
+        fam = _ChunkLines(uses)
+        x = np.linspace(0.0, 1.0, 13)
+        got = fam.criteria(x, 3, None)
+        ref = _numpy_criteria(fam, x, 3, None)
+        for g, r in zip(got, ref):
+            assert_allclose(g, r, rtol=1e-12, atol=1e-14 * max(1.0, np.abs(r).max()))
+        # the fused p-curve -> clip -> surface pass against its parts
+        for use in uses:
+            t = np.linspace(0.0, 1.0, 17)
+            uv, xyz = use.points(t)
+            lo, hi = sorted((use.pcurve.t0, use.pcurve.t1))
+            ref_uv = use.pcurve.curve.derivatives(lo + t * (hi - lo), 1)[0]     # the numpy path (n_derivs > 0)
+            ref_uv = np.column_stack([np.clip(ref_uv[:, 0], us[0], us[-1]), np.clip(ref_uv[:, 1], vs[0], vs[-1])])
+            assert_allclose(uv, ref_uv, rtol=0, atol=1e-12 * max(1.0, np.abs(ref_uv).max()))
+            assert_allclose(xyz, s.evaluate(uv), rtol=0, atol=1e-12 * max(1.0, np.abs(xyz).max()))
+
+
+@pytest.mark.parametrize("steps", [0, 1, 2])
+def test_surface_distance_kernel_equals_numpy(t20, steps):
+    rng = np.random.default_rng(5)
+    for face in _faces(t20):
+        s = face.surface
+        (u0, u1), (v0, v1) = s.domain
+        # starting parameters partly outside the domain (clamped), points off the surface
+        uv = np.column_stack([rng.uniform(u0 - 0.05 * (u1 - u0), u1, 300), rng.uniform(v0, v1, 300)])
+        x = s.evaluate(np.clip(uv, [u0, v0], [u1, v1])) + rng.normal(scale=0.01 * s.control_points.std(), size=(300, 3))
+        got = surface_distance(s, uv, x, steps=steps)
+        ref = _surface_distance_numpy(s, uv, x, steps=steps)
+        assert_allclose(got, ref, rtol=1e-9, atol=1e-12 * np.abs(x).max())
+        assert np.all(got <= np.linalg.norm(s.evaluate(np.clip(uv, [u0, v0], [u1, v1])) - x, axis=1) + 1e-15)
