@@ -139,8 +139,87 @@ def _surface_point(pu, pv, ku, kv, pw, rational, u, v, nd, scratch, out, i):
 
 
 @njit(cache=True, nogil=True)
+def _point_scratch(pu, pv, dimw):
+    """Work arrays of `_surface_point01`."""
+    return (np.empty((pu + 1, pu + 1)), np.empty((pv + 1, pv + 1)), np.empty((2, pu + 1)), np.empty((2, pv + 1)),
+            np.empty(pu + 1), np.empty(pu + 1), np.empty(pv + 1), np.empty(pv + 1),
+            np.empty((2, pu + 1)), np.empty((2, pv + 1)), np.empty((2, pu + 1, dimw)), np.empty((3, dimw)))
+
+
+@njit(cache=True, nogil=True)
+def _surface_point01(pu, pv, ku, kv, pw, rational, u, v, nd, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv,
+                     tmp, skl, res):
+    """`_surface_point` for nd = 0 or 1, the same operations in the same order (so the same numbers):
+    res[0] = S, res[1] = S_u, res[2] = S_v (the last two with nd = 1)."""
+    nu_ctrl, nv_ctrl, dimw = pw.shape
+    dim = dimw - 1 if rational else dimw
+    su = _span(pu, ku, nu_ctrl, u)
+    sv = _span(pv, kv, nv_ctrl, v)
+    _ders_basis(su, u, pu, ku, nd, ndu_u, a_u, l_u, r_u, bu)
+    _ders_basis(sv, v, pv, kv, nd, ndu_v, a_v, l_v, r_v, bv)
+    for l in range(nd + 1):
+        for r in range(pu + 1):
+            for d in range(dimw):
+                tmp[l, r, d] = 0.0
+            for s in range(pv + 1):
+                b = bv[l, s]
+                if b != 0.0:
+                    row = su - pu + r
+                    col = sv - pv + s
+                    for d in range(dimw):
+                        tmp[l, r, d] += b * pw[row, col, d]
+    # skl rows: 0 = (0, 0), 1 = (1, 0), 2 = (0, 1)
+    for d in range(dimw):
+        acc = 0.0
+        for r in range(pu + 1):
+            acc += bu[0, r] * tmp[0, r, d]
+        skl[0, d] = acc
+    if nd >= 1:
+        for d in range(dimw):
+            acc = 0.0
+            for r in range(pu + 1):
+                acc += bu[0, r] * tmp[1, r, d]
+            skl[2, d] = acc
+            acc = 0.0
+            for r in range(pu + 1):
+                acc += bu[1, r] * tmp[0, r, d]
+            skl[1, d] = acc
+    if not rational:
+        for d in range(dim):
+            res[0, d] = skl[0, d]
+            if nd >= 1:
+                res[2, d] = skl[2, d]
+                res[1, d] = skl[1, d]
+        return
+    w0 = skl[0, dim]
+    for d in range(dim):
+        res[0, d] = skl[0, d] / w0
+    if nd >= 1:
+        for d in range(dim):
+            val = skl[2, d]
+            val -= 1.0 * skl[2, dim] * res[0, d]
+            res[2, d] = val / w0
+            val = skl[1, d]
+            val -= 1.0 * skl[1, dim] * res[0, d]
+            val -= 1.0 * 0.0
+            res[1, d] = val / w0
+
+
+@njit(cache=True, nogil=True)
 def surface_derivatives_kernel(pu, pv, ku, kv, pw, rational, u, v, nd, out):
     """out[k, l, i, :] = d^(k+l) S / du^k dv^l at (u[i], v[i]); pw homogeneous if rational."""
+    if nd <= 1:
+        ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(pu, pv, pw.shape[2])
+        res = np.empty((3, 3))
+        for i in range(u.shape[0]):
+            _surface_point01(pu, pv, ku, kv, pw, rational, u[i], v[i], nd, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v,
+                             r_v, bu, bv, tmp, skl, res)
+            for d in range(3):
+                out[0, 0, i, d] = res[0, d]
+                if nd == 1:
+                    out[1, 0, i, d] = res[1, d]
+                    out[0, 1, i, d] = res[2, d]
+        return
     scratch = _surface_scratch(pu, pv, nd, pw.shape[2])
     for i in range(u.shape[0]):
         _surface_point(pu, pv, ku, kv, pw, rational, u[i], v[i], nd, scratch, out, i)
@@ -152,30 +231,25 @@ def surface_distance_kernel(pu, pv, ku, kv, pw, rational, uv, x, steps, best):
     steps of the foot point (clipped to the domain), the smallest distance met."""
     u0, u1 = ku[pu], ku[ku.shape[0] - pu - 1]
     v0, v1 = kv[pv], kv[kv.shape[0] - pv - 1]
-    s1 = _surface_scratch(pu, pv, 1, pw.shape[2])
-    s0 = _surface_scratch(pu, pv, 0, pw.shape[2])
-    d1 = np.zeros((2, 2, 1, 3))
-    d0 = np.zeros((1, 1, 1, 3))
+    ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(pu, pv, pw.shape[2])
+    res = np.empty((3, 3))
     for i in range(uv.shape[0]):
         u, v = uv[i, 0], uv[i, 1]
         b = np.inf
         for it in range(steps + 1):
             uc = min(max(u, u0), u1)
             vc = min(max(v, v0), v1)
-            if it < steps:
-                _surface_point(pu, pv, ku, kv, pw, rational, uc, vc, 1, s1, d1, 0)
-                p0, p1, p2 = d1[0, 0, 0, 0], d1[0, 0, 0, 1], d1[0, 0, 0, 2]
-            else:
-                _surface_point(pu, pv, ku, kv, pw, rational, uc, vc, 0, s0, d0, 0)
-                p0, p1, p2 = d0[0, 0, 0, 0], d0[0, 0, 0, 1], d0[0, 0, 0, 2]
+            _surface_point01(pu, pv, ku, kv, pw, rational, uc, vc, 1 if it < steps else 0, ndu_u, ndu_v, a_u, a_v,
+                             l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
+            p0, p1, p2 = res[0, 0], res[0, 1], res[0, 2]
             r0, r1, r2 = x[i, 0] - p0, x[i, 1] - p1, x[i, 2] - p2
             dist = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
             if it == 0 or dist < b:
                 b = dist
             if it == steps:
                 break
-            su0, su1, su2 = d1[1, 0, 0, 0], d1[1, 0, 0, 1], d1[1, 0, 0, 2]
-            sv0, sv1, sv2 = d1[0, 1, 0, 0], d1[0, 1, 0, 1], d1[0, 1, 0, 2]
+            su0, su1, su2 = res[1, 0], res[1, 1], res[1, 2]
+            sv0, sv1, sv2 = res[2, 0], res[2, 1], res[2, 2]
             a = su0 * su0 + su1 * su1 + su2 * su2
             bb = su0 * sv0 + su1 * sv1 + su2 * sv2
             c = sv0 * sv0 + sv1 * sv1 + sv2 * sv2
@@ -356,8 +430,8 @@ def pcurve_surface_kernel(cp, ck, cpw, crat, lo, hi, box, pu, pv, ku, kv, pw, sr
     su0, su1 = ku[pu], ku[ku.shape[0] - pu - 1]
     sv0, sv1 = kv[pv], kv[kv.shape[0] - pv - 1]
     uv = np.empty(2)
-    res = np.empty((1, 1, 1, 3))
-    scratch = _surface_scratch(pu, pv, 0, pw.shape[2])
+    res = np.empty((3, 3))
+    ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(pu, pv, pw.shape[2])
     for i in range(s.shape[0]):
         t = lo + s[i] * (hi - lo)
         t = min(max(t, t0), t1)
@@ -368,9 +442,10 @@ def pcurve_surface_kernel(cp, ck, cpw, crat, lo, hi, box, pu, pv, ku, kv, pw, sr
         out_uv[i, 1] = vv
         if not with_xyz:
             continue
-        _surface_point(pu, pv, ku, kv, pw, srat, min(max(uu, su0), su1), min(max(vv, sv0), sv1), 0, scratch, res, 0)
+        _surface_point01(pu, pv, ku, kv, pw, srat, min(max(uu, su0), su1), min(max(vv, sv0), sv1), 0, ndu_u, ndu_v,
+                         a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
         for d in range(3):
-            out_xyz[i, d] = res[0, 0, 0, d]
+            out_xyz[i, d] = res[0, d]
 
 
 @njit(cache=True, nogil=True)

@@ -681,6 +681,7 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
 
     dt = triangulate_domain(us, vs, polys, split=split, tie_main=prefer)
     xyz = lift(dt)
+    known = _TriangleDeviations(s)
     if tol is not None:
         # the CDT of a crossed cell cuts it other than the cell splits refine_cells checked: where one
         # of its triangles leaves the tolerance, its centroid joins the CDT (an interior point, so the
@@ -690,7 +691,7 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
         # triangles deviate by its own offset, which no interior point can remove
         trim_off = np.linalg.norm(s.evaluate(dt.uv[:dt.n_trim]) - trim_xyz, axis=1)
         for _ in range(4):
-            dev = triangle_deviation(s, dt.uv, xyz, dt.triangles)
+            dev = known.deviation(dt.uv, xyz, dt.triangles)
             off = np.zeros(len(dt.uv))
             off[:dt.n_trim] = trim_off
             bad = (dev > tol) & (dev > off[dt.triangles].max(axis=1) + 0.05 * tol)
@@ -715,7 +716,32 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
         quads = kept[quads] if len(quads) else quads
         quads = quads[(quads >= 0).all(axis=1)] if len(quads) else quads
     return FaceMesh(dt.uv, xyz, np.ascontiguousarray(tris), vid, quads, us, vs, dt.n_crossed_cells,
-                    triangle_deviation(s, dt.uv, xyz, tris), removed)
+                    known.deviation(dt.uv, xyz, tris), removed)
+
+
+class _TriangleDeviations:
+    """`triangle_deviation` of one face's triangulations, each triangle computed once: the rounds that
+    add interior points re-triangulate the face but keep most triangles, and the slivers' collapse keeps
+    most of the last ones. A triangle is known by its corners' (u, v) and points in order; its
+    deviation depends on nothing else."""
+
+    def __init__(self, surface):
+        self.surface = surface
+        self.values: dict = {}
+
+    def deviation(self, uv: np.ndarray, xyz: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+        m = len(triangles)
+        if not m:
+            return np.zeros(0)
+        keys = np.ascontiguousarray(np.concatenate([uv[triangles].reshape(m, 6), xyz[triangles].reshape(m, 9)],
+                                                   axis=1))
+        keys = keys.view(np.dtype((np.void, 15 * 8))).ravel().tolist()
+        out = np.array([self.values.get(k, np.nan) for k in keys])
+        new = np.flatnonzero(np.isnan(out))
+        if len(new):
+            out[new] = triangle_deviation(self.surface, uv, xyz, triangles[new])
+            self.values.update(zip([keys[i] for i in new], out[new].tolist()))
+        return out
 
 
 
