@@ -83,10 +83,24 @@ def basis_functions(degree: int, knots: np.ndarray, spans: np.ndarray, t: np.nda
         Derivatives above the degree are zero.
     """
     ders = np.empty((int(n_derivs) + 1, t.shape[0], int(degree) + 1))
-    basis_functions_kernel(int(degree), np.ascontiguousarray(knots, dtype=np.float64),
+    basis_functions_kernel(int(degree), read_only(knots),
                            np.ascontiguousarray(spans, dtype=np.int64), np.ascontiguousarray(t, dtype=np.float64),
                            int(n_derivs), ders)
     return ders
+
+
+def read_only(a) -> np.ndarray:
+    """`a` as a C-contiguous float64 array that cannot be written (a view where `a` can).
+
+    The compiled kernels see every input array read-only: numba compiles one version per
+    combination of writable and read-only arguments, so mixed inputs would multiply the
+    first-call compile time.
+    """
+    v = np.ascontiguousarray(a, dtype=np.float64)
+    if v.flags.writeable:
+        v = v.view()
+        v.flags.writeable = False
+    return v
 
 
 _HOMOGENEOUS: dict = {}     # id(control points) -> (control points, weights, homogeneous array)
@@ -95,7 +109,7 @@ _HOMOGENEOUS: dict = {}     # id(control points) -> (control points, weights, ho
 def _homogeneous(control_points: np.ndarray, weights: np.ndarray | None) -> np.ndarray:
     cp = np.asarray(control_points, dtype=np.float64)
     if weights is None:
-        return cp
+        return read_only(cp)
     # read-only arrays (the model's) cannot change: their homogeneous array is built once (the entry
     # keeps both arrays alive, so an id is never reused while it is cached)
     frozen = (not cp.flags.writeable and isinstance(weights, np.ndarray) and not weights.flags.writeable)
@@ -103,7 +117,7 @@ def _homogeneous(control_points: np.ndarray, weights: np.ndarray | None) -> np.n
     if hit is not None and hit[0] is cp and hit[1] is weights:
         return hit[2]
     w = np.asarray(weights, dtype=np.float64)[..., None]
-    pw = np.ascontiguousarray(np.concatenate([cp * w, w], axis=-1))
+    pw = read_only(np.concatenate([cp * w, w], axis=-1))
     if not frozen:
         return pw
     if len(_HOMOGENEOUS) > 4096:
@@ -147,7 +161,7 @@ def curve_derivatives(degree: int, knots, control_points, weights, t, *, n_deriv
     nd = int(n_derivs)
     if nd == 0:         # points only: the compiled kernel, one pass per point
         out = np.empty((1, t.shape[0], dim))
-        curve_points_kernel(int(degree), np.ascontiguousarray(knots), np.ascontiguousarray(pw, dtype=np.float64),
+        curve_points_kernel(int(degree), read_only(knots), read_only(pw),
                             weights is not None, np.ascontiguousarray(t), out[0])
         return out
     out = np.empty((nd + 1, t.shape[0], dim))
@@ -204,7 +218,7 @@ def surface_derivatives(degree_u: int, degree_v: int, knots_u, knots_v, control_
     pw = np.ascontiguousarray(_homogeneous(control_points, weights))
     nd = int(n_derivs)
     out = np.zeros((nd + 1, nd + 1, uv.shape[0], 3))
-    surface_derivatives_kernel(int(degree_u), int(degree_v), np.ascontiguousarray(ku), np.ascontiguousarray(kv),
+    surface_derivatives_kernel(int(degree_u), int(degree_v), read_only(ku), read_only(kv),
                                pw, weights is not None, np.ascontiguousarray(u), np.ascontiguousarray(v), nd, out)
     return out
 

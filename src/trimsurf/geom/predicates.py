@@ -100,8 +100,9 @@ def points_in_polygons(points, polygons, *, chunk_size: int = 1 << 22) -> np.nda
     slab = np.repeat(first, cnt) + (np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt))
     order = np.argsort(slab, kind="stable")
     start = np.searchsorted(slab[order], np.arange(n_slab + 1))
-    _points_in_polygons_kernel(pts, np.ascontiguousarray(a), np.ascontiguousarray(b), y0, h, n_slab,
-                               start, np.ascontiguousarray(edge[order]), inside)
+    _points_in_polygons_kernel(np.array(pts, order="C"), np.ascontiguousarray(a), np.ascontiguousarray(b), y0, h,
+                               n_slab, np.ascontiguousarray(start, dtype=np.int64),
+                               np.ascontiguousarray(edge[order], dtype=np.int64), inside)
     return inside
 
 

@@ -104,18 +104,14 @@ class IsoLines:
         self.axis = axis
         self.lines = np.asarray(lines, dtype=np.float64)
         s = surface
-        self._ku = np.ascontiguousarray(s.knots_u, dtype=np.float64)
-        self._kv = np.ascontiguousarray(s.knots_v, dtype=np.float64)
-        cp = np.asarray(s.control_points, dtype=np.float64)
-        if s.weights is None:
-            self._pw = np.ascontiguousarray(cp)
-        else:
-            w = np.asarray(s.weights, dtype=np.float64)[..., None]
-            self._pw = np.ascontiguousarray(np.concatenate([cp * w, w], axis=-1))
+        from ..geom.nurbs import _homogeneous, read_only
+
+        self._ku, self._kv = read_only(s.knots_u), read_only(s.knots_v)
+        self._pw = _homogeneous(s.control_points, s.weights)
         (u0, u1), (v0, v1) = s.domain
         self._xr = (u0, u1) if axis == 0 else (v0, v1)
         lr = (v0, v1) if axis == 0 else (u0, u1)
-        self._lines_c = np.ascontiguousarray(np.clip(self.lines, lr[0], lr[1]))
+        self._lines_c = read_only(np.clip(self.lines, lr[0], lr[1]))
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         uv = np.empty((len(x), len(self.lines), 2))
@@ -126,16 +122,17 @@ class IsoLines:
     def criteria(self, x: np.ndarray, n_sub: int, weights) -> tuple[np.ndarray, np.ndarray]:
         """`interval_criteria` of this family."""
         from ..geom._nurbs_kernels import iso_line_criteria_kernel
+        from ..geom.nurbs import read_only
 
         n = len(x) - 1
         t = np.linspace(0.0, 1.0, n_sub + 2)
         xs = np.clip(x[:-1, None] + (x[1:] - x[:-1])[:, None] * t[None, :], self._xr[0], self._xr[1])
         w = (np.ones((n, len(self.lines)), dtype=np.bool_) if weights is None
-             else np.ascontiguousarray(weights, dtype=np.bool_))
+             else np.array(weights, dtype=np.bool_, order="C"))
         length, dev = np.empty(n), np.empty(n)
         s = self.surface
         iso_line_criteria_kernel(s.degree_u, s.degree_v, self._ku, self._kv, self._pw, s.weights is not None,
-                                 self.axis, self._lines_c, np.ascontiguousarray(xs), w, length, dev)
+                                 self.axis, self._lines_c, read_only(xs), w, length, dev)
         return length, dev
 
 
@@ -767,13 +764,14 @@ def surface_distance(surface, uv: np.ndarray, x: np.ndarray, steps: int = 2) -> 
     (n,) float64
     """
     from ..geom._nurbs_kernels import surface_distance_kernel
-    from ..geom.nurbs import _homogeneous
+    from ..geom.nurbs import _homogeneous, read_only
 
-    uv = np.ascontiguousarray(uv, dtype=np.float64).reshape(-1, 2)
-    x = np.ascontiguousarray(x, dtype=np.float64).reshape(-1, 3)
+    uv = read_only(np.asarray(uv, dtype=np.float64).reshape(-1, 2))
+    x = read_only(np.asarray(x, dtype=np.float64).reshape(-1, 3))
     s = surface
     best = np.empty(len(uv))
-    surface_distance_kernel(s.degree_u, s.degree_v, s.knots_u, s.knots_v, _homogeneous(s.control_points, s.weights),
+    surface_distance_kernel(s.degree_u, s.degree_v, read_only(s.knots_u), read_only(s.knots_v),
+                            _homogeneous(s.control_points, s.weights),
                             s.weights is not None, uv, x, int(steps), best)
     return best
 

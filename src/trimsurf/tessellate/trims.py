@@ -63,19 +63,18 @@ class ChunkUse:
         """(uv (n, 2), xyz (n, 3)) at the chunk parameters s, in one compiled pass (xyz left
         uninitialized without `with_xyz`)."""
         from ..geom._nurbs_kernels import pcurve_surface_kernel
+        from ..geom.nurbs import _homogeneous, read_only
 
         if self._kernel_args is None:
-            from ..geom.nurbs import _homogeneous
 
             c, f = self.pcurve.curve, self.surface
             lo, hi = sorted((self.pcurve.t0, self.pcurve.t1))
-            box = np.array([self.us[0], self.us[-1], self.vs[0], self.vs[-1]], dtype=np.float64)
+            box = read_only([self.us[0], self.us[-1], self.vs[0], self.vs[-1]])
             self._kernel_args = (
-                (c.degree, np.ascontiguousarray(c.knots), _homogeneous(c.control_points, c.weights),
-                 c.weights is not None, lo, hi, box, f.degree_u, f.degree_v, np.ascontiguousarray(f.knots_u),
-                 np.ascontiguousarray(f.knots_v), np.ascontiguousarray(_homogeneous(f.control_points, f.weights)),
-                 f.weights is not None))
-        s = np.ascontiguousarray(s, dtype=np.float64).reshape(-1)
+                (c.degree, read_only(c.knots), _homogeneous(c.control_points, c.weights),
+                 c.weights is not None, float(lo), float(hi), box, f.degree_u, f.degree_v, read_only(f.knots_u),
+                 read_only(f.knots_v), _homogeneous(f.control_points, f.weights), f.weights is not None))
+        s = read_only(np.asarray(s, dtype=np.float64).reshape(-1))
         uv, xyz = np.empty((len(s), 2)), np.empty((len(s) if with_xyz else 0, 3))
         pcurve_surface_kernel(*self._kernel_args, s, with_xyz, uv, xyz)
         return uv, xyz
@@ -181,9 +180,9 @@ class _ChunkLines:
         xs = (x[:-1, None] + (x[1:] - x[:-1])[:, None] * t[None, :]).ravel()
         p = self(xs).reshape(n, m, len(self.uses), 3)
         w = (np.ones((n, len(self.uses)), dtype=np.bool_) if weights is None
-             else np.ascontiguousarray(weights, dtype=np.bool_))
+             else np.array(weights, dtype=np.bool_, order="C"))
         length, dev = np.empty(n), np.empty(n)
-        chord_criteria_kernel(p, w, length, dev)
+        chord_criteria_kernel(np.ascontiguousarray(p), w, length, dev)
         return length, dev
 
 
