@@ -82,3 +82,39 @@ def test_surface_distance_kernel_equals_numpy(t20, steps):
         ref = _surface_distance_numpy(s, uv, x, steps=steps)
         assert_allclose(got, ref, rtol=1e-9, atol=1e-12 * np.abs(x).max())
         assert np.all(got <= np.linalg.norm(s.evaluate(np.clip(uv, [u0, v0], [u1, v1])) - x, axis=1) + 1e-15)
+
+
+def test_cell_cache_equals_uncached(t20):
+    # the cache serves cells shared between grids (a refined grid keeps most cells): same numbers as
+    # computing every cell afresh
+    from trimsurf.tessellate.face import _CellCache, _cell_deviation
+
+    for face in _faces(t20)[:5]:
+        s = face.surface
+        (u0, u1), (v0, v1) = s.domain
+        cache = _CellCache(s)
+        us, vs = np.linspace(u0, u1, 7), np.linspace(v0, v1, 5)
+        tol = 1e-4 * float(np.ptp(s.control_points, axis=(0, 1)).max())
+        for grid in ((us, vs), (np.sort(np.r_[us, 0.5 * (us[2] + us[3])]), vs), (us, np.sort(np.r_[vs, 0.3 * v0 + 0.7 * v1]))):
+            got = _cell_deviation(s, *grid, tol, cache)
+            ref = _cell_deviation(s, *grid, tol)
+            for g, r in zip(got, ref):
+                assert np.array_equal(g, r)
+        assert len(cache.p) < 3 * 6 * 4           # cells of the later grids were served from the cache
+
+
+def test_triangle_deviations_cache_equals_direct(t20):
+    from trimsurf.tessellate.face import _TriangleDeviations, triangle_deviation
+
+    face = t20.faces[2]
+    s = face.surface
+    (u0, u1), (v0, v1) = s.domain
+    rng = np.random.default_rng(7)
+    uv = np.column_stack([rng.uniform(u0, u1, 40), rng.uniform(v0, v1, 40)])
+    xyz = s.evaluate(uv)
+    tris = rng.integers(0, 40, (60, 3))
+    known = _TriangleDeviations(s)
+    first = known.deviation(uv, xyz, tris)
+    again = known.deviation(uv, xyz, np.r_[tris[::2], tris[:5, ::-1]])    # repeats and reversed rows
+    assert np.array_equal(first, triangle_deviation(s, uv, xyz, tris))
+    assert np.array_equal(again, triangle_deviation(s, uv, xyz, np.r_[tris[::2], tris[:5, ::-1]]))
