@@ -159,7 +159,6 @@ def _conforming_chunks(shell: Shell, faces: list, grids: dict, *, tolerance: flo
             next_id[0] += 1
         return vertex_ids[shell_vertex]
 
-    done = set()
     edge_uses = []
     for ei, edge in enumerate(shell.edges):
         uses = []
@@ -215,8 +214,7 @@ def _conforming_chunks(shell: Shell, faces: list, grids: dict, *, tolerance: flo
             ids[:] = ids[0]
         for ui, use in enumerate(uses):
             entries[use.face][use.loop][use.segment] = (chunk, ui, ids)
-            done.add((use.face, use.loop, use.segment))
-    # segments without an edge (filled gaps, faces without topology): their own chunk; one shorter
+    # segments without an edge (discretized above with the edges): one shorter
     # than the tolerance in 3D (a filled gap, a suit-case corner) is one vertex: its neighbours' joint
     def end_id(entry, at_end: bool):
         ch, ui, ids = entry
