@@ -72,3 +72,17 @@ def test_parallel_map_keeps_order_and_errors():
 def test_bad_jobs(jobs):
     with pytest.raises(InputError, match="jobs"):
         tessellate_shell(build_sample("bspline_box"), measure=False, jobs=jobs)
+
+
+def test_progress_follows_the_faces(monkeypatch):
+    # one job: progress is reported face by face while the faces are meshed, not all at the end
+    events = []
+    mesh = shell_mod.mesh_face_from_chunks
+
+    def meshing(*args, **kw):
+        events.append("mesh")
+        return mesh(*args, **kw)
+
+    monkeypatch.setattr(shell_mod, "mesh_face_from_chunks", meshing)
+    tessellate_shell(build_sample("bspline_box"), measure=False, progress=lambda d, n: events.append((d, n)))
+    assert events == [e for k in range(1, 7) for e in ("mesh", (k, 6))]

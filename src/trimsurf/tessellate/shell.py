@@ -287,7 +287,8 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
         Worker processes for the per-face and per-edge stages (repair and domain values, edge
         discretization, face triangulation); threads where the platform cannot fork. The output is
         the same whatever `jobs` (each face and edge is computed by the same code from the same data,
-        results are joined in order).
+        results are joined in order). The workers are forked: from a process that runs other threads
+        (a Dask worker, a GUI) keep ``jobs=1``.
 
     Returns
     -------
@@ -381,7 +382,8 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
 
     done = 0
     order = sorted(grids)
-    for i, fm in zip(order, parallel_map(mesh_face, order, jobs)):
+    # one job: face by face, so that `progress` follows the work
+    for i, fm in zip(order, map(mesh_face, order) if jobs <= 1 else parallel_map(mesh_face, order, jobs)):
         us, vs = grids[i]
         try:
             if isinstance(fm, InputError):
