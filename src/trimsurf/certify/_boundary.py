@@ -83,6 +83,8 @@ from ..model import NurbsCurve, PCurve, Shell, TrimmedFace
 __all__ = ["FaceBoundary", "BoundaryLoop", "sample_boundaries"]
 
 _CHORD_BEND = 0.05      # split where the p-curve leaves its chord by more than this fraction of the chord
+_STUCK = 2.0 ** -20     # a sample interval this short (of its edge's range) is not split for the gap any more
+                        # before its bound is taken over its own boxes of the surfaces (`_gap.tight_boxes`)
 
 
 
@@ -470,9 +472,10 @@ def _assemble_face(shell: Shell, edges: list[_Edge], where: dict, f: int, merge_
 
 
 def edge_interval_bounds(shell: Shell, e: _Edge, cache: dict, corner_info: dict, lipschitz: dict,
-                         bcache: BoundsCache) -> tuple[np.ndarray, np.ndarray]:
+                         bcache: BoundsCache, tighten: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Rigorous bound of the gap between the perturbed faces on each sample interval of a shared edge,
-    as (fixed, remainder) (`trimsurf.certify._gap.interval_bounds`)."""
+    as (fixed, remainder) (`trimsurf.certify._gap.interval_bounds`); remainders over `tighten` (per
+    interval) are bounded again over their intervals' own boxes of the surface (`_gap.tight_boxes`)."""
     rems, tgts = [], []
     for u in e.uses:
         uv, _, target, _, tau = cache[(u.face, u.loop, u.seg)]
@@ -488,9 +491,9 @@ def edge_interval_bounds(shell: Shell, e: _Edge, cache: dict, corner_info: dict,
                     uv[end_i] = info[2]
         surface = shell.faces[u.face].surface
         if u.pairing == "surface":
-            rems.append(polygon_remainder(surface, uv, bcache))
+            rems.append(polygon_remainder(surface, uv, bcache, tighten))
         else:
-            rems.append(use_remainder(surface, u.pcurve.curve, uv, tau, lipschitz[u.face], shift, bcache))
+            rems.append(use_remainder(surface, u.pcurve.curve, uv, tau, lipschitz[u.face], shift, bcache, tighten))
         tgts.append(target)
     return interval_bounds(rems, tgts)
 
@@ -648,12 +651,25 @@ def sample_boundaries(shell: Shell, *, rtol: float = 1e-2, abs_tol: float | None
         changed = []
         for k in shared_k:
             e = edges[k]
-            fixed, rem = edge_interval_bounds(shell, e, cache, corner_info, {f: final[f][1] for f in final}, bcache)
+            lips = {f: final[f][1] for f in final}
+            fixed, rem = edge_interval_bounds(shell, e, cache, corner_info, lips, bcache)
             b = fixed + rem
-            e.interval_bound, e.gap_bound, e.gap_tolerance = b, float(b.max(initial=0.0)), tol
             # refinement reduces only the remainder (as the square of the interval), not a corner's mismatch
             room_tol = np.maximum(tol - fixed, 0.25 * tol)
             bad = (b > tol) & (rem > 0.25 * room_tol) & np.isfinite(rem)    # unbounded: refinement cannot help
+            # where the edge is done (or an interval is already tiny) and still over tol, bound the surfaces'
+            # derivatives over the intervals' own boxes instead of over the fixed pieces meeting them: a
+            # polygon segment along a pole line (U_Joint edges 308, 310: 0.10 -> 2.5e-5) is not helped by
+            # splitting (its feet stay spread along the pole), only by the box's own net
+            last = gap_round == max_gap_rounds or not bad.any() or len(e.t) >= max_gap_samples_per_edge
+            sel = (b > tol) & np.isfinite(rem) & (last | (np.diff(e.t) <= (e.hi - e.lo) * _STUCK))
+            if sel.any():
+                fixed, rem = edge_interval_bounds(shell, e, cache, corner_info, lips, bcache,
+                                                  np.where(sel, 0.0, np.inf))
+                b = fixed + rem
+                bad = (b > tol) & (rem > 0.25 * room_tol) & np.isfinite(rem)
+                bad &= ~sel                     # bounded over their own boxes: not split further
+            e.interval_bound, e.gap_bound, e.gap_tolerance = b, float(b.max(initial=0.0)), tol
             if gap_round == max_gap_rounds or not bad.any() or len(e.t) >= max_gap_samples_per_edge:
                 continue
             # the remainder shrinks as the square of the interval: aim at 0.8 of the room left

@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._bounds import curve_bounds, max_over_boxes, max_over_spans, surface_bounds
+from ._bounds import box_bounds, curve_bounds, max_over_boxes, max_over_spans, surface_bounds
 
 __all__ = ["interval_bounds", "measure_edge_gaps"]
 
@@ -57,6 +57,7 @@ class BoundsCache:
     def __init__(self):
         self._s: dict = {}
         self._c: dict = {}
+        self.n_boxes = 0          # boxes bounded over their own sub-patch (`tight_boxes`)
 
     def surface(self, surface):
         key = id(surface)
@@ -71,9 +72,25 @@ class BoundsCache:
         return self._c[key][1]
 
 
+def tight_boxes(surface, fb: np.ndarray, lo: np.ndarray, hi: np.ndarray, sel: np.ndarray,
+                cache: BoundsCache) -> np.ndarray:
+    """fb with the rows `sel` replaced by the bounds over the boxes' own sub-patches where smaller
+    (`trimsurf.certify._bounds.box_bounds`; both are rigorous, so is their minimum)."""
+    idx = np.flatnonzero(sel)
+    if len(idx) == 0:
+        return fb
+    fb = fb.copy()
+    fb[idx] = np.minimum(fb[idx], box_bounds(surface, lo[idx], hi[idx]))
+    cache.n_boxes += len(idx)
+    return fb
+
+
 def use_remainder(surface, curve, uv: np.ndarray, tau: np.ndarray, big_l: np.ndarray, shift: np.ndarray,
-                  cache: BoundsCache) -> np.ndarray:
-    """R_X per interval (see the module docstring); uv, tau at the samples (n,), shift at the samples (n,)."""
+                  cache: BoundsCache, tighten=None) -> np.ndarray:
+    """R_X per interval (see the module docstring); uv, tau at the samples (n,), shift at the samples (n,).
+
+    Intervals whose R_X exceeds `tighten` (a number or one per interval) get the surface's derivatives bounded over their own box
+    (`tight_boxes`) instead of over the pieces of the fixed subdivision that meet it."""
     t0, t1 = tau[:-1], tau[1:]
     sigma = np.abs(t1 - t0)
     d1c, d1n, d2n = max_over_spans(cache.curve(curve), t0, t1)
@@ -82,22 +99,33 @@ def use_remainder(surface, curve, uv: np.ndarray, tau: np.ndarray, big_l: np.nda
     lo = np.minimum(uv[:-1], uv[1:]) - r
     hi = np.maximum(uv[:-1], uv[1:]) + r
     fb = max_over_boxes(cache.surface(surface), lo, hi)
-    fu, fv, fuu, fuv, fvv = fb.T
-    grad = np.hypot(fu, fv)
     pu, pv = d1c[:, 0], d1c[:, 1]
-    m2 = fuu * pu * pu + 2.0 * fuv * pu * pv + fvv * pv * pv + grad * d2n
     lx = float(np.linalg.norm(big_l))
-    out = sigma * sigma / 8.0 * (m2 + lx * d2n) + sh * (grad + lx)
+
+    def rx(fb):
+        fu, fv, fuu, fuv, fvv = fb.T
+        grad = np.hypot(fu, fv)
+        m2 = fuu * pu * pu + 2.0 * fuv * pu * pv + fvv * pv * pv + grad * d2n
+        return sigma * sigma / 8.0 * (m2 + lx * d2n) + sh * (grad + lx)
+
+    out = rx(fb)
+    if tighten is not None:
+        loose = (out > tighten) & ~_outside(surface, lo, hi)
+        if loose.any():
+            out = np.minimum(out, rx(tight_boxes(surface, fb, lo, hi, loose, cache)))
     ends_lo, ends_hi = np.minimum(uv[:-1], uv[1:]), np.maximum(uv[:-1], uv[1:])
     return np.where(_outside(surface, ends_lo, ends_hi), np.inf, out)
 
 
-def polygon_remainder(surface, uv: np.ndarray, cache: BoundsCache) -> np.ndarray:
+def polygon_remainder(surface, uv: np.ndarray, cache: BoundsCache, tighten=None) -> np.ndarray:
     """Chord remainder along the Whitney polygon itself (pairing "surface"), per interval.
 
     On the polygon segment Q_i Q_i+1 (uv length h, unit direction d) a_X is exactly the linear interpolant
     of the data, so G_X - lerp(T) = F(q) - lerp F(Q_j), at most h^2/8 sup |D^2 F[d, d]| with
-    |D^2 F[d, d]| <= |F_uu| d_u^2 + 2 |F_uv| |d_u d_v| + |F_vv| d_v^2 over the pieces meeting the segment's box.
+    |D^2 F[d, d]| <= |F_uu| d_u^2 + 2 |F_uv| |d_u d_v| + |F_vv| d_v^2 over the pieces meeting the segment's box,
+    or, where that exceeds `tighten`, over the box's own sub-patch (`tight_boxes`): a segment along a pole
+    line (U_Joint face 96, v = -pi/2, where F(u, v) is one point) has F_uu = 0 on it, not the size of the
+    neighbouring pieces' F_uu.
     """
     vec = uv[1:] - uv[:-1]
     h = np.linalg.norm(vec, axis=1)
@@ -105,8 +133,17 @@ def polygon_remainder(surface, uv: np.ndarray, cache: BoundsCache) -> np.ndarray
         d = np.where(h[:, None] > 0, np.abs(vec) / np.where(h > 0, h, 1.0)[:, None], 0.0)
     lo, hi = np.minimum(uv[:-1], uv[1:]), np.maximum(uv[:-1], uv[1:])
     fb = max_over_boxes(cache.surface(surface), lo, hi)
-    m2 = fb[:, 2] * d[:, 0] ** 2 + 2.0 * fb[:, 3] * d[:, 0] * d[:, 1] + fb[:, 4] * d[:, 1] ** 2
-    return np.where(_outside(surface, lo, hi), np.inf, h * h / 8.0 * m2)
+
+    def chord(fb):
+        return h * h / 8.0 * (fb[:, 2] * d[:, 0] ** 2 + 2.0 * fb[:, 3] * d[:, 0] * d[:, 1] + fb[:, 4] * d[:, 1] ** 2)
+
+    out = chord(fb)
+    outside = _outside(surface, lo, hi)
+    if tighten is not None:
+        loose = (out > tighten) & ~outside
+        if loose.any():
+            out = np.minimum(out, chord(tight_boxes(surface, fb, lo, hi, loose, cache)))
+    return np.where(outside, np.inf, out)
 
 
 def _outside(surface, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
