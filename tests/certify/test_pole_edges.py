@@ -51,15 +51,16 @@ def test_pole_edges_are_proven_within_the_file_tolerance(ujoint):
         # the reason it was loose: face 96's polygon runs along the pole line at the vertex
         use = next(u for u in e.uses if u.face == 96)
         poly = e.poly[(96, use.loop, use.seg)]
-        end = 0 if abs(poly[0, 1] - v_pole) < 1e-9 else -2
-        seg = poly[end:end + 2] if end == 0 else poly[-2:]
-        assert np.all(np.abs(seg[:, 1] - v_pole) < 1e-6) and abs(seg[1, 0] - seg[0, 0]) > 0.1, seg
+        on_pole = np.abs(poly[:, 1] - v_pole) < 1e-6
+        assert np.ptp(poly[on_pole, 0]) > 0.1, poly[on_pole]
+        end = 0 if on_pole[0] else -1
+        assert on_pole[end] and not on_pole[len(poly) // 2]
         # measured <= bound on every interval: 64 points per interval, the pole intervals 20,001 points
         lam = np.linspace(0.0, 1.0, 64)[None, :]
         s = (e.t[:-1, None] + np.diff(e.t)[:, None] * lam).ravel()
         g = _gap(shell, bounds, e, s).reshape(len(e.t) - 1, -1).max(axis=1)
         assert np.all(g <= e.interval_bound), (k, np.max(g / e.interval_bound))
-        i = 0 if end == 0 else len(e.t) - 2
+        i = 0 if end == 0 else len(e.t) - 2           # the interval at the pole vertex
         gi = _gap(shell, bounds, e, np.linspace(e.t[i], e.t[i + 1], 20001)).max()
         assert gi <= e.interval_bound[i] <= tol
 
