@@ -34,7 +34,16 @@ The sups are the rigorous control-net bounds of `trimsurf.certify._bounds`:
 interval, the derivatives of F over the surface's Bézier pieces meeting a box
 that contains p([tau_i, tau_i+1]) (the end points widened by sup|p'| sigma / 2).
 Samples beyond the surface's domain (by more than 1e-9 of it: F is
-extrapolated there) make the interval's bound unbounded. Not proven: that a
+extrapolated there) make the interval's bound unbounded. Where an edge is done
+refining and an interval is still over the tolerance (or its interval is below
+2^-20 of the edge), the surface's derivatives are bounded again over the
+interval's own box (`tight_boxes`: the control nets of the sub-patch over the
+box, by knot insertion): on U_Joint face 96 the polygon runs 0.56 along the
+pole line v = -pi/2, where F_uu = 0 but the pieces meeting it have F_uu ~ 3, and
+edges 308/310 went from 0.10 to 2.45e-5 (tolerance 2.54e-5). Samples a face
+merges away (closer than its merge tolerance in (u, v)) are not on its polygon:
+each face's remainder is taken between the samples it keeps
+(`_boundary.use_polygon`). Not proven: that a
 p-curve whose samples lie in the domain stays in it between them (p-curves
 along the domain's boundary are common; the derivative bounds are looked up
 over the box clipped to the domain). Rounding: the bound
