@@ -131,3 +131,40 @@ def test_bad_input():
                         Shell((rect_face(plane_patch()),)))
     with pytest.raises(InputError, match="needs a Shell"):
         shell_deviation(m, plane_patch())
+
+
+def test_refine_finds_the_maximum_coarse_samples_miss():
+    """Skeptical: a density-2 grid (corners and edge midpoints) misses the sagitta at the circumcentre of
+    acute triangles; `refine` samples those triangles more densely until the curvature bound leaves at
+    most 1 % above the reported maximum, and the bound holds the exact value."""
+    s = sphere_patch()
+    m = lattice_mesh(s, 9)
+    exact = _analytic_sphere_deviation(m).max()
+    coarse = surface_deviation(m, s, density=2, two_sided=False)
+    assert coarse.max_mesh_to_target < 0.97 * exact          # the slip the refinement must close
+    d = surface_deviation(m, s, density=2, two_sided=False, refine=0.01)
+    assert exact * (1 - 0.01) <= d.max_mesh_to_target <= exact + 1e-12
+    assert d.max_bound >= exact and d.max_bound <= 1.01 * d.max_two_sided + 1e-12
+    assert d.n_refined > 0
+
+
+def test_refine_sees_a_hole_between_coarse_domain_samples():
+    """Surface -> mesh: one missing triangle of a fine mesh lies between the samples of a coarse (u, v)
+    grid; with `refine` the domain grid follows the triangles' (u, v) size and finds it."""
+    s = sphere_patch()
+    face = rect_face(s)
+    m = grid_mesh(s, 41)
+    c = m.uv[m.triangles].mean(axis=1)
+    hole = int(np.argmin(np.linalg.norm(c - [0.507, 0.493], axis=1)))
+    holed = m.submesh(np.arange(m.n_triangles) != hole)
+    p = m.vertices[m.triangles[hole]]
+    a, b, cc = (np.linalg.norm(p[i] - p[j]) for i, j in ((1, 2), (2, 0), (0, 1)))
+    area = 0.5 * np.linalg.norm(np.cross(p[1] - p[0], p[2] - p[0]))
+    inradius = 2 * area / (a + b + cc)
+    sag = _analytic_sphere_deviation(m).max()
+    coarse = surface_deviation(holed, face, density=3, n_domain=16)
+    assert coarse.max_target_to_mesh < inradius / 4                # the hole slips between the samples
+    d = surface_deviation(holed, face, density=3, n_domain=16, refine=0.01)
+    # a sample inside the hole, at least a quarter of the inradius from its rim (the grid's covering
+    # radius is below the inradius), far above the sagitta of the mesh elsewhere
+    assert d.max_target_to_mesh >= inradius / 4 > 5 * sag

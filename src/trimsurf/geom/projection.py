@@ -744,7 +744,14 @@ def project_to_surface(points, degree_u: int, degree_v: int, knots_u, knots_v, c
     def evaluate(uv):
         return _surface_eval(args, uv)
 
-    seeds = _build_seeds(axes, evaluate, tol / tol_rel)
+    key = (pu, pv, ku.tobytes(), kv.tobytes(), cp.shape, cp.tobytes(), None if w is None else w.tobytes(),
+           tuple(a.tobytes() for a in axes))
+    seeds = _SEED_CACHE.get(key)
+    if seeds is None:
+        seeds = _build_seeds(axes, evaluate, tol / tol_rel)
+        if len(_SEED_CACHE) >= _SEED_CACHE_SIZE:
+            _SEED_CACHE.pop(next(iter(_SEED_CACHE)))
+        _SEED_CACHE[key] = seeds
     breaks = [_breakpoints(ku, pu), _breakpoints(kv, pv)]
 
     def newton(p, x0, state, barrier=None):
@@ -752,6 +759,12 @@ def project_to_surface(points, degree_u: int, degree_v: int, knots_u, knots_v, c
 
     raw = _solve(pts, seeds, evaluate, newton, bool(retry), tol, breaks, start)
     return Projection(raw.params, raw.foot, raw.distance, raw.converged, raw.on_boundary, raw.iterations)
+
+
+#: seed grids of the last surfaces projected onto, by their exact definition (knots, control points,
+#: weights, seed parameters as bytes): measuring a mesh projects onto each face several times
+_SEED_CACHE: dict = {}
+_SEED_CACHE_SIZE = 16
 
 
 # --------------------------------------------------------------------------- curves

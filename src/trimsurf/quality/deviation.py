@@ -13,19 +13,29 @@ area-weighted).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..errors import InputError, MeshError
+from ..geom.predicates import points_in_polygons
 from ..geom.projection import project_to_surface
 from ..model import Shell, TriMesh
 from ._results import ResultMixin
 from .closest_point import closest_points_on_mesh
-from .sampling import as_face, distance_outside_face, sample_face_domain, sample_triangles
+from .sampling import as_face, distance_outside_face, loop_polygons, sample_face_domain, sample_triangles
 
 __all__ = ["Deviation", "ShellDeviation", "surface_deviation", "shell_deviation", "mesh_deviation",
-           "project_to_face"]
+           "project_to_face", "refine_deviation", "max_curvature"]
+
+#: densest barycentric grid (divisions per edge) `refine_deviation` samples a triangle with
+MAX_DENSITY = 32
+#: margin on the curvature sampled at a triangle's corners and centre, for the curvature between them
+CURVATURE_MARGIN = 1.5
+#: most points per face and direction of the surface -> mesh domain grid that follows the triangles
+MAX_FOOTPRINT_GRID = 256
+#: the surface -> mesh domain grid's spacing: the triangles' median (u, v) extent over this
+FOOTPRINT_DIVISIONS = 2.5
 
 
 @dataclass(frozen=True, eq=False)
@@ -53,6 +63,11 @@ class Deviation(ResultMixin):
         Largest (u, v) distance of such a foot from the trimmed region (0 when all inside).
     per_triangle_max : (m,) float64
         Largest mesh -> target distance among each triangle's samples (its corners and edges included).
+    max_bound : float
+        With adaptive sampling (``refine``): the curvature bound on the two-sided
+        maximum between the samples (see `refine_deviation`); NaN otherwise.
+    n_refined : int
+        Triangles sampled again more densely by `refine_deviation`.
     """
 
     max_mesh_to_target: float
@@ -68,6 +83,8 @@ class Deviation(ResultMixin):
     n_outside_trim: int
     max_outside_trim_uv: float
     per_triangle_max: np.ndarray
+    max_bound: float = float("nan")
+    n_refined: int = 0
 
 
 def _stats(d: np.ndarray, pts: np.ndarray) -> tuple[float, float, np.ndarray]:
@@ -95,7 +112,8 @@ def project_to_face(points, face, *, tol_rel: float = 1e-10, uv0=None):
 
 
 def surface_deviation(mesh: TriMesh, target, *, density: int = 4, n_domain: int = 64, two_sided: bool = True,
-                      tol_rel: float = 1e-10, trim_tol_uv: float | None = None) -> Deviation:
+                      tol_rel: float = 1e-10, trim_tol_uv: float | None = None,
+                      refine: float | None = None) -> Deviation:
     """Deviation of a mesh from a NURBS surface or trimmed face (max and RMS, one- and two-sided).
 
     Parameters
@@ -114,6 +132,12 @@ def surface_deviation(mesh: TriMesh, target, *, density: int = 4, n_domain: int 
         Feet farther than this outside the trim loops (parameter units) are
         counted in `n_outside_trim`; default 1e-3 of the (u, v) box diagonal
         of the outer loop (a chord of a curved border projects slightly outside).
+    refine : float or None
+        Adaptive sampling (`refine_deviation`): every triangle is also sampled
+        on the surface over its own (u, v) footprint, the domain grid follows the
+        triangles' (u, v) size, and triangles whose curvature bound could hide a
+        value above the maximum by more than ``refine`` x the maximum get denser
+        barycentric grids until none can. None: the fixed grids only.
 
     Returns
     -------
@@ -150,6 +174,16 @@ def surface_deviation(mesh: TriMesh, target, *, density: int = 4, n_domain: int 
     >>> surface_deviation(m, plane).max_two_sided < 1e-12
     True
     """
+    dev, state = _surface_deviation(mesh, target, density=density, n_domain=n_domain, two_sided=two_sided,
+                                    tol_rel=tol_rel, trim_tol_uv=trim_tol_uv, adaptive=refine is not None)
+    if refine is None:
+        return dev
+    return refine_deviation([dev], [state], rel=refine, tol_rel=tol_rel)[0][0]
+
+
+def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, two_sided: bool, tol_rel: float,
+                       trim_tol_uv: float | None, adaptive: bool = False):
+    """`surface_deviation` and, with `adaptive`, the state `refine_deviation` continues from."""
     _check_mesh(mesh, "surface_deviation")
     face = as_face(target)
     samples = sample_triangles(mesh, density=density)
@@ -167,16 +201,31 @@ def surface_deviation(mesh: TriMesh, target, *, density: int = 4, n_domain: int 
         trim_tol_uv = 1e-3 * float(np.linalg.norm(box[1] - box[0]))
     outside = int(np.count_nonzero(out_uv > trim_tol_uv))
     mx2, rms2, where2, n2 = float("nan"), float("nan"), np.full(3, np.nan), 0
+    state = None
+    vert_uv = None
+    if adaptive:
+        vert_uv = np.full((mesh.n_vertices, 2), np.nan)
+        k0 = np.flatnonzero(samples.kind == 0)
+        vert_uv[samples.element[k0]] = proj.uv[k0]
     if two_sided:
         uv = sample_face_domain(face, n=n_domain)
+        if adaptive:
+            uv = np.concatenate([uv, _footprint_grid(face, mesh, vert_uv, n_domain)])
         pts = face.surface.evaluate(uv)
         cp = closest_points_on_mesh(pts, mesh)
-        mx2, rms2, where2 = _stats(cp.distance, pts)
+        d2 = cp.distance
+        if adaptive:
+            d2 = _drop_outside(face, uv, d2)
+        mx2, rms2, where2 = _stats(d2, pts)
         n2 = len(pts)
-    return Deviation(mx, rms, where, len(d), mx2, rms2, where2, n2,
-                     float(np.nanmax([mx, mx2])), int(np.count_nonzero(~proj.converged)), outside,
-                     float(out_uv.max(initial=0.0)),
-                     samples.per_triangle_max(mesh, d))
+    per_tri = samples.per_triangle_max(mesh, d)
+    if adaptive:
+        state = _FaceState(mesh, face, vert_uv, per_tri.copy(), np.full(mesh.n_triangles, int(density)),
+                           two_sided, loop_polygons(face) if face.loops else None)
+    dev = Deviation(mx, rms, where, len(d), mx2, rms2, where2, n2,
+                    float(np.nanmax([mx, mx2])), int(np.count_nonzero(~proj.converged)), outside,
+                    float(out_uv.max(initial=0.0)), per_tri)
+    return dev, state
 
 
 @dataclass(frozen=True, eq=False)
@@ -217,11 +266,14 @@ def _pooled_rms(rms: list[float], n: list[int]) -> float:
 
 
 def shell_deviation(mesh: TriMesh, shell: Shell, *, density: int = 4, n_domain: int = 64, two_sided: bool = True,
-                    tol_rel: float = 1e-10) -> ShellDeviation:
+                    tol_rel: float = 1e-10, refine: float | None = None) -> ShellDeviation:
     """Deviation of a mesh from each face of a shell, by the mesh's ``face_id``, and overall.
 
     Parameters are those of `surface_deviation`; surface -> mesh is measured
-    against the triangles of the same face.
+    against the triangles of the same face. With `refine`, triangles are
+    resampled (`refine_deviation`) until none of any face could hide more than
+    ``(1 + refine)`` x the overall maximum; per-face figures of faces far
+    below the maximum stay at the coarser sampling.
 
     Raises
     ------
@@ -238,13 +290,22 @@ def shell_deviation(mesh: TriMesh, shell: Shell, *, density: int = 4, n_domain: 
         raise MeshError(f"shell_deviation: face_id must lie in [0, {n_faces}); got "
                         f"[{int(mesh.face_id.min())}, {int(mesh.face_id.max())}]")
     results: list[Deviation | None] = []
+    states: list = []
+    order = np.argsort(mesh.face_id, kind="stable")
+    bounds = np.searchsorted(mesh.face_id[order], np.arange(n_faces + 1))
     for i, face in enumerate(shell.faces):
-        sel = mesh.face_id == i
-        if not sel.any():
+        sel = order[bounds[i]:bounds[i + 1]]
+        if not len(sel):
             results.append(None)
+            states.append(None)
             continue
-        results.append(surface_deviation(mesh.submesh(sel), face, density=density, n_domain=n_domain,
-                                         two_sided=two_sided, tol_rel=tol_rel))
+        dev, st = _surface_deviation(mesh.submesh(np.sort(sel)), face, density=density, n_domain=n_domain,
+                                     two_sided=two_sided, tol_rel=tol_rel, trim_tol_uv=None,
+                                     adaptive=refine is not None)
+        results.append(dev)
+        states.append(st)
+    if refine is not None:
+        results = refine_deviation(results, states, rel=refine, tol_rel=tol_rel)[0]
     done = [r for r in results if r is not None]
     uncovered = np.array([i for i, r in enumerate(results) if r is None], dtype=np.int64)
     two = [r.max_two_sided for r in done]
@@ -296,3 +357,341 @@ def mesh_deviation(mesh: TriMesh, other: TriMesh, *, density: int = 4) -> Deviat
     mx2, rms2, where2 = _stats(db, sb.points)
     return Deviation(mx, rms, where, len(da), mx2, rms2, where2, len(db), max(mx, mx2), 0, 0, 0.0,
                      sa.per_triangle_max(mesh, da))
+
+
+@dataclass(eq=False)
+class _FaceState:
+    mesh: TriMesh
+    face: object
+    vert_uv: np.ndarray         # (n, 2) foot of each vertex on the surface (NaN: unused vertex)
+    tri_max: np.ndarray         # (m,) largest two-sided sample value over each triangle
+    density: np.ndarray         # (m,) barycentric divisions the triangle was sampled with
+    two_sided: bool
+    polys: list | None          # the trim loops as polygons in (u, v) (None: untrimmed)
+
+
+def _second_forms(surface, uv) -> tuple[np.ndarray, np.ndarray]:
+    """The shape operator as a 3D quadratic form W (n, 3, 3) (``e.W.e`` = normal curvature x |e|^2 for a
+    tangent vector e) and the largest absolute principal curvature (n,), at (u, v) points (n, 2); NaN
+    where the surface is singular."""
+    uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
+    d = surface.derivatives(uv, 2)
+    su, sv, suu, suv, svv = d[1, 0], d[0, 1], d[2, 0], d[1, 1], d[0, 2]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        n = np.cross(su, sv)
+        n = n / np.linalg.norm(n, axis=1, keepdims=True)
+        e, f, g = (np.einsum("ij,ij->i", a, b) for a, b in ((su, su), (su, sv), (sv, sv)))
+        l_, m_, n_ = (np.einsum("ij,ij->i", a, n) for a in (suu, suv, svv))
+        det = e * g - f * f
+        k = (l_ * n_ - m_ * m_) / det
+        h = (e * n_ - 2 * f * m_ + g * l_) / (2 * det)
+        kmax = np.abs(h) + np.sqrt(np.maximum(h * h - k, 0.0))
+        # dual basis: J+ = G^-1 [Su; Sv] (2 x 3), W = J+^T II J+
+        gi = np.stack([np.stack([g, -f], -1), np.stack([-f, e], -1)], -2) / det[:, None, None]
+        jp = gi @ np.stack([su, sv], 1)
+        ii = np.stack([np.stack([l_, m_], -1), np.stack([m_, n_], -1)], -2)
+        w = np.swapaxes(jp, 1, 2) @ ii @ jp
+    bad = ~np.isfinite(kmax) | ~np.all(np.isfinite(w.reshape(len(uv), -1)), axis=1)
+    kmax[bad] = np.nan
+    w[bad] = np.nan
+    return w, kmax
+
+
+def max_curvature(surface, uv) -> np.ndarray:
+    """Largest absolute principal curvature ``|H| + sqrt(H^2 - K)`` of a NURBS surface at (u, v) points (n, 2).
+
+    NaN where the surface is singular (``Su x Sv = 0``).
+
+    Examples
+    --------
+    >>> from trimsurf.model import NurbsSurface
+    >>> plane = NurbsSurface(1, 1, [0, 0, 1, 1], [0, 0, 1, 1],
+    ...                      [[[0, 0, 0], [0, 1, 0]], [[1, 0, 0], [1, 1, 0]]])
+    >>> max_curvature(plane, [[0.5, 0.5]]).tolist()
+    [0.0]
+    """
+    return _second_forms(surface, uv)[1]
+
+
+def _footprint_grid(face, mesh: TriMesh, vert_uv: np.ndarray, n_min: int) -> np.ndarray:
+    """Domain samples whose spacing per direction is the median (u, v) extent of the mesh's edges there
+    divided by `FOOTPRINT_DIVISIONS` (capped by `MAX_FOOTPRINT_GRID` points per direction): the grid's
+    covering radius is then below the inradius of a right isosceles triangle of median size, so a gap
+    in the mesh as large as one typical triangle holds a sample."""
+    e = mesh.edges()
+    duv = np.abs(vert_uv[e[:, 0]] - vert_uv[e[:, 1]])
+    polys = loop_polygons(face)
+    lo, hi = polys[0].min(axis=0), polys[0].max(axis=0)
+    n = []
+    for axis in (0, 1):
+        x = duv[:, axis]
+        x = x[np.isfinite(x) & (x > 1e-12 * max(hi[axis] - lo[axis], 1e-300))]
+        step = (float(np.median(x)) if len(x) else (hi[axis] - lo[axis])) / FOOTPRINT_DIVISIONS
+        n.append(int(np.clip(np.ceil((hi[axis] - lo[axis]) / max(step, 1e-300)) + 1, n_min, MAX_FOOTPRINT_GRID)))
+    if n[0] <= n_min and n[1] <= n_min:
+        return np.zeros((0, 2))
+    return sample_face_domain(face, n=(n[0], n[1]))
+
+
+#: points per loop segment of the trim polygons that decide whether a far surface sample is a point of the
+#: face (the 32 of the sampling leave slivers between polygon and curve whose points belong to the
+#: neighbouring face: gmsh__wing_fuselage.step face 0, 1.22 x the tolerance from its own mesh)
+FINE_LOOP_POINTS = 512
+
+
+def _drop_outside(face, uv: np.ndarray, d: np.ndarray, frac: float = 0.5) -> np.ndarray:
+    """`d` with 0 for the surface samples that lie outside the face's trim loops, tested on fine loop
+    polygons (`FINE_LOOP_POINTS`) for the samples that could carry the maximum (above `frac` x the
+    largest value still standing)."""
+    if not face.loops or not len(d):
+        return d
+    d = np.array(d, dtype=np.float64)
+    checked = np.zeros(len(d), dtype=bool)
+    polys = None
+    while True:
+        top = d.max()
+        if top <= 0:
+            return d
+        cand = np.flatnonzero((d >= frac * top) & ~checked)
+        if not len(cand):
+            return d
+        if polys is None:
+            polys = loop_polygons(face, n_per_segment=FINE_LOOP_POINTS)
+        checked[cand] = True
+        out = ~points_in_polygons(uv[cand], polys)
+        d[cand[out]] = 0.0
+        if not out.any():
+            return d
+
+
+def _bary_grid(k: int) -> np.ndarray:
+    """All nodes (i, j, l) / k, i + j + l = k, of a triangle's barycentric grid, ((k+1)(k+2)/2, 3)."""
+    ij = np.array([(i, j) for i in range(k + 1) for j in range(k + 1 - i)], dtype=np.float64)
+    return np.column_stack([ij[:, 0], ij[:, 1], k - ij.sum(axis=1)]) / k
+
+
+def _enclosing_radius(p: np.ndarray) -> np.ndarray:
+    """Radius of the smallest ball containing each triangle (m, 3, 3): the circumradius of an acute
+    triangle, half the longest side of an obtuse one.
+
+    For f with second derivative at most M along the triangle, f - L <= M/2 (R^2 - |x - c|^2) (the
+    quadratic through the corners, c and R the circumcircle), whose largest value over the triangle is
+    M/2 times this radius squared (c lies beyond the longest side of an obtuse triangle, opposite its
+    midpoint).
+    """
+    a = np.linalg.norm(p[:, 1] - p[:, 2], axis=1)
+    b = np.linalg.norm(p[:, 2] - p[:, 0], axis=1)
+    c = np.linalg.norm(p[:, 0] - p[:, 1], axis=1)
+    s = np.sort(np.column_stack([a, b, c]), axis=1)
+    area2 = np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = a * b * c / (2.0 * area2)
+    obtuse = s[:, 2] ** 2 >= s[:, 0] ** 2 + s[:, 1] ** 2
+    return np.where(obtuse | ~np.isfinite(r), 0.5 * s[:, 2], r)
+
+
+def _simplex_max(c: np.ndarray) -> np.ndarray:
+    """max over barycentric l of sum_{i<j} l_i l_j c_ij, for c (m, 3) = (c_01, c_12, c_20) >= 0: an edge
+    midpoint (c_ij / 4) or the interior critical point of the quadratic form."""
+    m = len(c)
+    mat = np.zeros((m, 3, 3))
+    for (i, j), col in zip(((0, 1), (1, 2), (2, 0)), range(3)):
+        mat[:, i, j] = mat[:, j, i] = c[:, col]
+    best = c.max(axis=1) / 4.0
+    with np.errstate(all="ignore"):
+        det = np.linalg.det(mat)
+        ok = np.abs(det) > 1e-300
+        if ok.any():
+            x = np.linalg.solve(mat[ok], np.ones((int(ok.sum()), 3, 1)))[..., 0]
+            tot = x.sum(axis=1)
+            lam = x / tot[:, None]
+            val = 0.5 / tot                     # (l.C.l) / 2 = mu / 2 with mu = 1 / (1.C^-1.1)
+            good = np.all(lam >= 0, axis=1) & np.isfinite(val) & (val > 0)
+            idx = np.flatnonzero(ok)[good]
+            best[idx] = np.maximum(best[idx], val[good])
+    return best
+
+
+def _curvature_bound(st: _FaceState, tri_uv_ok: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per triangle: the interpolation bound's coefficient beta (the bound is beta / k^2 on a grid of k
+    divisions) and the curvature kappa (for the 1 / (1 - kappa d) factor of the distance function).
+
+    With q_ij = `CURVATURE_MARGIN` x the largest |e_ij . W . e_ij| (W the shape operator, at the
+    triangle's corners' feet and its (u, v) centre; e_ij its edges), a function whose second
+    derivative along e_ij is at most q_ij / |e_ij|^2 exceeds its linear interpolation by at most
+    ``max_l sum_{i<j} l_i l_j q_ij / 2`` (exact for a quadratic). Where the corners' (u, v) do not
+    make a triangle of the face (across a periodic seam) the face's largest sampled curvature times
+    |e_ij|^2 is used.
+    """
+    t = st.mesh.triangles
+    s = st.face.surface
+    used = np.isfinite(st.vert_uv[:, 0])
+    nv = len(st.vert_uv)
+    wv = np.full((nv, 3, 3), np.nan)
+    kv = np.full(nv, np.nan)
+    if used.any():
+        wv[used], kv[used] = _second_forms(s, st.vert_uv[used])
+    m = len(t)
+    wc = np.full((m, 3, 3), np.nan)
+    kc = np.full(m, np.nan)
+    if tri_uv_ok.any():
+        wc[tri_uv_ok], kc[tri_uv_ok] = _second_forms(s, st.vert_uv[t[tri_uv_ok]].mean(axis=1))
+    p = st.mesh.vertices[t]
+    e = np.stack([p[:, 1] - p[:, 0], p[:, 2] - p[:, 1], p[:, 0] - p[:, 2]], axis=1)      # (m, 3 edges, 3)
+    q = np.zeros((m, 3))
+    for w in (wv[t[:, 0]], wv[t[:, 1]], wv[t[:, 2]], wc):
+        v = np.abs(np.einsum("mei,mij,mej->me", e, w, e))
+        q = np.fmax(q, v)
+    kt = np.fmax(np.fmax(np.fmax(kv[t[:, 0]], kv[t[:, 1]]), kv[t[:, 2]]), kc)
+    fin = np.isfinite(kt)
+    face_max = float(kt[fin].max()) if fin.any() else 0.0
+    fallback = ~(fin & tri_uv_ok)
+    kt = np.where(fallback, face_max, kt)
+    q = np.where(fallback[:, None], face_max * np.einsum("mei,mei->me", e, e), q)
+    beta = CURVATURE_MARGIN * _simplex_max(q) / 2.0
+    return beta, CURVATURE_MARGIN * kt
+
+
+def refine_deviation(devs: list, states: list, *, rel: float = 0.01, tol_rel: float = 1e-10,
+                     max_density: int = MAX_DENSITY) -> tuple[list, float]:
+    """Resample, more densely, every triangle that could hide a deviation above the overall maximum.
+
+    Each triangle t is sampled on a barycentric grid of k divisions per edge
+    (k = the starting density, then doubled), both directions: mesh points
+    projected onto the surface, and surface points over the triangle's own
+    (u, v) footprint (the barycentric combination of its corners' feet)
+    measured to the face's mesh; D_t is its largest sample. Between the
+    samples of one grid sub-triangle (edges e_ij / k) a function whose second
+    derivative along e_ij is at most q_ij / |e_ij|^2 exceeds the samples'
+    linear interpolation by at most ``max_l sum_{i<j} l_i l_j q_ij / (2 k^2)``
+    (l barycentric; exact for a quadratic). Along a triangle the distance to
+    the surface has second derivative ``II(e, e) / (1 - kappa d)`` (II the
+    second fundamental form), the distance of a surface point to its
+    triangle's plane ``n . S''``; so q_ij = `CURVATURE_MARGIN` x the largest
+    |e_ij . W . e_ij| (W the shape operator) at the triangle's corners' feet
+    and its (u, v) centre (`_curvature_bound`), and the bound is
+    ``B_t = D_t + beta_t / ((1 - kappa_t D_t) k^2)``. Triangles with B_t above
+    ``(1 + rel) G`` (G the largest sample over all faces so far) are sampled
+    again at 2 k, until none is left or k reaches `max_density`.
+
+    What the result bounds: the maximum stays a sampled figure, within ``rel``
+    of the bound; ``max(B_t)`` (returned, and each Deviation's ``max_bound``)
+    bounds the true two-sided deviation provided (a) the curvature sampled at
+    each triangle's corners and centre, x `CURVATURE_MARGIN`, bounds it
+    between them (sampled, not proven), (b) surface -> mesh, the nearest mesh
+    point lies in the plane of a triangle (near a convex mesh edge the
+    distance is the edge's, convex across it, whose maximum the edge samples
+    catch), and (c) the projection finds the global foot. Gaps in the mesh
+    wider than about one triangle are caught by the (u, v) grid that follows
+    the triangles' size (`_footprint_grid`); surface samples farther than
+    half the maximum are kept only inside fine trim polygons (`_drop_outside`).
+
+    Returns
+    -------
+    (list of Deviation, float)
+        The Deviations with the refined maxima (and ``max_bound``, ``n_refined``), and the overall bound.
+    """
+    devs = list(devs)
+    live = [i for i, st in enumerate(states) if st is not None and st.mesh.n_triangles]
+    if not live:
+        return devs, float(max((d.max_two_sided for d in devs if d is not None), default=float("nan")))
+    info = {}
+    for i in live:
+        st = states[i]
+        t = st.mesh.triangles
+        p = st.mesh.vertices[t]
+        r = _enclosing_radius(p)
+        cuv = st.vert_uv[t]                                    # (m, 3, 2) corner feet
+        ok = np.all(np.isfinite(cuv.reshape(len(t), -1)), axis=1) if st.two_sided else np.zeros(len(t), bool)
+        if ok.any():
+            # corners' (u, v) span a triangle of the face (not across a periodic seam): its centre maps near
+            # the mesh triangle's centroid
+            c3 = st.face.surface.evaluate(cuv[ok].mean(axis=1))
+            ok[ok] = np.linalg.norm(c3 - p[ok].mean(axis=1), axis=1) <= 2.0 * r[ok] + 2.0 * st.tri_max[ok]
+        beta, kap = _curvature_bound(st, ok)
+        info[i] = (beta, ok, kap, np.zeros(len(t), dtype=bool))
+    # the surface -> mesh side over each triangle's own footprint at the starting density first
+    for i in live:
+        st = states[i]
+        if st.two_sided:
+            _sample_more(devs, states, info, i, np.flatnonzero(info[i][1]), tol_rel, surface_only=True)
+
+    def bounds(i):
+        st = states[i]
+        beta, ok, kap, _ = info[i]
+        return st.tri_max + beta / np.maximum(1.0 - kap * st.tri_max, 0.5) / st.density ** 2
+
+    while True:
+        g = max(float(np.nanmax([d.max_two_sided, 0.0])) for d in devs if d is not None)
+        todo = {i: np.flatnonzero((bounds(i) > (1.0 + rel) * g) & (states[i].density < max_density)) for i in live}
+        todo = {i: c for i, c in todo.items() if len(c)}
+        if not todo:
+            break
+        for i, cand in todo.items():
+            states[i].density[cand] = np.minimum(2 * states[i].density[cand], max_density)
+            _sample_more(devs, states, info, i, cand, tol_rel)
+    overall = -np.inf
+    for i in live:
+        b = float(np.max(bounds(i), initial=0.0))
+        overall = max(overall, b)
+        devs[i] = replace(devs[i], max_bound=max(b, devs[i].max_two_sided), n_refined=int(info[i][3].sum()))
+    return devs, float(overall)
+
+
+def _sample_more(devs, states, info, i, cand, tol_rel, surface_only=False) -> None:
+    """Sample triangles `cand` of face state i at their current density, both directions (or the surface
+    -> mesh side only), and fold the values into the state and the Deviation."""
+    st = states[i]
+    if not len(cand):
+        return
+    r, ok, _, refined = info[i]
+    if not surface_only:
+        refined[cand] = True
+    dev = devs[i]
+    t = st.mesh.triangles
+    mx, where, mx2, where2 = dev.max_mesh_to_target, dev.where_mesh_to_target, dev.max_target_to_mesh, \
+        dev.where_target_to_mesh
+    n1, n2 = dev.n_mesh_samples, dev.n_target_samples
+    for k in np.unique(st.density[cand]):
+        tri = cand[st.density[cand] == k]
+        w = _bary_grid(int(k))
+        if surface_only:        # a corner's surface point is its foot: no farther from the mesh than the corner
+            w = w[w.max(axis=1) < 1.0]
+        nw = len(w)
+        rows = np.repeat(tri, nw)
+        ww = np.tile(w, (len(tri), 1))
+        if not surface_only:
+            pts = np.einsum("kj,kjd->kd", ww, st.mesh.vertices[t[rows]])
+            uv0 = np.einsum("kj,kjd->kd", ww, st.vert_uv[t[rows]])
+            uv0 = np.where(np.isfinite(uv0), uv0, np.nan)
+            good = np.all(np.isfinite(uv0), axis=1)
+            if not good.all():
+                uv0 = None
+            d = project_to_face(pts, st.face, tol_rel=tol_rel, uv0=uv0).distance
+            per = d.reshape(len(tri), nw).max(axis=1)
+            st.tri_max[tri] = np.maximum(st.tri_max[tri], per)
+            j = int(np.argmax(d))
+            if d[j] > mx:
+                mx, where = float(d[j]), pts[j].copy()
+            n1 += len(d)
+        if st.two_sided:
+            sel = ok[tri]
+            if sel.any():
+                tri2 = tri[sel]
+                rows2 = np.repeat(tri2, nw)
+                ww2 = np.tile(w, (len(tri2), 1))
+                uv = np.einsum("kj,kjd->kd", ww2, st.vert_uv[t[rows2]])
+                q = st.face.surface.evaluate(uv)
+                # a footprint point outside the trimmed region (a chord of a curved border) is no point of the face
+                inside = np.ones(len(uv), dtype=bool) if st.polys is None else points_in_polygons(uv, st.polys)
+                d2 = np.where(inside, closest_points_on_mesh(q, st.mesh).distance, 0.0)
+                d2 = _drop_outside(st.face, uv, d2)
+                per = d2.reshape(len(tri2), nw).max(axis=1)
+                st.tri_max[tri2] = np.maximum(st.tri_max[tri2], per)
+                j = int(np.argmax(d2))
+                if d2[j] > (mx2 if np.isfinite(mx2) else -np.inf):
+                    mx2, where2 = float(d2[j]), q[j].copy()
+                n2 += int(inside.sum())
+    devs[i] = replace(dev, max_mesh_to_target=mx, where_mesh_to_target=where, max_target_to_mesh=mx2,
+                      where_target_to_mesh=where2, n_mesh_samples=n1, n_target_samples=n2,
+                      max_two_sided=float(np.nanmax([mx, mx2])))

@@ -205,8 +205,8 @@ def sample_face_domain(face, *, n: int = 64, n_per_segment: int = 32) -> np.ndar
     Parameters
     ----------
     face : TrimmedFace or NurbsSurface
-    n : int
-        Grid points per direction over the (u, v) box of the outer loop (>= 2).
+    n : int or (int, int)
+        Grid points per direction (or in u and in v) over the (u, v) box of the outer loop (>= 2).
     n_per_segment : int
         Points per loop segment (>= 2).
 
@@ -216,15 +216,16 @@ def sample_face_domain(face, *, n: int = 64, n_per_segment: int = 32) -> np.ndar
         Wrong type or n < 2.
     """
     face = as_face(face)
-    n, n_per_segment = int(n), int(n_per_segment)
-    if n < 2 or n_per_segment < 2:
+    nu, nv = (int(n), int(n)) if np.ndim(n) == 0 else (int(n[0]), int(n[1]))
+    n_per_segment = int(n_per_segment)
+    if min(nu, nv) < 2 or n_per_segment < 2:
         raise InputError(f"n and n_per_segment must be >= 2; got {n}, {n_per_segment}")
     polys = loop_polygons(face, n_per_segment=n_per_segment)
     lo, hi = polys[0].min(axis=0), polys[0].max(axis=0)
     (du0, du1), (dv0, dv1) = face.surface.domain
     lo = np.maximum(lo, [du0, dv0])
     hi = np.minimum(hi, [du1, dv1])
-    gu, gv = np.meshgrid(np.linspace(lo[0], hi[0], n), np.linspace(lo[1], hi[1], n), indexing="ij")
+    gu, gv = np.meshgrid(np.linspace(lo[0], hi[0], nu), np.linspace(lo[1], hi[1], nv), indexing="ij")
     grid = np.column_stack([gu.ravel(), gv.ravel()])
     if face.loops:
         grid = grid[points_in_polygons(grid, polys)]

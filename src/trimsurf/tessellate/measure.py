@@ -55,15 +55,25 @@ def _collapsed_faces(mesh: TriMesh, shell: Shell, faces, n_domain: int) -> dict:
     return out
 
 
+#: `shell_deviation`'s ``refine``: triangles are sampled more densely until the curvature bound between
+#: the samples leaves at most this fraction above the reported maximum deviation
+REFINE = 0.01
+
+
 def measure_mesh(mesh: TriMesh, shell: Shell, *, density: int = 3, n_domain: int = 32, reversed_faces=(),
-                 skipped_faces=()) -> dict:
+                 skipped_faces=(), refine: float | None = REFINE) -> dict:
     """The issue's report fields for one mesh with ``face_id`` tessellating `shell`.
 
     Returns
     -------
     dict
-        triangles, vertices, max_deviation (two-sided, dense sampling and
-        projection onto the true faces), max_edge (longest edge), min_angle_deg,
+        triangles, vertices, max_deviation (two-sided, sampled: mesh points
+        projected onto the true faces and face points measured to the mesh,
+        `shell_deviation` with ``refine``), max_deviation_bound (the
+        curvature bound between the samples, `refine_deviation`: an upper
+        bound on the true deviation as far as the curvature sampled at each
+        triangle's corners and centre, x1.5, bounds it; not proven),
+        max_edge (longest edge), min_angle_deg,
         p5_angle_deg (5th percentile of the per-triangle smallest angle),
         boundary_edges, nonmanifold_edges, flipped (against the surface normal),
         orientation_consistent, watertight, seconds_measure.
@@ -74,7 +84,9 @@ def measure_mesh(mesh: TriMesh, shell: Shell, *, density: int = 3, n_domain: int
         listed in ``collapsed_faces``.
     """
     t0 = time.perf_counter()
-    dev = shell_deviation(mesh, shell, density=density, n_domain=n_domain)
+    dev = shell_deviation(mesh, shell, density=density, n_domain=n_domain, refine=refine)
+    dev_bound = max((float(d.max_bound) for d in dev.faces if d is not None and np.isfinite(d.max_bound)),
+                    default=float("nan"))
     dev_max = (float(dev.max_two_sided), float(dev.max_mesh_to_target), float(dev.max_target_to_mesh))
     skipped = {int(i) for i in skipped_faces}
     collapsed = _collapsed_faces(mesh, shell, set(dev.uncovered_faces.tolist()) - skipped, n_domain)
@@ -95,6 +107,8 @@ def measure_mesh(mesh: TriMesh, shell: Shell, *, density: int = 3, n_domain: int
         "max_deviation": dev_max[0],
         "max_deviation_mesh_to_faces": dev_max[1],
         "max_deviation_faces_to_mesh": dev_max[2],
+        "max_deviation_bound": max(dev_bound, dev_max[0]) if np.isfinite(dev_bound) else float("nan"),
+        "deviation_samples": int(sum(d.n_mesh_samples + d.n_target_samples for d in dev.faces if d is not None)),
         "uncovered_faces": [int(i) for i in dev.uncovered_faces],
         "collapsed_faces": {str(i): d for i, d in sorted(collapsed.items())},
         "max_edge": float(lengths.max()),
