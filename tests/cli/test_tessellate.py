@@ -7,6 +7,7 @@ import subprocess
 import sys
 from dataclasses import replace
 
+import numpy as np
 import pytest
 
 from trimsurf.cli import main
@@ -183,3 +184,21 @@ def test_unexplained_nonmanifold_edge_in_loose_mode_exit_1(monkeypatch, tmp_path
     assert "1 non-manifold edges the model does not explain" in err
     entry = json.loads(rep.read_text())["inputs"][0]
     assert entry["nonmanifold_edges"] == 1 and entry["nonmanifold_edges_explained"] == 0
+
+
+def test_grid_size_is_the_iso_line_spacing(screw, tmp_path, capsys):
+    """--grid-size G (the paper's grid size: iso-lines G apart) = --max-edge sqrt(2) G: fewer triangles
+    than --max-edge G, longest edge within sqrt(2) G; both options at once is bad input."""
+    reps = {}
+    for flag in ("--max-edge", "--grid-size"):
+        rep = tmp_path / f"{flag[2:]}.json"
+        assert main(["tessellate", str(screw), "-o", str(tmp_path / f"{flag[2:]}.ply"), "--tolerance", "0.1",
+                     flag, "2", "--report", str(rep)]) == 0
+        reps[flag] = json.loads(rep.read_text())["inputs"][0]
+    g = reps["--grid-size"]
+    assert g["max_edge_used"] == pytest.approx(2 * np.sqrt(2.0))
+    assert g["max_edge"] <= 1.01 * 2 * np.sqrt(2.0)
+    assert g["triangles"] < 0.8 * reps["--max-edge"]["triangles"]
+    assert main(["tessellate", str(screw), "-o", str(tmp_path / "x.ply"), "--max-edge", "2",
+                 "--grid-size", "2"]) == 2
+    assert "not both" in capsys.readouterr().err

@@ -55,8 +55,12 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--tolerance", type=float, default=None, metavar="EPS",
                         help="max deviation from the faces, model units (default 1e-3 x bounding-box diagonal)")
     parser.add_argument("--max-edge", type=float, default=None, metavar="H",
-                        help="max 3D grid size along iso-lines and trims, model units "
-                             "(default 3e-2 x diagonal)")
+                        help="longest triangle edge, model units (iso-lines spaced H / sqrt(2) so the "
+                             "cell diagonals stay within H; default 3e-2 x diagonal)")
+    parser.add_argument("--grid-size", type=float, default=None, metavar="G",
+                        help="the paper's grid size instead of --max-edge: iso-lines (and trim points) "
+                             "at most G apart in 3D, cell diagonals up to sqrt(2) G (= --max-edge "
+                             "sqrt(2) G; about half the triangles of --max-edge G)")
     parser.add_argument("--quads", action="store_true",
                         help="keep untouched grid cells as quads (OBJ or PLY output)")
     parser.add_argument("--loose", action="store_true",
@@ -220,12 +224,16 @@ def run(args: argparse.Namespace) -> int:
     from ..io import read_shell, skipped_faces, write_mesh
     from ..tessellate import tessellate_shell
 
-    for name in ("tolerance", "max_edge"):
-        v = getattr(args, name)
+    for name in ("tolerance", "max_edge", "grid_size"):
+        v = getattr(args, name, None)
         if v is not None and not (np.isfinite(v) and v > 0):
             raise InputError(f"--{name.replace('_', '-')} must be a positive number; got {v!r}")
     if args.jobs < 1:
         raise InputError(f"--jobs must be a positive integer; got {args.jobs}")
+    if getattr(args, "grid_size", None) is not None:
+        if args.max_edge is not None:
+            raise InputError("give --max-edge or --grid-size, not both")
+        args.max_edge = math.sqrt(2.0) * args.grid_size
     inputs = _inputs(args.inputs)
     many = len(inputs) > 1 or any(p.is_dir() for p in args.inputs)
     targets = _targets(inputs, args.output, args.format, many)
