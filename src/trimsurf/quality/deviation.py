@@ -391,7 +391,11 @@ def _second_forms(surface, uv) -> tuple[np.ndarray, np.ndarray]:
         jp = gi @ np.stack([su, sv], 1)
         ii = np.stack([np.stack([l_, m_], -1), np.stack([m_, n_], -1)], -2)
         w = np.swapaxes(jp, 1, 2) @ ii @ jp
-    bad = ~np.isfinite(kmax) | ~np.all(np.isfinite(w.reshape(len(uv), -1)), axis=1)
+    # near a pole (Su x Sv -> 0, e.g. v = 1e-17 on a fuselage nose: curvature 1e14) the forms are
+    # rounding noise: no value where |Su x Sv|^2 is below 1e-8 of its median over the points given
+    fin = np.isfinite(det) & (det > 0)
+    ref = float(np.median(det[fin])) if fin.any() else 0.0
+    bad = ~np.isfinite(kmax) | ~np.all(np.isfinite(w.reshape(len(uv), -1)), axis=1) | ~(det > 1e-8 * ref)
     kmax[bad] = np.nan
     w[bad] = np.nan
     return w, kmax
@@ -439,29 +443,25 @@ def _footprint_grid(face, mesh: TriMesh, vert_uv: np.ndarray, n_min: int) -> np.
 FINE_LOOP_POINTS = 512
 
 
-def _drop_outside(face, uv: np.ndarray, d: np.ndarray, frac: float = 0.5) -> np.ndarray:
-    """`d` with 0 for the surface samples that lie outside the face's trim loops, tested on fine loop
-    polygons (`FINE_LOOP_POINTS`) for the samples that could carry the maximum (above `frac` x the
-    largest value still standing)."""
+def _drop_outside(face, uv: np.ndarray, d: np.ndarray, batch: int = 64) -> np.ndarray:
+    """`d` with 0 for the largest surface samples that lie outside the face's trim loops, tested on fine
+    loop polygons (`FINE_LOOP_POINTS`), largest first, until the largest value left is one tested
+    inside (the maximum is a point of the face; smaller values are not re-tested)."""
     if not face.loops or not len(d):
         return d
     d = np.array(d, dtype=np.float64)
     checked = np.zeros(len(d), dtype=bool)
     polys = None
     while True:
-        top = d.max()
-        if top <= 0:
+        top = int(np.argmax(d))
+        if d[top] <= 0 or checked[top]:
             return d
-        cand = np.flatnonzero((d >= frac * top) & ~checked)
-        if not len(cand):
-            return d
+        open_ = np.flatnonzero(~checked & (d > 0))
+        cand = open_[np.argsort(-d[open_], kind="stable")[:batch]]
         if polys is None:
             polys = loop_polygons(face, n_per_segment=FINE_LOOP_POINTS)
         checked[cand] = True
-        out = ~points_in_polygons(uv[cand], polys)
-        d[cand[out]] = 0.0
-        if not out.any():
-            return d
+        d[cand[~points_in_polygons(uv[cand], polys)]] = 0.0
 
 
 def _bary_grid(k: int) -> np.ndarray:
