@@ -658,6 +658,8 @@ def _sample_more(devs, states, info, i, cand, tol_rel, surface_only=False) -> No
         if surface_only:        # a corner's surface point is its foot: no farther from the mesh than the corner
             w = w[w.max(axis=1) < 1.0]
         nw = len(w)
+        if not nw:
+            continue
         rows = np.repeat(tri, nw)
         ww = np.tile(w, (len(tri), 1))
         if not surface_only:
