@@ -13,7 +13,7 @@ area-weighted).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -22,7 +22,7 @@ from ..geom.predicates import points_in_polygons
 from ..geom.projection import project_to_surface
 from ..model import Shell, TriMesh
 from ._results import ResultMixin
-from .closest_point import closest_points_on_mesh
+from .closest_point import _closest, _TriangleLocator, closest_points_on_mesh
 from .sampling import as_face, distance_outside_face, loop_polygons, sample_face_domain, sample_triangles
 
 __all__ = ["Deviation", "ShellDeviation", "surface_deviation", "shell_deviation", "mesh_deviation",
@@ -203,6 +203,7 @@ def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, tw
     mx2, rms2, where2, n2 = float("nan"), float("nan"), np.full(3, np.nan), 0
     state = None
     vert_uv = None
+    loc, fine = None, []
     if adaptive:
         vert_uv = np.full((mesh.n_vertices, 2), np.nan)
         k0 = np.flatnonzero(samples.kind == 0)
@@ -212,16 +213,20 @@ def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, tw
         if adaptive:
             uv = np.concatenate([uv, _footprint_grid(face, mesh, vert_uv, n_domain)])
         pts = face.surface.evaluate(uv)
-        cp = closest_points_on_mesh(pts, mesh)
-        d2 = cp.distance
+        if adaptive and np.all(np.isfinite(pts)):
+            # the refinement measures to the same mesh again: its triangle search structure is kept
+            loc = _TriangleLocator(mesh.vertices, mesh.triangles)
+            d2 = _closest(pts, loc).distance
+        else:
+            d2 = closest_points_on_mesh(pts, mesh).distance
         if adaptive:
-            d2 = _drop_outside(face, uv, d2)
+            d2 = _drop_outside(face, uv, d2, cache=fine)
         mx2, rms2, where2 = _stats(d2, pts)
         n2 = len(pts)
     per_tri = samples.per_triangle_max(mesh, d)
     if adaptive:
         state = _FaceState(mesh, face, vert_uv, per_tri.copy(), np.full(mesh.n_triangles, int(density)),
-                           two_sided, loop_polygons(face) if face.loops else None)
+                           two_sided, loop_polygons(face) if face.loops else None, loc, fine)
     dev = Deviation(mx, rms, where, len(d), mx2, rms2, where2, n2,
                     float(np.nanmax([mx, mx2])), int(np.count_nonzero(~proj.converged)), outside,
                     float(out_uv.max(initial=0.0)), per_tri)
@@ -368,6 +373,8 @@ class _FaceState:
     density: np.ndarray         # (m,) barycentric divisions the triangle was sampled with
     two_sided: bool
     polys: list | None          # the trim loops as polygons in (u, v) (None: untrimmed)
+    loc: object = None          # the mesh's triangle search structure (`closest_point._TriangleLocator`)
+    fine: list = field(default_factory=list)    # the fine trim polygons of `_drop_outside`, once computed
 
 
 def _second_forms(surface, uv) -> tuple[np.ndarray, np.ndarray]:
@@ -443,10 +450,11 @@ def _footprint_grid(face, mesh: TriMesh, vert_uv: np.ndarray, n_min: int) -> np.
 FINE_LOOP_POINTS = 512
 
 
-def _drop_outside(face, uv: np.ndarray, d: np.ndarray, batch: int = 64) -> np.ndarray:
+def _drop_outside(face, uv: np.ndarray, d: np.ndarray, batch: int = 64, cache: list | None = None) -> np.ndarray:
     """`d` with 0 for the largest surface samples that lie outside the face's trim loops, tested on fine
     loop polygons (`FINE_LOOP_POINTS`), largest first, until the largest value left is one tested
-    inside (the maximum is a point of the face; smaller values are not re-tested)."""
+    inside (the maximum is a point of the face; smaller values are not re-tested). `cache`: a list that
+    keeps the fine polygons between calls on the same face."""
     if not face.loops or not len(d):
         return d
     d = np.array(d, dtype=np.float64)
@@ -459,7 +467,12 @@ def _drop_outside(face, uv: np.ndarray, d: np.ndarray, batch: int = 64) -> np.nd
         open_ = np.flatnonzero(~checked & (d > 0))
         cand = open_[np.argsort(-d[open_], kind="stable")[:batch]]
         if polys is None:
-            polys = loop_polygons(face, n_per_segment=FINE_LOOP_POINTS)
+            if cache:
+                polys = cache[0]
+            else:
+                polys = loop_polygons(face, n_per_segment=FINE_LOOP_POINTS)
+                if cache is not None:
+                    cache.append(polys)
         checked[cand] = True
         d[cand[~points_in_polygons(uv[cand], polys)]] = 0.0
 
@@ -628,8 +641,9 @@ def refine_deviation(devs: list, states: list, *, rel: float = 0.01, tol_rel: fl
         if not todo:
             break
         for i, cand in todo.items():
-            states[i].density[cand] = np.minimum(2 * states[i].density[cand], max_density)
-            _sample_more(devs, states, info, i, cand, tol_rel)
+            prev = states[i].density[cand].copy()
+            states[i].density[cand] = np.minimum(2 * prev, max_density)
+            _sample_more(devs, states, info, i, cand, tol_rel, prev=prev)
     overall = -np.inf
     for i in live:
         b = float(np.max(bounds(i), initial=0.0))
@@ -638,9 +652,13 @@ def refine_deviation(devs: list, states: list, *, rel: float = 0.01, tol_rel: fl
     return devs, float(overall)
 
 
-def _sample_more(devs, states, info, i, cand, tol_rel, surface_only=False) -> None:
+def _sample_more(devs, states, info, i, cand, tol_rel, surface_only=False, prev=None) -> None:
     """Sample triangles `cand` of face state i at their current density, both directions (or the surface
-    -> mesh side only), and fold the values into the state and the Deviation."""
+    -> mesh side only), and fold the values into the state and the Deviation.
+
+    `prev` (per triangle of `cand`): the density each was sampled with before. Where the density doubled,
+    the nodes of the previous grid (every index even) were measured already, both directions (the surface
+    side at every node but the corners, which are measured again), and are not measured again."""
     st = states[i]
     if not len(cand):
         return
@@ -652,17 +670,31 @@ def _sample_more(devs, states, info, i, cand, tol_rel, surface_only=False) -> No
     mx, where, mx2, where2 = dev.max_mesh_to_target, dev.where_mesh_to_target, dev.max_target_to_mesh, \
         dev.where_target_to_mesh
     n1, n2 = dev.n_mesh_samples, dev.n_target_samples
-    for k in np.unique(st.density[cand]):
-        tri = cand[st.density[cand] == k]
-        w = _bary_grid(int(k))
+    kp = np.zeros(len(cand), dtype=np.int64) if prev is None else np.asarray(prev, dtype=np.int64)
+    groups = np.unique(np.column_stack([st.density[cand], kp]), axis=0)
+    for k, k_prev in groups.tolist():
+        tri = cand[(st.density[cand] == k) & (kp == k_prev)]
+        w_all = _bary_grid(int(k))
         if surface_only:        # a corner's surface point is its foot: no farther from the mesh than the corner
-            w = w[w.max(axis=1) < 1.0]
-        nw = len(w)
-        if not nw:
-            continue
-        rows = np.repeat(tri, nw)
-        ww = np.tile(w, (len(tri), 1))
-        if not surface_only:
+            w_all = w_all[w_all.max(axis=1) < 1.0]
+        seen = np.zeros(len(w_all), dtype=bool)
+        if k == 2 * k_prev:     # the previous grid's nodes: measured already
+            seen = np.all(np.rint(w_all * k).astype(np.int64) % 2 == 0, axis=1)
+        corner = w_all.max(axis=1) >= 1.0
+        for side in (0, 1):
+            if side == 0 and surface_only:
+                continue
+            if side == 1 and not st.two_sided:
+                continue
+            w = w_all[~seen | (corner if side == 1 else False)]
+            nw = len(w)
+            if not nw:
+                continue
+            if side == 1:
+                mx2, where2, n2 = _sample_surface_side(st, ok, tri, w, mx2, where2, n2)
+                continue
+            rows = np.repeat(tri, nw)
+            ww = np.tile(w, (len(tri), 1))
             pts = np.einsum("kj,kjd->kd", ww, st.mesh.vertices[t[rows]])
             uv0 = np.einsum("kj,kjd->kd", ww, st.vert_uv[t[rows]])
             uv0 = np.where(np.isfinite(uv0), uv0, np.nan)
@@ -676,24 +708,35 @@ def _sample_more(devs, states, info, i, cand, tol_rel, surface_only=False) -> No
             if d[j] > mx:
                 mx, where = float(d[j]), pts[j].copy()
             n1 += len(d)
-        if st.two_sided:
-            sel = ok[tri]
-            if sel.any():
-                tri2 = tri[sel]
-                rows2 = np.repeat(tri2, nw)
-                ww2 = np.tile(w, (len(tri2), 1))
-                uv = np.einsum("kj,kjd->kd", ww2, st.vert_uv[t[rows2]])
-                q = st.face.surface.evaluate(uv)
-                # a footprint point outside the trimmed region (a chord of a curved border) is no point of the face
-                inside = np.ones(len(uv), dtype=bool) if st.polys is None else points_in_polygons(uv, st.polys)
-                d2 = np.where(inside, closest_points_on_mesh(q, st.mesh).distance, 0.0)
-                d2 = _drop_outside(st.face, uv, d2)
-                per = d2.reshape(len(tri2), nw).max(axis=1)
-                st.tri_max[tri2] = np.maximum(st.tri_max[tri2], per)
-                j = int(np.argmax(d2))
-                if d2[j] > (mx2 if np.isfinite(mx2) else -np.inf):
-                    mx2, where2 = float(d2[j]), q[j].copy()
-                n2 += int(inside.sum())
     devs[i] = replace(dev, max_mesh_to_target=mx, where_mesh_to_target=where, max_target_to_mesh=mx2,
                       where_target_to_mesh=where2, n_mesh_samples=n1, n_target_samples=n2,
                       max_two_sided=float(np.nanmax([mx, mx2])))
+
+
+def _sample_surface_side(st, ok, tri, w, mx2, where2, n2):
+    """Surface -> mesh samples at barycentric nodes `w` of the (u, v) footprints of triangles `tri` (those
+    with `ok` footprints); folds them into ``st.tri_max`` and returns the updated (max, where, count)."""
+    sel = ok[tri]
+    if not sel.any():
+        return mx2, where2, n2
+    t = st.mesh.triangles
+    nw = len(w)
+    tri2 = tri[sel]
+    rows2 = np.repeat(tri2, nw)
+    ww2 = np.tile(w, (len(tri2), 1))
+    uv = np.einsum("kj,kjd->kd", ww2, st.vert_uv[t[rows2]])
+    q = st.face.surface.evaluate(uv)
+    # a footprint point outside the trimmed region (a chord of a curved border) is no point of the face
+    inside = np.ones(len(uv), dtype=bool) if st.polys is None else points_in_polygons(uv, st.polys)
+    if st.loc is None or not np.all(np.isfinite(q)):
+        near = closest_points_on_mesh(q, st.mesh).distance
+    else:
+        near = _closest(q, st.loc).distance
+    d2 = np.where(inside, near, 0.0)
+    d2 = _drop_outside(st.face, uv, d2, cache=st.fine)
+    per = d2.reshape(len(tri2), nw).max(axis=1)
+    st.tri_max[tri2] = np.maximum(st.tri_max[tri2], per)
+    j = int(np.argmax(d2))
+    if d2[j] > (mx2 if np.isfinite(mx2) else -np.inf):
+        mx2, where2 = float(d2[j]), q[j].copy()
+    return mx2, where2, n2 + int(inside.sum())
