@@ -168,3 +168,33 @@ def test_refine_sees_a_hole_between_coarse_domain_samples():
     # a sample inside the hole, at least a quarter of the inradius from its rim (the grid's covering
     # radius is below the inradius), far above the sagitta of the mesh elsewhere
     assert d.max_target_to_mesh >= inradius / 4 > 5 * sag
+
+
+def test_refine_measures_no_node_twice(monkeypatch):
+    """Skeptical: where a triangle's grid doubles, the nodes of the coarser grid (the first pass's corners
+    and edge midpoints) were measured already; the refinement projects none of them again, and the
+    maximum still reaches the exact value (the skipped nodes' values are kept, not lost)."""
+    from scipy.spatial import cKDTree
+
+    import trimsurf.quality.deviation as dev
+
+    s = sphere_patch()
+    m = lattice_mesh(s, 9)
+    exact = _analytic_sphere_deviation(m).max()
+    calls = []
+    real = dev.project_to_face
+
+    def spy(points, face, **kw):
+        calls.append(np.array(points, dtype=np.float64))
+        return real(points, face, **kw)
+
+    monkeypatch.setattr(dev, "project_to_face", spy)
+    d = surface_deviation(m, s, density=2, two_sided=False, refine=0.01)
+    assert len(calls) >= 2 and d.n_refined > 0
+    first = cKDTree(calls[0])                     # corners and edge midpoints of every triangle
+    again = np.concatenate(calls[1:])
+    assert len(again)
+    dist, _ = first.query(again, k=1)
+    assert dist.min() > 1e-9                      # no node of the first pass projected again
+    assert exact * (1 - 0.01) <= d.max_mesh_to_target <= exact + 1e-12
+    assert d.max_bound >= exact
