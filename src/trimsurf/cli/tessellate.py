@@ -17,7 +17,7 @@ from ._common import (_TERMINATED, EXIT_FAILED, EXIT_INPUT, EXIT_OK, check_budge
 __all__ = ["NAME", "HELP", "DESCRIPTION", "EPILOG", "add_args", "run", "write_quad_mesh", "REPORT_FIELDS"]
 
 NAME = "tessellate"
-HELP = "tessellate STEP/IGES/VDAFS faces into one regular, watertight mesh within a tolerance"
+HELP = "tessellate STEP/IGES/BREP/VDAFS faces into one regular, watertight mesh within a tolerance"
 DESCRIPTION = """\
 Tessellate the trimmed faces of CAD files into one mesh per file whose iso-parametric
 lines are nearly equidistant in 3D (good reflection lines), with few triangles
@@ -49,9 +49,9 @@ REPORT_FIELDS = ("triangles", "vertices", "faces_in", "max_deviation", "max_edge
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("inputs", nargs="+", type=Path, metavar="INPUT",
-                        help="STEP, IGES or VDAFS files, or folders of them")
+                        help="STEP, IGES, BREP or VDAFS files, or folders of them")
     parser.add_argument("-o", "--output", type=Path, required=True, metavar="OUT",
-                        help="mesh file (.ply .obj .stl .glb .off) for one input, else a folder")
+                        help="mesh file (.ply .obj .stl .glb .off .vtu .msh .inp ...) for one input, else a folder")
     parser.add_argument("--tolerance", type=float, default=None, metavar="EPS",
                         help="max deviation from the faces, model units (default 1e-3 x bounding-box diagonal)")
     parser.add_argument("--max-edge", type=float, default=None, metavar="H",
@@ -88,7 +88,7 @@ def _inputs(paths: list[Path]) -> list[Path]:
         if p.is_dir():
             found = sorted(q for q in p.iterdir() if q.is_file() and q.suffix.lower() in CAD_SUFFIXES)
             if not found:
-                raise InputError(f"{p}: folder holds no STEP, IGES or VDAFS file")
+                raise InputError(f"{p}: folder holds no STEP, IGES, BREP or VDAFS file")
             out.extend(found)
         elif p.suffix.lower() not in CAD_SUFFIXES:
             raise FileFormatError(f"{p}: not a CAD file; expected one of {', '.join(CAD_SUFFIXES)}")

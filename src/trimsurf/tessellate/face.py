@@ -388,13 +388,18 @@ def _cell_split(surface, us, vs, ki, kj, tolerance: float | None = None, prefer_
     tuv = np.einsum("bk,nskd->nsbd", _BARY, uv[rows, t])      # (k, 2, b, 2)
     tx = np.einsum("bk,nskd->nsbd", _BARY, p[rows, t])        # (k, 2, b, 3)
     dev = surface_distance(surface, tuv.reshape(-1, 2), tx.reshape(-1, 3)).reshape(len(ki), -1).max(axis=1)
+    return (main, dev) + _cell_lengths(p, main)
+
+
+def _cell_lengths(p: np.ndarray, main: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Of cells with corners `p` (k, 4, 3): the split's diagonal, the longer diagonal, the longer u and v sides."""
     d02 = np.linalg.norm(p[:, 2] - p[:, 0], axis=1)
     d13 = np.linalg.norm(p[:, 3] - p[:, 1], axis=1)
     diag = np.where(main, d02, d13)
     diag_max = np.maximum(d02, d13)
     side_u = np.maximum(np.linalg.norm(p[:, 1] - p[:, 0], axis=1), np.linalg.norm(p[:, 2] - p[:, 3], axis=1))
     side_v = np.maximum(np.linalg.norm(p[:, 3] - p[:, 0], axis=1), np.linalg.norm(p[:, 2] - p[:, 1], axis=1))
-    return main, dev, diag, diag_max, side_u, side_v
+    return diag, diag_max, side_u, side_v
 
 
 def _prefer_main(surface, us, vs) -> bool:
@@ -505,12 +510,7 @@ class _CellCache:
             self.dev[r, np.where(m, 0, 1)] = dev
         dev = self.dev[rows, col]
         p = self.p[rows]
-        d02 = np.linalg.norm(p[:, 2] - p[:, 0], axis=1)
-        d13 = np.linalg.norm(p[:, 3] - p[:, 1], axis=1)
-        diag = np.where(main, d02, d13)
-        diag_max = np.maximum(d02, d13)
-        side_u = np.maximum(np.linalg.norm(p[:, 1] - p[:, 0], axis=1), np.linalg.norm(p[:, 2] - p[:, 3], axis=1))
-        side_v = np.maximum(np.linalg.norm(p[:, 3] - p[:, 0], axis=1), np.linalg.norm(p[:, 2] - p[:, 1], axis=1))
+        diag, diag_max, side_u, side_v = _cell_lengths(p, main)
         shape = (len(us) - 1, len(vs) - 1)
         return tuple(a.reshape(shape) for a in (dev, diag, diag_max, side_u, side_v))
 
