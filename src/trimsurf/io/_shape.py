@@ -79,19 +79,7 @@ def _unwrap(obj, what: str, depth: int = 0) -> list:
 def as_topods(obj, *, name: str = ""):
     """The one ``TopoDS_Shape`` `obj` stands for (several are put into one ``TopoDS_Compound``)."""
     what = name or type(obj).__name__
-    shapes = _unwrap(obj, what)
-    if len(shapes) == 1:
-        return shapes[0]
-    from OCP.BRep import BRep_Builder
-    from OCP.TopoDS import TopoDS_Compound
-
-    builder = BRep_Builder()
-    compound = TopoDS_Compound()
-    builder.MakeCompound(compound)
-    for s in shapes:
-        if not s.IsNull():
-            builder.Add(compound, s)
-    return compound
+    return _occ.compound(_unwrap(obj, what))
 
 
 def from_occ(obj, *, name: str = "") -> Shell:

@@ -94,9 +94,9 @@ from ._read import (
     read_shape,
 )
 from ._isolate import read_isolated
-from ._to_shape import shell_to_shape
+from ._to_shape import compound, shell_to_shape
 from ._to_shell import OccTopology, map_topology, shape_to_shell
 
 __all__ = ["quiet_occ", "read_shape", "nurbs_shape", "map_topology", "OccTopology", "shape_to_shell",
-           "shell_to_shape", "count_faces", "curve_from_occ", "curve_to_occ",
+           "shell_to_shape", "compound", "count_faces", "curve_from_occ", "curve_to_occ",
            "surface_from_occ", "surface_to_occ", "check_file", "invalid_faces", "read_isolated"]

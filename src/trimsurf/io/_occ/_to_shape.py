@@ -30,7 +30,6 @@ def shell_to_shape(shell: Shell, *, sew_tolerance: float | None = None):
     from OCP.gp import gp_Pnt
     from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
     from OCP.TopoDS import (
-        TopoDS_Compound,
         TopoDS_Face,
         TopoDS_Shell,
         TopoDS_Vertex,
@@ -94,13 +93,23 @@ def shell_to_shape(shell: Shell, *, sew_tolerance: float | None = None):
             if len(group) > 1:
                 occ_shell = _sew(occ_shell, shell, sew_tolerance)
         pieces.append(_fix(occ_shell))
-    if len(pieces) == 1:
-        return pieces[0]
-    compound = TopoDS_Compound()
-    builder.MakeCompound(compound)
-    for piece in pieces:
-        builder.Add(compound, piece)
-    return compound
+    return compound(pieces)
+
+
+def compound(shapes: list):
+    """The one shape of `shapes`, or a ``TopoDS_Compound`` of them (null shapes left out)."""
+    from OCP.BRep import BRep_Builder
+    from OCP.TopoDS import TopoDS_Compound
+
+    if len(shapes) == 1:
+        return shapes[0]
+    builder = BRep_Builder()
+    result = TopoDS_Compound()
+    builder.MakeCompound(result)
+    for s in shapes:
+        if not s.IsNull():
+            builder.Add(result, s)
+    return result
 
 
 def _components(shell: Shell) -> list[list[int]]:
@@ -236,13 +245,13 @@ def _sew(occ_shell, shell: Shell, sew_tolerance: float | None):
 
 def _fix(shape):
     """ShapeFix_Shape, then every closed shell made a solid (oriented outward)."""
-    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.BRep import BRep_Tool
     from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeSolid
     from OCP.BRepLib import BRepLib
     from OCP.ShapeFix import ShapeFix_Shape
     from OCP.TopAbs import TopAbs_SHELL
     from OCP.TopExp import TopExp_Explorer
-    from OCP.TopoDS import TopoDS, TopoDS_Compound
+    from OCP.TopoDS import TopoDS
 
     fixer = ShapeFix_Shape(shape)
     fixer.Perform()
@@ -262,11 +271,4 @@ def _fix(shape):
             out.append(solid)
         else:
             out.append(sh)
-    if len(out) == 1:
-        return out[0]
-    builder = BRep_Builder()
-    compound = TopoDS_Compound()
-    builder.MakeCompound(compound)
-    for piece in out:
-        builder.Add(compound, piece)
-    return compound
+    return compound(out)
