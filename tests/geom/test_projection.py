@@ -417,3 +417,39 @@ def test_surface_points_of_a_folded_fillet_recover_themselves(linkrods, index):
     assert pr.converged.all()
     # the foot of a surface point is the point itself; 1e-9 x the file's diagonal is the issue's target
     assert_allclose(pr.foot, pts, rtol=0, atol=1e-9 * diag)
+
+
+def _compiled_matches(surf, pts, uv0=None):
+    a = project_to_surface(pts, *surf, uv0=uv0)
+    b = project_to_surface(pts, *surf, uv0=uv0, compiled=True)
+    assert_array_equal(a.converged, b.converged)
+    assert_array_equal(a.on_boundary, b.on_boundary)
+    assert_allclose(b.distance, a.distance, rtol=0, atol=1e-12)
+    assert_allclose(b.foot, a.foot, rtol=0, atol=1e-12)
+    return a
+
+
+@pytest.mark.parametrize("pu, pv, seed", [(1, 1, 102), (1, 1, 152), (1, 2, 14), (2, 3, 5), (3, 3, 7), (1, 3, 9)])
+def test_compiled_newton_equals_the_array_one(pu, pv, seed):
+    # `compiled=True` runs `_newton`'s steps point by point (creases crossed and restarted across, domain
+    # edges, backtracking): the same feet on random rational B-splines with creases (degree 1), near and
+    # far points, with and without a warm start
+    surf, uv = random_bspline(pu, pv, seed)
+    rng = np.random.default_rng(seed)
+    pts = surface_points(*surf, uv)
+    pts = np.concatenate([pts, pts + rng.normal(scale=0.05, size=pts.shape), rng.uniform(-1, 5, (300, 3))])
+    a = _compiled_matches(surf, pts)
+    assert a.on_boundary.any()
+    _compiled_matches(surf, pts, uv0=np.clip(np.r_[uv, uv, uv] + rng.normal(scale=0.3, size=(900, 2)),
+                                             [0, -1], [4, 1]))
+
+
+def test_compiled_newton_on_the_pole_roof_and_waves(wavy):
+    rng = np.random.default_rng(4)
+    _compiled_matches(wavy, rng.uniform(-0.2, 1.2, (3000, 3)))
+    w = np.outer([1, S2, 1], [1, S2, 1])
+    cp = np.array([[[0, 0, 1], [0, 0, 1], [0, 0, 1]], [[1, 0, 1], [1, 1, 1], [0, 1, 1]],
+                   [[1, 0, 0], [1, 1, 0], [0, 1, 0]]], float)
+    _compiled_matches((2, 2, [0, 0, 0, 1, 1, 1], [0, 0, 0, 1, 1, 1], cp, w), rng.uniform(-0.5, 1.5, (2000, 3)))
+    roof = np.array([[[0.0, 0, 0], [0, 1, 0]], [[1, 0, 1], [1, 1, 1]], [[2, 0, 0], [2, 1, 0]]])
+    _compiled_matches((1, 1, [0, 0, 0.5, 1, 1], [0, 0, 1, 1], roof, None), rng.uniform(-1, 3, (2000, 3)))

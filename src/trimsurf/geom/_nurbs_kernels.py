@@ -479,3 +479,224 @@ def chord_criteria_kernel(p, weights, length, deviation):
                     dmax = dist
         length[i] = lmax
         deviation[i] = dmax
+
+
+@njit(cache=True, nogil=True)
+def _eval_d2(pu, pv, ku, kv, pw, rational, u, v, scratch, out, S, D1, D2):
+    """S (3,), D1 (2, 3), D2 (2, 2, 3) at (u, v) clamped to the domain (as `nurbs.surface_derivatives`)."""
+    u = min(max(u, ku[pu]), ku[ku.shape[0] - pu - 1])
+    v = min(max(v, kv[pv]), kv[kv.shape[0] - pv - 1])
+    _surface_point(pu, pv, ku, kv, pw, rational, u, v, 2, scratch, out, 0)
+    for d in range(3):
+        S[d] = out[0, 0, 0, d]
+        D1[0, d] = out[1, 0, 0, d]
+        D1[1, d] = out[0, 1, 0, d]
+        D2[0, 0, d] = out[2, 0, 0, d]
+        D2[0, 1, d] = out[1, 1, 0, d]
+        D2[1, 0, d] = out[1, 1, 0, d]
+        D2[1, 1, d] = out[0, 2, 0, d]
+
+
+@njit(cache=True, nogil=True)
+def _box(brk, x):
+    """(lower, upper, index) of the crease-free interval of `brk` holding x (`projection._boxes`)."""
+    nb = brk.shape[0]
+    idx = -1
+    for j in range(nb):
+        if brk[j] <= x:
+            idx = j
+        else:
+            break
+    idx = min(max(idx, 0), nb - 2)
+    upper = brk[idx + 1]
+    if idx + 1 < nb - 1:
+        upper = np.nextafter(upper, -np.inf)
+    return brk[idx], upper, idx
+
+
+@njit(cache=True, nogil=True)
+def project_newton_kernel(pu, pv, ku, kv, pw, rational, pts, x, S0, D10, D20, lo, hi, brk_u, brk_v, tol, max_iter,
+                          crossed0, crossed_up0, barrier, floor, max_halvings, obj_slack, noise,
+                          foot, conv, onb):
+    """`projection._newton` for surfaces (d = 2), point by point: the same box-constrained Newton
+    iteration (crease crossing, crease minima, saddle-free step, backtracking, Gauss-Newton after a
+    failed line search, final polish). x (m, 2) is updated in place; foot, conv, onb are written.
+    Returns the largest number of iterations any point ran."""
+    scratch = _surface_scratch(pu, pv, 2, pw.shape[2])
+    out = np.zeros((3, 3, 1, 3))
+    S = np.empty(3)
+    D1 = np.empty((2, 3))
+    D2 = np.empty((2, 2, 3))
+    nS = np.empty(3)
+    nD1 = np.empty((2, 3))
+    nD2 = np.empty((2, 2, 3))
+    r = np.empty(3)
+    g = np.empty(2)
+    E = np.empty((2, 2))
+    H = np.empty((2, 2))
+    blo = np.empty(2)
+    bhi = np.empty(2)
+    bup = np.empty(2)
+    okk = np.empty(2, dtype=np.bool_)
+    down = np.empty(2, dtype=np.bool_)
+    up = np.empty(2, dtype=np.bool_)
+    edge = np.empty(2, dtype=np.bool_)
+    crease = np.empty(2, dtype=np.bool_)
+    cross = np.empty(2, dtype=np.bool_)
+    fixed = np.empty(2, dtype=np.bool_)
+    step = np.empty(2)
+    trial = np.empty(2)
+    crossed = np.empty(2)
+    crossed_up = np.empty(2, dtype=np.bool_)
+    crossed_x = np.empty(2)
+    tiny_f = np.finfo(np.float64).tiny
+    it_max = 0
+    for i in range(pts.shape[0]):
+        for d in range(3):
+            S[d] = S0[i, d]
+            for a in range(2):
+                D1[a, d] = D10[i, a, d]
+                for b in range(2):
+                    D2[a, b, d] = D20[i, a, b, d]
+        for a in range(2):
+            crossed[a] = crossed0[i, a]
+            crossed_up[a] = crossed_up0[i, a]
+        allnan = np.isnan(crossed[0]) and np.isnan(crossed[1])
+        for a in range(2):
+            crossed_x[a] = x[i, a] if (barrier and not allnan) else np.nan
+        gn = False
+        conv[i] = False
+        onb[i] = False
+        finished = False
+        it = 0
+        while it < max_iter:
+            it += 1
+            for d in range(3):
+                r[d] = S[d] - pts[i, d]
+            for a in range(2):
+                g[a] = D1[a, 0] * r[0] + D1[a, 1] * r[1] + D1[a, 2] * r[2]
+                for b in range(2):
+                    E[a, b] = D1[a, 0] * D1[b, 0] + D1[a, 1] * D1[b, 1] + D1[a, 2] * D1[b, 2]
+            for a in range(2):
+                sp = np.sqrt(E[a, a])
+                okk[a] = (abs(g[a]) / sp if sp > 0 else 0.0) <= tol
+                brk = brk_u if a == 0 else brk_v
+                bl, bh, bi = _box(brk, x[i, a])
+                blo[a] = bl
+                bhi[a] = bh
+                bup[a] = brk[bi + 1]
+                down[a] = (x[i, a] <= bl) and (g[a] > 0) and not okk[a]
+                up[a] = (x[i, a] >= bh) and (g[a] < 0) and not okk[a]
+                edge[a] = (down[a] and bl <= lo[a]) or (up[a] and bh >= hi[a])
+            still = x[i, 0] == crossed_x[0] and x[i, 1] == crossed_x[1]
+            anycross = False
+            for a in range(2):
+                crease[a] = still and ((down[a] and not edge[a] and crossed_up[a] and crossed[a] == blo[a])
+                                       or (up[a] and not edge[a] and not crossed_up[a] and crossed[a] == bup[a]))
+                cross[a] = (down[a] or up[a]) and not edge[a] and not crease[a]
+                anycross = anycross or cross[a]
+            if anycross:
+                for a in range(2):
+                    if cross[a]:
+                        if up[a]:
+                            x[i, a] = bup[a]
+                            crossed[a] = bup[a]
+                            crossed_up[a] = True
+                        else:
+                            x[i, a] = np.nextafter(blo[a], -np.inf)
+                            crossed[a] = blo[a]
+                            crossed_up[a] = False
+                crossed_x[0] = x[i, 0]
+                crossed_x[1] = x[i, 1]
+                gn = False
+                _eval_d2(pu, pv, ku, kv, pw, rational, x[i, 0], x[i, 1], scratch, out, S, D1, D2)
+                continue
+            done = True
+            for a in range(2):
+                fixed[a] = edge[a] or crease[a]
+                done = done and (fixed[a] or okk[a])
+            for a in range(2):
+                for b in range(2):
+                    H[a, b] = E[a, b] + (D2[a, b, 0] * r[0] + D2[a, b, 1] * r[1] + D2[a, b, 2] * r[2])
+            # `projection._step_matrix`
+            use = not gn
+            tiny = 1e-30 * (E[0, 0] + E[1, 1]) + tiny_f
+            sc0 = np.sqrt(max(E[0, 0], tiny))
+            sc1 = np.sqrt(max(E[1, 1], tiny))
+            M = H if use else E
+            ma = M[0, 0] / (sc0 * sc0)
+            mb = M[0, 1] / (sc0 * sc1)
+            mc = M[1, 1] / (sc1 * sc1)
+            gs0 = 0.0 if fixed[0] else g[0] / sc0
+            gs1 = 0.0 if fixed[1] else g[1] / sc1
+            if fixed[0]:
+                ma = 1.0
+                mb = 0.0
+            if fixed[1]:
+                mc = 1.0
+                mb = 0.0
+            lam = 0.5 * (ma + mc) - np.sqrt(0.25 * (ma - mc) ** 2 + mb * mb)
+            shift = max(-2.0 * lam, floor) if lam < floor else 0.0
+            ma += shift
+            mc += shift
+            det = ma * mc - mb * mb
+            step[0] = (-mc * gs0 + mb * gs1) / det / sc0
+            step[1] = (mb * gs0 - ma * gs1) / det / sc1
+            plain = use and shift == 0
+            if done:
+                for d in range(3):
+                    foot[i, d] = S[d]
+                if plain:
+                    n0 = min(max(x[i, 0] + step[0], blo[0]), bhi[0])
+                    n1 = min(max(x[i, 1] + step[1], blo[1]), bhi[1])
+                    mv0 = (n0 - x[i, 0]) * D1[0, 0] + (n1 - x[i, 1]) * D1[1, 0]
+                    mv1 = (n0 - x[i, 0]) * D1[0, 1] + (n1 - x[i, 1]) * D1[1, 1]
+                    mv2 = (n0 - x[i, 0]) * D1[0, 2] + (n1 - x[i, 1]) * D1[1, 2]
+                    if np.sqrt(mv0 * mv0 + mv1 * mv1 + mv2 * mv2) <= 10.0 * tol:
+                        x[i, 0] = n0
+                        x[i, 1] = n1
+                        foot[i, 0] = S[0] + mv0
+                        foot[i, 1] = S[1] + mv1
+                        foot[i, 2] = S[2] + mv2
+                conv[i] = True
+                onb[i] = edge[0] or edge[1]
+                finished = True
+                break
+            obj = r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
+            limit = obj * (1.0 + obj_slack) + 2.0 * np.sqrt(obj) * noise + noise * noise
+            bad = True
+            halvings = 0
+            while True:
+                for a in range(2):
+                    trial[a] = min(max(x[i, a] + step[a], blo[a]), bhi[a])
+                _eval_d2(pu, pv, ku, kv, pw, rational, trial[0], trial[1], scratch, out, nS, nD1, nD2)
+                q0 = nS[0] - pts[i, 0]
+                q1 = nS[1] - pts[i, 1]
+                q2 = nS[2] - pts[i, 2]
+                bad = q0 * q0 + q1 * q1 + q2 * q2 > limit
+                if not bad or halvings >= max_halvings:
+                    break
+                halvings += 1
+                step[0] *= 0.5
+                step[1] *= 0.5
+            stuck = bad and gn
+            gn = bad
+            if not bad:
+                x[i, 0] = trial[0]
+                x[i, 1] = trial[1]
+                for d in range(3):
+                    S[d] = nS[d]
+                    for a in range(2):
+                        D1[a, d] = nD1[a, d]
+                        for b in range(2):
+                            D2[a, b, d] = nD2[a, b, d]
+            if stuck:
+                for d in range(3):
+                    foot[i, d] = S[d]
+                finished = True
+                break
+        if not finished:
+            for d in range(3):
+                foot[i, d] = S[d]
+        it_max = max(it_max, it)
+    return it_max

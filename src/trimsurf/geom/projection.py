@@ -44,7 +44,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..errors import GeometryError
-from .nurbs import curve_derivatives, surface_derivatives
+from ._nurbs_kernels import project_newton_kernel
+from .nurbs import _homogeneous, curve_derivatives, read_only, surface_derivatives
 
 __all__ = ["Projection", "CurveProjection", "project_to_surface", "project_to_curve"]
 
@@ -614,6 +615,32 @@ def _newton(pts, x, state, evaluate, lo, hi, breaks, tol, max_iter, barrier=None
     return _Raw(x, foot, distance, conv, onb, it)
 
 
+def _newton_compiled(pts, x, state, surf, lo, hi, breaks, tol, max_iter, barrier=None) -> _Raw:
+    """`_newton` for a surface (d = 2) in the compiled kernel `project_newton_kernel`, point by point.
+
+    ``surf`` = (degree_u, degree_v, knots_u, knots_v, homogeneous control points, rational).
+    """
+    pu, pv, ku, kv, pw, rational = surf
+    n = x.shape[0]
+    foot = np.empty((n, 3))
+    conv = np.zeros(n, dtype=bool)
+    onb = np.zeros(n, dtype=bool)
+    if barrier is None:
+        crossed, crossed_up = np.full((n, 2), np.nan), np.zeros((n, 2), dtype=bool)
+    else:
+        crossed, crossed_up = np.ascontiguousarray(barrier[0], dtype=np.float64), np.ascontiguousarray(barrier[1])
+    S, D1, D2 = (np.ascontiguousarray(a, dtype=np.float64) for a in state)
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    it = project_newton_kernel(int(pu), int(pv), read_only(ku), read_only(kv), pw, bool(rational),
+                               np.ascontiguousarray(pts, dtype=np.float64), x, S, D1, D2,
+                               np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64),
+                               read_only(breaks[0]), read_only(breaks[1]), float(tol), int(max_iter),
+                               crossed, crossed_up, barrier is not None, _FLOOR, _MAX_HALVINGS, _OBJ_SLACK,
+                               _NOISE * tol, foot, conv, onb)
+    distance = np.linalg.norm(pts - foot, axis=1)
+    return _Raw(x, foot, distance, conv, onb, int(it))
+
+
 # --------------------------------------------------------------------------- surfaces
 
 def _surface_eval(args, uv: np.ndarray):
@@ -625,7 +652,7 @@ def _surface_eval(args, uv: np.ndarray):
 
 def project_to_surface(points, degree_u: int, degree_v: int, knots_u, knots_v, control_points, weights=None, *,
                        tol_rel: float = 1e-10, max_iter: int = 50, seed_grid=None,
-                       retry: bool = True, uv0=None) -> Projection:
+                       retry: bool = True, uv0=None, compiled: bool = False) -> Projection:
     """Closest points on a NURBS surface to many points (point inversion), batched.
 
     Parameters
@@ -660,6 +687,10 @@ def project_to_surface(points, degree_u: int, degree_v: int, knots_u, knots_v, c
         a tessellation's vertices. A point whose run does not converge, or
         ends farther from P than the nearest seed sample, is redone from that
         sample; the `retry` restarts apply as without `uv0`.
+    compiled : bool
+        Run the Newton iteration point by point in a compiled kernel
+        (`_nurbs_kernels.project_newton_kernel`: the same steps, tests and
+        restarts without per-iteration array calls; feet equal to rounding).
 
     Returns
     -------
@@ -754,8 +785,15 @@ def project_to_surface(points, degree_u: int, degree_v: int, knots_u, knots_v, c
     _SEED_CACHE[key] = seeds                # most recently used last
     breaks = [_breakpoints(ku, pu), _breakpoints(kv, pv)]
 
-    def newton(p, x0, state, barrier=None):
-        return _newton(p, x0.copy(), state, evaluate, lo, hi, breaks, tol, max_iter, barrier)
+    if compiled:
+        pw = _homogeneous(cp, w)
+
+        def newton(p, x0, state, barrier=None):
+            return _newton_compiled(p, x0.copy(), state, (pu, pv, ku, kv, pw, w is not None), lo, hi, breaks, tol,
+                                    max_iter, barrier)
+    else:
+        def newton(p, x0, state, barrier=None):
+            return _newton(p, x0.copy(), state, evaluate, lo, hi, breaks, tol, max_iter, barrier)
 
     raw = _solve(pts, seeds, evaluate, newton, bool(retry), tol, breaks, start)
     return Projection(raw.params, raw.foot, raw.distance, raw.converged, raw.on_boundary, raw.iterations)

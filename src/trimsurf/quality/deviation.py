@@ -108,7 +108,8 @@ def project_to_face(points, face, *, tol_rel: float = 1e-10, uv0=None):
     """
     s = as_face(face).surface
     return project_to_surface(np.asarray(points, dtype=np.float64).reshape(-1, 3), s.degree_u, s.degree_v,
-                              s.knots_u, s.knots_v, s.control_points, s.weights, tol_rel=tol_rel, uv0=uv0)
+                              s.knots_u, s.knots_v, s.control_points, s.weights, tol_rel=tol_rel, uv0=uv0,
+                              compiled=True)
 
 
 def surface_deviation(mesh: TriMesh, target, *, density: int = 4, n_domain: int = 64, two_sided: bool = True,
