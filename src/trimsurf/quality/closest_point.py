@@ -25,6 +25,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import InputError, MeshError
 from ..model import TriMesh
+from ._kernels import ball_pairs_kernel, closest_pairs_kernel
 from ._results import ResultMixin
 
 __all__ = ["point_triangle_closest", "point_segment_closest", "closest_points_on_mesh", "ClosestPoints"]
@@ -173,7 +174,8 @@ class _TriangleLocator:
     """Centroid trees over radius buckets of one mesh's triangles."""
 
     def __init__(self, vertices: np.ndarray, triangles: np.ndarray):
-        self.a, self.b, self.c = (vertices[triangles[:, k]] for k in range(3))
+        self.a, self.b, self.c = (np.ascontiguousarray(vertices[triangles[:, k]], dtype=np.float64)
+                                  for k in range(3))
         self.centroid = (self.a + self.b + self.c) / 3.0
         self.radius = np.sqrt(np.max(np.stack([_dot(x - self.centroid, x - self.centroid)
                                                for x in (self.a, self.b, self.c)]), axis=0))
@@ -239,18 +241,12 @@ def _closest(q: np.ndarray, loc: _TriangleLocator) -> ClosestPoints:
     best_w = np.zeros((n, 3))
     if n == 0:
         return ClosestPoints(best_d, best_t, best_p, best_w)
+    q = np.ascontiguousarray(q, dtype=np.float64)
 
     def consider(qi: np.ndarray, tri: np.ndarray) -> None:
-        d, closest, bary = loc.exact(q[qi], tri)
-        order = np.lexsort((d, qi))
-        qi, tri, d = qi[order], tri[order], d[order]
-        first = np.r_[True, qi[1:] != qi[:-1]]
-        qi, tri, d = qi[first], tri[first], d[first]
-        closest, bary = closest[order][first], bary[order][first]
-        better = d < best_d[qi]
-        qi = qi[better]
-        best_d[qi], best_t[qi] = d[better], tri[better]
-        best_p[qi], best_w[qi] = closest[better], bary[better]
+        # exact distances of the pairs, each query keeping its nearest (`point_triangle_closest` per pair)
+        closest_pairs_kernel(q, loc.a, loc.b, loc.c, np.ascontiguousarray(qi, dtype=np.int64),
+                             np.ascontiguousarray(tri, dtype=np.int64), best_d, best_t, best_p, best_w)
 
     k = min(_K_NEAREST, m)
     step = max(1, _CHUNK // k)
@@ -259,11 +255,7 @@ def _closest(q: np.ndarray, loc: _TriangleLocator) -> ClosestPoints:
         qs = np.arange(s, min(n, s + step))
         dist, near = loc.tree.query(q[qs], k=k)
         dist, near = dist.reshape(len(qs), k), near.reshape(len(qs), k)
-        d, closest, bary = loc.exact(np.repeat(q[qs], k, axis=0), near.ravel())
-        j = np.argmin(d.reshape(len(qs), k), axis=1)
-        pick = np.arange(len(qs)) * k + j
-        best_d[qs], best_t[qs] = d[pick], near.ravel()[pick]
-        best_p[qs], best_w[qs] = closest[pick], bary[pick]
+        consider(np.repeat(qs, k), near.ravel())
         if k < m:
             # a triangle beyond the k nearest centroids can only be nearer if its centroid lies
             # within best + R of the query: such queries get the full ball search below
@@ -280,9 +272,6 @@ def _closest(q: np.ndarray, loc: _TriangleLocator) -> ClosestPoints:
             tri = idx[np.concatenate([np.asarray(x, dtype=np.int64) for x in lists if len(x)])]
             qi = np.repeat(qs, lens)
             # cheap lower bound |q - c_t| - R_t: skip triangles that cannot beat the current best
-            gap = np.linalg.norm(q[qi] - loc.centroid[tri], axis=1) - loc.radius[tri]
-            keep = gap < best_d[qi]
-            qi, tri = qi[keep], tri[keep]
-            for c in range(0, len(qi), _CHUNK):
-                consider(qi[c:c + _CHUNK], tri[c:c + _CHUNK])
+            keep = ball_pairs_kernel(q, loc.centroid, loc.radius, qi, tri, best_d)
+            consider(qi[keep], tri[keep])
     return ClosestPoints(best_d, best_t, best_p, best_w)

@@ -228,6 +228,13 @@ def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, tw
     if adaptive:
         state = _FaceState(mesh, face, vert_uv, per_tri.copy(), np.full(mesh.n_triangles, int(density)),
                            two_sided, loop_polygons(face) if face.loops else None, loc, fine)
+        if density % 3 == 0:    # the centroid (1, 1, 1) / 3 is a node of the grid: kept for `flipped_against_normal`
+            k = density // 3
+            cen = np.flatnonzero((samples.kind == 2) & np.all(np.rint(samples.barycentric * density) == k, axis=1))
+            if len(cen) == mesh.n_triangles:
+                cuv = np.empty((mesh.n_triangles, 2))
+                cuv[samples.element[cen]] = proj.uv[cen]
+                state.centroid_uv = cuv
     dev = Deviation(mx, rms, where, len(d), mx2, rms2, where2, n2,
                     float(np.nanmax([mx, mx2])), int(np.count_nonzero(~proj.converged)), outside,
                     float(out_uv.max(initial=0.0)), per_tri)
@@ -286,6 +293,13 @@ def shell_deviation(mesh: TriMesh, shell: Shell, *, density: int = 4, n_domain: 
     InputError
         Not a Shell; MeshError when the mesh has no face_id or a face_id out of range.
     """
+    return _shell_deviation(mesh, shell, density=density, n_domain=n_domain, two_sided=two_sided, tol_rel=tol_rel,
+                            refine=refine)[0]
+
+
+def _shell_deviation(mesh: TriMesh, shell: Shell, *, density: int, n_domain: int, two_sided: bool, tol_rel: float,
+                     refine: float | None) -> tuple[ShellDeviation, list]:
+    """`shell_deviation` and the per-face states of the refinement (None per face without it)."""
     _check_mesh(mesh, "shell_deviation")
     if not isinstance(shell, Shell):
         raise InputError(f"shell_deviation needs a Shell; got {type(shell).__name__}")
@@ -326,7 +340,7 @@ def shell_deviation(mesh: TriMesh, shell: Shell, *, density: int = 4, n_domain: 
         max_target_to_mesh=float(max_t2m),
         rms_target_to_mesh=_pooled_rms([r.rms_target_to_mesh for r in done], [r.n_target_samples for r in done]),
         max_two_sided=float(max(two + ([float("inf")] if len(uncovered) and two_sided else []), default=np.nan)),
-        worst_face=worst)
+        worst_face=worst), states
 
 
 def mesh_deviation(mesh: TriMesh, other: TriMesh, *, density: int = 4) -> Deviation:
@@ -375,6 +389,7 @@ class _FaceState:
     two_sided: bool
     polys: list | None          # the trim loops as polygons in (u, v) (None: untrimmed)
     loc: object = None          # the mesh's triangle search structure (`closest_point._TriangleLocator`)
+    centroid_uv: np.ndarray | None = None   # (m, 2) feet of the triangles' centroids (None: not sampled)
     fine: list = field(default_factory=list)    # the fine trim polygons of `_drop_outside`, once computed
 
 

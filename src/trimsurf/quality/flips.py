@@ -101,7 +101,7 @@ def flipped_triangles_uv(mesh: TriMesh, *, uv=None, face: TrimmedFace | None = N
     return _result(sign, expected, "uv")
 
 
-def flipped_triangles_normal(mesh: TriMesh, target, *, tol_rel: float = 1e-10) -> FlippedTriangles:
+def flipped_triangles_normal(mesh: TriMesh, target, *, tol_rel: float = 1e-10, centroid_uv=None) -> FlippedTriangles:
     """Triangles whose normal points against the surface normal at the centroid's closest point.
 
     Parameters
@@ -111,6 +111,9 @@ def flipped_triangles_normal(mesh: TriMesh, target, *, tol_rel: float = 1e-10) -
         The normal is oriented by `TrimmedFace.same_sense`.
     tol_rel : float
         Projection tolerance.
+    centroid_uv : (m, 2) float64, optional
+        The centroids' closest points, when already projected (e.g. by
+        `shell_deviation`'s samples): not projected again.
 
     Returns
     -------
@@ -125,9 +128,12 @@ def flipped_triangles_normal(mesh: TriMesh, target, *, tol_rel: float = 1e-10) -
     """
     _check_mesh(mesh, "flipped_triangles_normal")
     face = as_face(target)
-    centroids = mesh.vertices[mesh.triangles].mean(axis=1)
-    proj = project_to_face(centroids, face, tol_rel=tol_rel)
-    ns = face.oriented_normals(proj.uv)
+    if centroid_uv is None:
+        centroids = mesh.vertices[mesh.triangles].mean(axis=1)
+        centroid_uv = project_to_face(centroids, face, tol_rel=tol_rel).uv
+    elif np.shape(centroid_uv) != (mesh.n_triangles, 2):
+        raise InputError(f"centroid_uv must have shape ({mesh.n_triangles}, 2); got {np.shape(centroid_uv)}")
+    ns = face.oriented_normals(np.asarray(centroid_uv, dtype=np.float64))
     dot = np.einsum("ij,ij->i", mesh.triangle_normals(), ns)
     sign = np.sign(np.where(np.isfinite(dot), dot, 0.0)).astype(np.int64)
     return _result(sign, 1, "normal")

@@ -7,17 +7,21 @@ import time
 import numpy as np
 
 from ..model import Shell, TriMesh
-from ..quality import shell_deviation, topology_report, triangle_quality
+from ..quality import topology_report, triangle_quality
+from ..quality.deviation import _shell_deviation
 
 __all__ = ["measure_mesh", "measure_result", "flipped_against_normal", "explained_nonmanifold_edges"]
 
 
-def flipped_against_normal(mesh: TriMesh, shell: Shell, *, reversed_faces=(), tol_rel: float = 1e-10) -> int:
+def flipped_against_normal(mesh: TriMesh, shell: Shell, *, reversed_faces=(), tol_rel: float = 1e-10,
+                           centroid_uv=None) -> int:
     """Triangles whose normal points against their face's outward surface normal (at the centroid's foot).
 
     Faces in `reversed_faces` were turned by the orientation fix (their stored
     sense disagreed with their neighbours'): their triangles are checked against
-    the reversed normal.
+    the reversed normal. `centroid_uv`: {face index: (k, 2) feet of that face's
+    triangles' centroids, in the order of ``mesh.face_id == i``} where already
+    projected (by the deviation's samples); other faces are projected here.
     """
     from ..quality import flipped_triangles_normal
 
@@ -27,7 +31,8 @@ def flipped_against_normal(mesh: TriMesh, shell: Shell, *, reversed_faces=(), to
     n = 0
     for i in np.unique(mesh.face_id):
         sub = mesh.submesh(mesh.face_id == i)
-        r = flipped_triangles_normal(sub, shell.faces[int(i)], tol_rel=tol_rel)
+        cuv = None if centroid_uv is None else centroid_uv.get(int(i))
+        r = flipped_triangles_normal(sub, shell.faces[int(i)], tol_rel=tol_rel, centroid_uv=cuv)
         n += int(sub.n_triangles - r.n_flipped - r.n_zero) if int(i) in rev else r.n_flipped
     return int(n)
 
@@ -84,7 +89,9 @@ def measure_mesh(mesh: TriMesh, shell: Shell, *, density: int = 3, n_domain: int
         listed in ``collapsed_faces``.
     """
     t0 = time.perf_counter()
-    dev = shell_deviation(mesh, shell, density=density, n_domain=n_domain, refine=refine)
+    dev, states = _shell_deviation(mesh, shell, density=density, n_domain=n_domain, two_sided=True, tol_rel=1e-10,
+                                   refine=refine)
+    centroid_uv = {i: st.centroid_uv for i, st in enumerate(states) if st is not None and st.centroid_uv is not None}
     dev_bound = max((float(d.max_bound) for d in dev.faces if d is not None and np.isfinite(d.max_bound)),
                     default=float("nan"))
     dev_max = (float(dev.max_two_sided), float(dev.max_mesh_to_target), float(dev.max_target_to_mesh))
@@ -100,7 +107,7 @@ def measure_mesh(mesh: TriMesh, shell: Shell, *, density: int = 3, n_domain: int
     lengths = np.linalg.norm(mesh.vertices[e[:, 0]] - mesh.vertices[e[:, 1]], axis=1)
     tq = triangle_quality(mesh)
     topo = topology_report(mesh)
-    flipped = flipped_against_normal(mesh, shell, reversed_faces=reversed_faces)
+    flipped = flipped_against_normal(mesh, shell, reversed_faces=reversed_faces, centroid_uv=centroid_uv)
     return {
         "triangles": mesh.n_triangles,
         "vertices": mesh.n_vertices,

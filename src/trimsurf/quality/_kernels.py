@@ -1,0 +1,137 @@
+"""Compiled (numba) kernels of the measurement: exact point-to-triangle distances over (query, triangle) pairs.
+
+`closest_pairs_kernel` is `closest_point.point_triangle_closest` (Ericson's
+Voronoi-region test, zero-area triangles as their three edges) point by point,
+folding each pair into the query's best so far, without the (pairs, 3) arrays.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _seg(p0, p1, p2, a0, a1, a2, b0, b1, b2):
+    """Closest point parameter t on [a, b] to p (`point_segment_closest`)."""
+    ab0, ab1, ab2 = b0 - a0, b1 - a1, b2 - a2
+    den = ab0 * ab0 + ab1 * ab1 + ab2 * ab2
+    t = 0.0
+    if den > 0:
+        t = ((p0 - a0) * ab0 + (p1 - a1) * ab1 + (p2 - a2) * ab2) / den
+        t = min(max(t, 0.0), 1.0)
+    return t
+
+
+@njit(cache=True, nogil=True)
+def _tri_closest(p0, p1, p2, a, b, c, out):
+    """out[0:3] closest point on triangle (a, b, c) to p, out[3:6] its barycentric weights, returns the distance."""
+    ab0, ab1, ab2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    ac0, ac1, ac2 = c[0] - a[0], c[1] - a[1], c[2] - a[2]
+    ap0, ap1, ap2 = p0 - a[0], p1 - a[1], p2 - a[2]
+    bp0, bp1, bp2 = p0 - b[0], p1 - b[1], p2 - b[2]
+    cp0, cp1, cp2 = p0 - c[0], p1 - c[1], p2 - c[2]
+    d1 = ab0 * ap0 + ab1 * ap1 + ab2 * ap2
+    d2 = ac0 * ap0 + ac1 * ap1 + ac2 * ap2
+    d3 = ab0 * bp0 + ab1 * bp1 + ab2 * bp2
+    d4 = ac0 * bp0 + ac1 * bp1 + ac2 * bp2
+    d5 = ab0 * cp0 + ab1 * cp1 + ab2 * cp2
+    d6 = ac0 * cp0 + ac1 * cp1 + ac2 * cp2
+    va = d3 * d6 - d5 * d4
+    vb = d5 * d2 - d1 * d6
+    vc = d1 * d4 - d3 * d2
+    # the regions in the order `point_triangle_closest` lets them override each other (last wins)
+    den = va + vb + vc
+    v = vb / den if den != 0 else np.nan
+    w = vc / den if den != 0 else np.nan
+    if (va <= 0) and (d4 - d3 >= 0) and (d5 - d6 >= 0):
+        s = (d4 - d3) + (d5 - d6)
+        t = (d4 - d3) / s if s != 0 else np.nan
+        v, w = 1.0 - t, t
+    if (vb <= 0) and (d2 >= 0) and (d6 <= 0):
+        s = d2 - d6
+        t = d2 / s if s != 0 else np.nan
+        v, w = 0.0, t
+    if (d6 >= 0) and (d5 <= d6):
+        v, w = 0.0, 1.0
+    if (vc <= 0) and (d1 >= 0) and (d3 <= 0):
+        s = d1 - d3
+        t = d1 / s if s != 0 else np.nan
+        v, w = t, 0.0
+    if (d3 >= 0) and (d4 <= d3):
+        v, w = 1.0, 0.0
+    if (d1 <= 0) and (d2 <= 0):
+        v, w = 0.0, 0.0
+    n0 = ab1 * ac2 - ab2 * ac1
+    n1 = ab2 * ac0 - ab0 * ac2
+    n2 = ab0 * ac1 - ab1 * ac0
+    flat = (n0 * n0 + n1 * n1 + n2 * n2) <= 1e-12 * (ab0 * ab0 + ab1 * ab1 + ab2 * ab2) * (ac0 * ac0 + ac1 * ac1
+                                                                                           + ac2 * ac2)
+    bad = not (np.isfinite(v) and np.isfinite(w)) or v < 0 or w < 0 or v + w > 1
+    if bad or flat:
+        # zero-area triangle: closest point on its three edges (first of equal distances kept); a nearly flat
+        # one (sin of the angle at a below 1e-6) keeps the nearer of that and its regions' point, since
+        # rounding decides its regions
+        best = np.inf
+        if not bad:
+            x0 = (1.0 - v - w) * a[0] + v * b[0] + w * c[0]
+            x1 = (1.0 - v - w) * a[1] + v * b[1] + w * c[1]
+            x2 = (1.0 - v - w) * a[2] + v * b[2] + w * c[2]
+            best = (p0 - x0) * (p0 - x0) + (p1 - x1) * (p1 - x1) + (p2 - x2) * (p2 - x2)
+        for e in range(3):
+            if e == 0:
+                t = _seg(p0, p1, p2, a[0], a[1], a[2], b[0], b[1], b[2])
+                vv, ww = t, 0.0 * t
+                q0, q1, q2 = a[0] + t * ab0, a[1] + t * ab1, a[2] + t * ab2
+            elif e == 1:
+                t = _seg(p0, p1, p2, a[0], a[1], a[2], c[0], c[1], c[2])
+                vv, ww = 0.0 * t, t
+                q0, q1, q2 = a[0] + t * ac0, a[1] + t * ac1, a[2] + t * ac2
+            else:
+                t = _seg(p0, p1, p2, b[0], b[1], b[2], c[0], c[1], c[2])
+                vv, ww = 1.0 - t, t
+                q0 = b[0] + t * (c[0] - b[0])
+                q1 = b[1] + t * (c[1] - b[1])
+                q2 = b[2] + t * (c[2] - b[2])
+            dd = (p0 - q0) * (p0 - q0) + (p1 - q1) * (p1 - q1) + (p2 - q2) * (p2 - q2)
+            if dd < best:
+                best, v, w = dd, vv, ww
+    u = 1.0 - v - w
+    x0 = u * a[0] + v * b[0] + w * c[0]
+    x1 = u * a[1] + v * b[1] + w * c[1]
+    x2 = u * a[2] + v * b[2] + w * c[2]
+    out[0], out[1], out[2] = x0, x1, x2
+    out[3], out[4], out[5] = u, v, w
+    r0, r1, r2 = p0 - x0, p1 - x1, p2 - x2
+    return np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+
+
+@njit(cache=True, nogil=True)
+def closest_pairs_kernel(q, a, b, c, qi, tri, best_d, best_t, best_p, best_w):
+    """Fold the exact distance of every pair (q[qi[k]], triangle tri[k]) into the query's best: a pair
+    replaces it when strictly nearer (so of equal distances the earlier pair or the current best stays)."""
+    out = np.empty(6)
+    for k in range(qi.shape[0]):
+        i = qi[k]
+        t = tri[k]
+        d = _tri_closest(q[i, 0], q[i, 1], q[i, 2], a[t], b[t], c[t], out)
+        if d < best_d[i]:
+            best_d[i] = d
+            best_t[i] = t
+            for j in range(3):
+                best_p[i, j] = out[j]
+                best_w[i, j] = out[3 + j]
+
+
+@njit(cache=True, nogil=True)
+def ball_pairs_kernel(q, centroid, radius, qi, tri, best_d):
+    """Mask of the pairs whose triangle could be nearer than the query's best: |q - c_t| - R_t < best."""
+    keep = np.empty(qi.shape[0], dtype=np.bool_)
+    for k in range(qi.shape[0]):
+        i = qi[k]
+        t = tri[k]
+        r0 = q[i, 0] - centroid[t, 0]
+        r1 = q[i, 1] - centroid[t, 1]
+        r2 = q[i, 2] - centroid[t, 2]
+        keep[k] = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2) - radius[t] < best_d[i]
+    return keep
