@@ -135,3 +135,93 @@ def ball_pairs_kernel(q, centroid, radius, qi, tri, best_d):
         r2 = q[i, 2] - centroid[t, 2]
         keep[k] = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2) - radius[t] < best_d[i]
     return keep
+
+
+@njit(cache=True, nogil=True)
+def grid_build_kernel(lo_box, hi_box, origin, h, dims, counts_only, start, items):
+    """Cells (a dense grid of side h from `origin`, dims (3,)) overlapped by each triangle's box: with
+    `counts_only` fill start[c + 1] with the number of triangles of cell c; otherwise write the triangle
+    indices into items[start[c]:start[c + 1]] (start as running offsets, advanced in place)."""
+    nx, ny, nz = dims[0], dims[1], dims[2]
+    for t in range(lo_box.shape[0]):
+        i0 = min(max(int(np.floor((lo_box[t, 0] - origin[0]) / h)), 0), nx - 1)
+        j0 = min(max(int(np.floor((lo_box[t, 1] - origin[1]) / h)), 0), ny - 1)
+        k0 = min(max(int(np.floor((lo_box[t, 2] - origin[2]) / h)), 0), nz - 1)
+        i1 = min(max(int(np.floor((hi_box[t, 0] - origin[0]) / h)), 0), nx - 1)
+        j1 = min(max(int(np.floor((hi_box[t, 1] - origin[1]) / h)), 0), ny - 1)
+        k1 = min(max(int(np.floor((hi_box[t, 2] - origin[2]) / h)), 0), nz - 1)
+        for i in range(i0, i1 + 1):
+            for j in range(j0, j1 + 1):
+                for k in range(k0, k1 + 1):
+                    c = (i * ny + j) * nz + k
+                    if counts_only:
+                        start[c + 1] += 1
+                    else:
+                        items[start[c]] = t
+                        start[c] += 1
+
+
+@njit(cache=True, nogil=True)
+def grid_closest_kernel(q, a, b, c, origin, h, dims, start, items, best_d, best_t, best_p, best_w):
+    """Exact closest triangle for every query (`best_*` may hold an upper bound already: a pair replaces
+    it only when strictly nearer). Searches cube shells of cells around the query's cell, r = 0, 1, ...:
+    after shell r every triangle with a point within r h of the query has been tried, so the search stops
+    once the best distance is at most r h (or the shells cover the grid)."""
+    nx, ny, nz = dims[0], dims[1], dims[2]
+    m = a.shape[0]
+    stamp = np.full(m, -1, dtype=np.int64)
+    out = np.empty(6)
+    for n in range(q.shape[0]):
+        fx = (q[n, 0] - origin[0]) / h
+        fy = (q[n, 1] - origin[1]) / h
+        fz = (q[n, 2] - origin[2]) / h
+        ci, cj, ck = int(np.floor(fx)), int(np.floor(fy)), int(np.floor(fz))
+        # shells before r0 lie wholly outside the grid
+        r0 = max(0, -ci, ci - (nx - 1), -cj, cj - (ny - 1), -ck, ck - (nz - 1))
+        r_all = max(ci, nx - 1 - ci, cj, ny - 1 - cj, ck, nz - 1 - ck)
+        r = r0
+        while True:
+            if r > 0 and best_d[n] <= (r - 1) * h:
+                break
+            i0, i1 = max(ci - r, 0), min(ci + r, nx - 1)
+            j0, j1 = max(cj - r, 0), min(cj + r, ny - 1)
+            k0, k1 = max(ck - r, 0), min(ck + r, nz - 1)
+            for i in range(i0, i1 + 1):
+                edge_i = i == ci - r or i == ci + r
+                for j in range(j0, j1 + 1):
+                    edge_j = edge_i or j == cj - r or j == cj + r
+                    if edge_j:
+                        kk0, kk1, kstep = k0, k1, 1
+                    else:                       # only the two faces k = ck -+ r of the shell
+                        kk0, kk1, kstep = ck - r, ck + r, 2 * r
+                    k = kk0
+                    while k <= kk1:
+                        if 0 <= k < nz:
+                            # the cell's box: skip it when wholly farther than the best so far
+                            gx = max(origin[0] + i * h - q[n, 0], q[n, 0] - origin[0] - (i + 1) * h, 0.0)
+                            gy = max(origin[1] + j * h - q[n, 1], q[n, 1] - origin[1] - (j + 1) * h, 0.0)
+                            gz = max(origin[2] + k * h - q[n, 2], q[n, 2] - origin[2] - (k + 1) * h, 0.0)
+                            if gx * gx + gy * gy + gz * gz >= best_d[n] * best_d[n]:
+                                k += kstep
+                                if kstep == 0:
+                                    break
+                                continue
+                            cell = (i * ny + j) * nz + k
+                            for s in range(start[cell], start[cell + 1]):
+                                t = items[s]
+                                if stamp[t] == n:
+                                    continue
+                                stamp[t] = n
+                                d = _tri_closest(q[n, 0], q[n, 1], q[n, 2], a[t], b[t], c[t], out)
+                                if d < best_d[n]:
+                                    best_d[n] = d
+                                    best_t[n] = t
+                                    for x in range(3):
+                                        best_p[n, x] = out[x]
+                                        best_w[n, x] = out[3 + x]
+                        if kstep == 0:
+                            break
+                        k += kstep
+            if r >= r_all:
+                break
+            r += 1

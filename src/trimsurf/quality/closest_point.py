@@ -2,13 +2,13 @@
 
 `point_triangle_closest` is Ericson's Voronoi-region test, vectorized over
 rows. `closest_points_on_mesh` finds the exact closest point on a mesh for
-many query points: a k-d tree over triangle centroids gives an upper bound
-``d_ub`` of each query's distance (from its nearest centroids' triangles), and
-every triangle whose closest point could be nearer has its centroid within
-``d_ub + R_t`` (``R_t`` the centroid-to-corner radius). Triangles are bucketed
-by radius, one tree per bucket, so a few large triangles do not widen the
-search for all. The answer is exact (not sampled); the cost is about
-O(n log m) for query points near a well-shaped mesh.
+many query points, in a compiled kernel (`quality._kernels`): the triangles'
+bounding boxes are binned in a uniform grid of cells about one triangle in
+size, and each query tries the triangles of the cells in cube shells around
+its own cell, skipping cells farther than its best distance so far, until
+that distance is at most the shells' radius (no unseen triangle can be
+nearer). The answer is exact (not sampled): the minimum over every triangle
+that could be nearer, each distance Ericson's test per pair.
 
 References
 ----------
@@ -21,17 +21,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..errors import InputError, MeshError
 from ..model import TriMesh
-from ._kernels import ball_pairs_kernel, closest_pairs_kernel
+from ._kernels import grid_build_kernel, grid_closest_kernel
 from ._results import ResultMixin
 
 __all__ = ["point_triangle_closest", "point_segment_closest", "closest_points_on_mesh", "ClosestPoints"]
 
-_CHUNK = 1 << 18  # (query, triangle) pairs evaluated at once
-_K_NEAREST = 8    # nearest centroids tried first; most queries need nothing else
 
 
 def _dot(x, y):
@@ -171,7 +168,7 @@ def _radius_buckets(radius: np.ndarray, factor: float = 4.0) -> list[np.ndarray]
 
 
 class _TriangleLocator:
-    """Centroid trees over radius buckets of one mesh's triangles."""
+    """One mesh's triangles (corners a, b, c) and their search grid, built once and reused."""
 
     def __init__(self, vertices: np.ndarray, triangles: np.ndarray):
         self.a, self.b, self.c = (np.ascontiguousarray(vertices[triangles[:, k]], dtype=np.float64)
@@ -179,9 +176,36 @@ class _TriangleLocator:
         self.centroid = (self.a + self.b + self.c) / 3.0
         self.radius = np.sqrt(np.max(np.stack([_dot(x - self.centroid, x - self.centroid)
                                                for x in (self.a, self.b, self.c)]), axis=0))
-        self.tree = cKDTree(self.centroid)
-        self.buckets = [(idx, cKDTree(self.centroid[idx]), float(self.radius[idx].max()))
-                        for idx in _radius_buckets(self.radius)]
+        self._grid = None
+
+    @property
+    def grid(self):
+        """(origin, cell side, dims, start, items): the triangles' boxes binned in a dense grid (CSR), cells
+        about the median triangle's size (larger where the boxes would fill more than 16 cells per triangle
+        on average or the grid exceed 2^21 cells)."""
+        if self._grid is None:
+            lo = np.minimum(np.minimum(self.a, self.b), self.c)
+            hi = np.maximum(np.maximum(self.a, self.b), self.c)
+            origin = lo.min(axis=0)
+            span = hi.max(axis=0) - origin
+            ext = (hi - lo).max(axis=1)
+            h = float(np.median(ext))
+            h = max(h, float(span.max()) * 2.0 ** -20, 1e-300)
+            while True:
+                dims = np.floor(span / h).astype(np.int64) + 1
+                fill = np.prod(np.floor((hi - lo) / h) + 2, axis=1).sum()
+                if np.prod(dims.astype(np.float64)) <= 2 ** 21 and fill <= 16 * len(lo) + 4096:
+                    break
+                h *= 1.5
+            n_cells = int(np.prod(dims))
+            start = np.zeros(n_cells + 1, dtype=np.int64)
+            grid_build_kernel(lo, hi, origin, h, dims, True, start, np.zeros(0, dtype=np.int64))
+            np.cumsum(start, out=start)
+            items = np.empty(int(start[-1]), dtype=np.int64)
+            fill_at = start[:-1].copy()
+            grid_build_kernel(lo, hi, origin, h, dims, False, fill_at, items)
+            self._grid = (origin, h, dims, start, items)
+        return self._grid
 
     def exact(self, q: np.ndarray, tri: np.ndarray):
         closest, bary = point_triangle_closest(q, self.a[tri], self.b[tri], self.c[tri])
@@ -234,7 +258,6 @@ def closest_points_on_mesh(points, mesh: TriMesh) -> ClosestPoints:
 
 def _closest(q: np.ndarray, loc: _TriangleLocator) -> ClosestPoints:
     n = len(q)
-    m = len(loc.centroid)
     best_d = np.full(n, np.inf)
     best_t = np.zeros(n, dtype=np.int64)
     best_p = np.zeros((n, 3))
@@ -242,36 +265,6 @@ def _closest(q: np.ndarray, loc: _TriangleLocator) -> ClosestPoints:
     if n == 0:
         return ClosestPoints(best_d, best_t, best_p, best_w)
     q = np.ascontiguousarray(q, dtype=np.float64)
-
-    def consider(qi: np.ndarray, tri: np.ndarray) -> None:
-        # exact distances of the pairs, each query keeping its nearest (`point_triangle_closest` per pair)
-        closest_pairs_kernel(q, loc.a, loc.b, loc.c, np.ascontiguousarray(qi, dtype=np.int64),
-                             np.ascontiguousarray(tri, dtype=np.int64), best_d, best_t, best_p, best_w)
-
-    k = min(_K_NEAREST, m)
-    step = max(1, _CHUNK // k)
-    unsure = []
-    for s in range(0, n, step):
-        qs = np.arange(s, min(n, s + step))
-        dist, near = loc.tree.query(q[qs], k=k)
-        dist, near = dist.reshape(len(qs), k), near.reshape(len(qs), k)
-        consider(np.repeat(qs, k), near.ravel())
-        if k < m:
-            # a triangle beyond the k nearest centroids can only be nearer if its centroid lies
-            # within best + R of the query: such queries get the full ball search below
-            unsure.append(qs[dist[:, -1] < best_d[qs] + loc.radius.max()])
-    todo = np.concatenate(unsure) if unsure else np.zeros(0, dtype=np.int64)
-    step = max(1, _CHUNK // 32)
-    for idx, tree, r_max in loc.buckets:
-        for s in range(0, len(todo), step):
-            qs = todo[s:s + step]
-            lists = tree.query_ball_point(q[qs], best_d[qs] + r_max, return_sorted=False)
-            lens = np.fromiter((len(x) for x in lists), dtype=np.int64, count=len(qs))
-            if not lens.sum():
-                continue
-            tri = idx[np.concatenate([np.asarray(x, dtype=np.int64) for x in lists if len(x)])]
-            qi = np.repeat(qs, lens)
-            # cheap lower bound |q - c_t| - R_t: skip triangles that cannot beat the current best
-            keep = ball_pairs_kernel(q, loc.centroid, loc.radius, qi, tri, best_d)
-            consider(qi[keep], tri[keep])
+    origin, h, dims, start, items = loc.grid
+    grid_closest_kernel(q, loc.a, loc.b, loc.c, origin, h, dims, start, items, best_d, best_t, best_p, best_w)
     return ClosestPoints(best_d, best_t, best_p, best_w)
