@@ -18,12 +18,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import InputError, MeshError
-from ..geom.predicates import points_in_polygons
 from ..geom.projection import project_to_surface
 from ..model import Shell, TriMesh
 from ._results import ResultMixin
 from .closest_point import _closest, _TriangleLocator, closest_points_on_mesh
-from .sampling import as_face, distance_outside_face, loop_polygons, sample_face_domain, sample_triangles
+from .sampling import (_inside_loops, as_face, distance_outside_face, loop_polygons, sample_face_domain,
+                       sample_triangles)
 
 __all__ = ["Deviation", "ShellDeviation", "surface_deviation", "shell_deviation", "mesh_deviation",
            "project_to_face", "refine_deviation", "max_curvature"]
@@ -198,7 +198,8 @@ def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, tw
     if trim_tol_uv is None:
         (u0, u1), (v0, v1) = face.surface.domain
         box = np.array([[u0, v0], [u1, v1]]) if not face.loops else np.array(
-            [face.loops[0].polyline(8).min(axis=0), face.loops[0].polyline(8).max(axis=0)])
+            [loop_polygons(face, n_per_segment=8)[0].min(axis=0),
+             loop_polygons(face, n_per_segment=8)[0].max(axis=0)])
         trim_tol_uv = 1e-3 * float(np.linalg.norm(box[1] - box[0]))
     outside = int(np.count_nonzero(out_uv > trim_tol_uv))
     mx2, rms2, where2, n2 = float("nan"), float("nan"), np.full(3, np.nan), 0
@@ -469,28 +470,20 @@ FINE_LOOP_POINTS = 512
 def _drop_outside(face, uv: np.ndarray, d: np.ndarray, batch: int = 64, cache: list | None = None) -> np.ndarray:
     """`d` with 0 for the largest surface samples that lie outside the face's trim loops, tested on fine
     loop polygons (`FINE_LOOP_POINTS`), largest first, until the largest value left is one tested
-    inside (the maximum is a point of the face; smaller values are not re-tested). `cache`: a list that
-    keeps the fine polygons between calls on the same face."""
+    inside (the maximum is a point of the face; smaller values are not re-tested). The fine polygons
+    and their index are kept per face (`sampling._inside_loops`); `cache` is not needed any more."""
     if not face.loops or not len(d):
         return d
     d = np.array(d, dtype=np.float64)
     checked = np.zeros(len(d), dtype=bool)
-    polys = None
     while True:
         top = int(np.argmax(d))
         if d[top] <= 0 or checked[top]:
             return d
         open_ = np.flatnonzero(~checked & (d > 0))
         cand = open_[np.argsort(-d[open_], kind="stable")[:batch]]
-        if polys is None:
-            if cache:
-                polys = cache[0]
-            else:
-                polys = loop_polygons(face, n_per_segment=FINE_LOOP_POINTS)
-                if cache is not None:
-                    cache.append(polys)
         checked[cand] = True
-        d[cand[~points_in_polygons(uv[cand], polys)]] = 0.0
+        d[cand[~_inside_loops(face, uv[cand], FINE_LOOP_POINTS)]] = 0.0
 
 
 def _bary_grid(k: int) -> np.ndarray:
@@ -743,7 +736,7 @@ def _sample_surface_side(st, ok, tri, w, mx2, where2, n2):
     uv = np.einsum("kj,kjd->kd", ww2, st.vert_uv[t[rows2]])
     q = st.face.surface.evaluate(uv)
     # a footprint point outside the trimmed region (a chord of a curved border) is no point of the face
-    inside = np.ones(len(uv), dtype=bool) if st.polys is None else points_in_polygons(uv, st.polys)
+    inside = np.ones(len(uv), dtype=bool) if st.polys is None else _inside_loops(st.face, uv)
     if st.loc is None or not np.all(np.isfinite(q)):
         near = closest_points_on_mesh(q, st.mesh).distance
     else:

@@ -20,7 +20,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import InputError
-from ..geom.predicates import points_in_polygons
+from ..geom.predicates import _points_in_polygons_kernel, points_in_polygons
 from ..model import NurbsSurface, TriMesh, TrimmedFace
 
 __all__ = ["TriangleSamples", "sample_triangles", "as_face", "loop_polygons", "inside_face",
@@ -156,12 +156,83 @@ def as_face(target) -> TrimmedFace:
     raise InputError(f"expected a NurbsSurface or TrimmedFace; got {type(target).__name__}")
 
 
+#: loop polygons of the last faces asked for, by (id(face), points per segment), the face kept alive in
+#: the entry (so its id is not reused while cached): measuring a face asks for them several times
+_POLYGONS: dict = {}
+_POLYGONS_SIZE = 2048
+#: the slab index of `points_in_polygons` per polygon list of `_POLYGONS` (by the list's id, kept alive)
+_SLABS: dict = {}
+
+
 def loop_polygons(face: TrimmedFace, *, n_per_segment: int = 32) -> list[np.ndarray]:
-    """The face's loops as (k, 2) polygons in (u, v); the domain rectangle when untrimmed."""
+    """The face's loops as (k, 2) polygons in (u, v); the domain rectangle when untrimmed.
+
+    The arrays are read-only and shared between calls on the same face (the list is a fresh copy)."""
+    return list(_loop_polygons(face, int(n_per_segment)))
+
+
+def _loop_polygons(face: TrimmedFace, n_per_segment: int) -> tuple:
+    key = (id(face), n_per_segment)
+    hit = _POLYGONS.get(key)
+    if hit is not None and hit[0] is face:
+        return hit[1]
     if face.loops:
-        return [loop.polyline(n_per_segment) for loop in face.loops]
-    (u0, u1), (v0, v1) = face.surface.domain
-    return [np.array([[u0, v0], [u1, v0], [u1, v1], [u0, v1]], dtype=np.float64)]
+        polys = [loop.polyline(n_per_segment) for loop in face.loops]
+    else:
+        (u0, u1), (v0, v1) = face.surface.domain
+        polys = [np.array([[u0, v0], [u1, v0], [u1, v1], [u0, v1]], dtype=np.float64)]
+    for p in polys:
+        p.flags.writeable = False
+    polys = tuple(polys)
+    if len(_POLYGONS) >= _POLYGONS_SIZE:
+        old = _POLYGONS.pop(next(iter(_POLYGONS)))
+        _SLABS.pop(id(old[1]), None)
+    _POLYGONS[key] = (face, polys)
+    return polys
+
+
+def _inside_loops(face: TrimmedFace, uv: np.ndarray, n_per_segment: int = 32) -> np.ndarray:
+    """`points_in_polygons(uv, loop_polygons(face, n_per_segment))` with the polygons' slab index built
+    once per face (the same index and kernel, so the same answers)."""
+    polys = _loop_polygons(face, int(n_per_segment))
+    hit = _SLABS.get(id(polys))
+    if hit is None or hit[0] is not polys:
+        hit = (polys, _slab_index(polys))
+        _SLABS[id(polys)] = hit
+    pts = np.ascontiguousarray(np.atleast_2d(np.asarray(uv, dtype=np.float64)).reshape(-1, 2))
+    inside = np.zeros(len(pts), dtype=bool)
+    a, b, y0, h, n_slab, start, edges = hit[1]
+    if not len(pts) or not len(a):
+        return inside
+    _points_in_polygons_kernel(pts, a, b, y0, h, n_slab, start, edges, inside)
+    return inside
+
+
+def _slab_index(polygons) -> tuple:
+    """The edges and horizontal slabs `geom.predicates.points_in_polygons` builds (its code, kept)."""
+    a = np.ascontiguousarray(np.concatenate([np.asarray(p, dtype=np.float64) for p in polygons]))
+    b = np.ascontiguousarray(np.concatenate([np.roll(np.asarray(p, dtype=np.float64), -1, axis=0)
+                                             for p in polygons]))
+    if not len(a):
+        return a, b, 0.0, 1.0, 1, np.zeros(2, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    ylo = np.minimum(a[:, 1], b[:, 1])
+    yhi = np.maximum(a[:, 1], b[:, 1])
+    y0, y1 = float(ylo.min()), float(yhi.max())
+    n_slab = int(min(max(1, len(a)), 1 << 16))
+    while True:
+        h = (y1 - y0) / n_slab if y1 > y0 else 1.0
+        first = np.clip(((ylo - y0) / h).astype(np.int64), 0, n_slab - 1)
+        last = np.clip(((yhi - y0) / h).astype(np.int64), 0, n_slab - 1)
+        cnt = last - first + 1
+        if n_slab == 1 or int(cnt.sum()) <= 8 * len(a) + (1 << 16):
+            break
+        n_slab //= 4
+    edge = np.repeat(np.arange(len(a)), cnt)
+    slab = np.repeat(first, cnt) + (np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt))
+    order = np.argsort(slab, kind="stable")
+    start = np.searchsorted(slab[order], np.arange(n_slab + 1))
+    return (a, b, y0, h, n_slab, np.ascontiguousarray(start, dtype=np.int64),
+            np.ascontiguousarray(edge[order], dtype=np.int64))
 
 
 def inside_face(face: TrimmedFace, uv, *, n_per_segment: int = 32) -> np.ndarray:
@@ -169,7 +240,7 @@ def inside_face(face: TrimmedFace, uv, *, n_per_segment: int = 32) -> np.ndarray
     uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
     if not face.loops:
         return np.ones(len(uv), dtype=bool)
-    return points_in_polygons(uv, loop_polygons(face, n_per_segment=n_per_segment))
+    return _inside_loops(face, uv, n_per_segment)
 
 
 def distance_outside_face(face: TrimmedFace, uv, *, n_per_segment: int = 32,
@@ -179,7 +250,7 @@ def distance_outside_face(face: TrimmedFace, uv, *, n_per_segment: int = 32,
     out = np.zeros(len(uv))
     polys = loop_polygons(face, n_per_segment=n_per_segment)
     if face.loops:
-        outside = np.flatnonzero(~points_in_polygons(uv, polys))
+        outside = np.flatnonzero(~_inside_loops(face, uv, n_per_segment))
     else:
         (u0, u1), (v0, v1) = face.surface.domain
         outside = np.flatnonzero((uv[:, 0] < u0) | (uv[:, 0] > u1) | (uv[:, 1] < v0) | (uv[:, 1] > v1))
@@ -228,7 +299,7 @@ def sample_face_domain(face, *, n: int = 64, n_per_segment: int = 32) -> np.ndar
     gu, gv = np.meshgrid(np.linspace(lo[0], hi[0], nu), np.linspace(lo[1], hi[1], nv), indexing="ij")
     grid = np.column_stack([gu.ravel(), gv.ravel()])
     if face.loops:
-        grid = grid[points_in_polygons(grid, polys)]
+        grid = grid[_inside_loops(face, grid, n_per_segment)]
         boundary = np.concatenate(polys)
         boundary = np.clip(boundary, [du0, dv0], [du1, dv1])
         return np.concatenate([grid, boundary])
