@@ -700,3 +700,14 @@ def project_newton_kernel(pu, pv, ku, kv, pw, rational, pts, x, S0, D10, D20, lo
                 foot[i, d] = S[d]
         it_max = max(it_max, it)
     return it_max
+
+
+@njit(cache=True, nogil=True)
+def surface_eval_d2_kernel(pu, pv, ku, kv, pw, rational, uv, S, D1, D2):
+    """S (n, 3), D1 (n, 2, 3), D2 (n, 2, 2, 3) at uv (n, 2) clamped to the domain: the values of
+    `surface_derivatives_kernel` with nd = 2, in `projection._surface_eval`'s layout."""
+    scratch = _surface_scratch(pu, pv, 2, pw.shape[2])
+    out = np.zeros((3, 3, 1, 3))
+    for i in range(uv.shape[0]):
+        _eval_d2(pu, pv, ku, kv, pw, rational, uv[i, 0], uv[i, 1], scratch, out, S[i], D1[i], D2[i])
+

@@ -44,7 +44,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..errors import GeometryError
-from ._nurbs_kernels import project_newton_kernel
+from ._nurbs_kernels import project_newton_kernel, surface_derivatives_kernel, surface_eval_d2_kernel
 from .nurbs import _homogeneous, curve_derivatives, read_only, surface_derivatives
 
 __all__ = ["Projection", "CurveProjection", "project_to_surface", "project_to_curve"]
@@ -358,14 +358,16 @@ def _workers(n_queries: int) -> int:
     return -1 if n_queries >= 20_000 else 1
 
 
-def _solve(pts, seeds: _Seeds, evaluate, newton, retry: bool, tol: float, breaks: list, start=None):
+def _solve(pts, seeds: _Seeds, evaluate, newton, retry: bool, tol: float, breaks: list, start=None,
+           first_derivatives=None):
     """Newton from `start` (warm) or the nearest seed, then (if `retry`) restarts that may do better.
 
     A warm start that does not converge, or ends farther from P than the nearest seed
     sample (a run from that sample could not), is redone from the nearest seed. With
     `retry`, points farther than ``tol`` from the surface restart across the creases
     next to their foot (`_crease_starts`) and once from a far seed sample that may
-    hold a closer point (`_retry_seeds`); the closer result is kept.
+    hold a closer point (`_retry_seeds`); the closer result is kept. `first_derivatives` (optional):
+    D1 alone at parameters, the same numbers as ``evaluate(x)[1]``, for the kink test of the creases.
     """
     seed_dist, first = seeds.tree.query(pts, k=1, workers=_workers(len(pts)))
     used = first.copy()
@@ -382,17 +384,17 @@ def _solve(pts, seeds: _Seeds, evaluate, newton, retry: bool, tol: float, breaks
             used[redo] = f
     if not retry:
         return result
+    d1 = first_derivatives if first_derivatives is not None else (lambda x: evaluate(x)[1])
     for rows, x0, barrier in _crease_starts(seeds.axes, result.params, result.distance, tol, breaks):
-        state = evaluate(x0)
         # a crease with matching tangents (normals) on both sides (e.g. the double knots of a rational
         # circle) is no kink: Newton crosses it like any other point, nothing to restart there
         here = np.where(np.isnan(barrier[0]), x0, np.where(barrier[1], np.nextafter(barrier[0], -np.inf),
                                                                barrier[0]))
-        kink = _kink_rad(state[1], evaluate(here)[1]) > _SMOOTH_RAD
+        kink = _kink_rad(d1(x0), d1(here)) > _SMOOTH_RAD
         if not kink.any():
             continue
         rows, x0, barrier = rows[kink], x0[kink], (barrier[0][kink], barrier[1][kink])
-        sub = newton(pts[rows], x0, tuple(a[kink] for a in state), barrier)
+        sub = newton(pts[rows], x0, evaluate(x0), barrier)
         result = _merge(result, sub, rows)
     k = min(_N_CANDIDATES, seeds.params.shape[0])
     ask = np.flatnonzero(result.distance > tol)  # within tol of the surface nothing closer by tol exists
@@ -772,8 +774,18 @@ def project_to_surface(points, degree_u: int, degree_v: int, knots_u, knots_v, c
 
     axes = _seed_values(seed_grid, (ku, kv), (pu, pv), name)
 
-    def evaluate(uv):
-        return _surface_eval(args, uv)
+    if compiled:
+        pw = _homogeneous(cp, w)
+        surf = (pu, pv, read_only(ku), read_only(kv), pw, w is not None)
+
+        def evaluate(uv):
+            uv = np.ascontiguousarray(uv, dtype=np.float64).reshape(-1, 2)
+            S, D1, D2 = np.empty((len(uv), 3)), np.empty((len(uv), 2, 3)), np.empty((len(uv), 2, 2, 3))
+            surface_eval_d2_kernel(*surf, uv, S, D1, D2)
+            return S, D1, D2
+    else:
+        def evaluate(uv):
+            return _surface_eval(args, uv)
 
     key = (pu, pv, ku.tobytes(), kv.tobytes(), cp.shape, cp.tobytes(), None if w is None else w.tobytes(),
            tuple(a.tobytes() for a in axes))
@@ -786,16 +798,22 @@ def project_to_surface(points, degree_u: int, degree_v: int, knots_u, knots_v, c
     breaks = [_breakpoints(ku, pu), _breakpoints(kv, pv)]
 
     if compiled:
-        pw = _homogeneous(cp, w)
-
         def newton(p, x0, state, barrier=None):
-            return _newton_compiled(p, x0.copy(), state, (pu, pv, ku, kv, pw, w is not None), lo, hi, breaks, tol,
-                                    max_iter, barrier)
+            return _newton_compiled(p, x0.copy(), state, surf, lo, hi, breaks, tol, max_iter, barrier)
     else:
         def newton(p, x0, state, barrier=None):
             return _newton(p, x0.copy(), state, evaluate, lo, hi, breaks, tol, max_iter, barrier)
 
-    raw = _solve(pts, seeds, evaluate, newton, bool(retry), tol, breaks, start)
+    if compiled:
+        def first_derivatives(uv):
+            # the lean first-derivative path: the same operations as with second derivatives (same numbers)
+            skl = np.zeros((2, 2, len(uv), 3))
+            surface_derivatives_kernel(*surf, np.ascontiguousarray(np.clip(uv[:, 0], lo[0], hi[0])),
+                                       np.ascontiguousarray(np.clip(uv[:, 1], lo[1], hi[1])), 1, skl)
+            return np.stack([skl[1, 0], skl[0, 1]], axis=1)
+    else:
+        first_derivatives = None
+    raw = _solve(pts, seeds, evaluate, newton, bool(retry), tol, breaks, start, first_derivatives)
     return Projection(raw.params, raw.foot, raw.distance, raw.converged, raw.on_boundary, raw.iterations)
 
 
