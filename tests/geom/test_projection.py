@@ -453,3 +453,25 @@ def test_compiled_newton_on_the_pole_roof_and_waves(wavy):
     _compiled_matches((2, 2, [0, 0, 0, 1, 1, 1], [0, 0, 0, 1, 1, 1], cp, w), rng.uniform(-0.5, 1.5, (2000, 3)))
     roof = np.array([[[0.0, 0, 0], [0, 1, 0]], [[1, 0, 1], [1, 1, 1]], [[2, 0, 0], [2, 1, 0]]])
     _compiled_matches((1, 1, [0, 0, 0.5, 1, 1], [0, 0, 1, 1], roof, None), rng.uniform(-1, 3, (2000, 3)))
+
+
+@pytest.mark.parametrize("pu, pv, seed", [(1, 1, 3), (2, 1, 4), (2, 2, 5), (3, 3, 6), (4, 2, 7)])
+def test_compiled_second_derivatives_are_the_general_kernels_numbers(pu, pv, seed):
+    # the Newton kernel's evaluator repeats `surface_derivatives` (nd = 2) operation for operation: bit-identical,
+    # rational and polynomial, at knots, domain corners and outside (clamped)
+    from trimsurf.geom._nurbs_kernels import surface_eval_d2_kernel
+    from trimsurf.geom.nurbs import _homogeneous, read_only
+    surf, uv = random_bspline(pu, pv, seed)
+    knots_u = surf[2][pu:-pu]
+    uv = np.concatenate([uv, [[0, -1], [4, 1], [0, 1], [-1, 2]], np.c_[knots_u, np.zeros(len(knots_u))]])
+    for w in (surf[5], None):
+        skl = surface_derivatives(*surf[:5], w, uv, n_derivs=2)
+        out = [np.empty((len(uv), 3)), np.empty((len(uv), 2, 3)), np.empty((len(uv), 2, 2, 3))]
+        surface_eval_d2_kernel(pu, pv, read_only(surf[2]), read_only(surf[3]), _homogeneous(surf[4], w), w is not None,
+                               uv, *out)
+        assert_array_equal(out[0], skl[0, 0])
+        assert_array_equal(out[1], np.stack([skl[1, 0], skl[0, 1]], axis=1))
+        assert_array_equal(out[2][:, 0, 0], skl[2, 0])
+        assert_array_equal(out[2][:, 0, 1], skl[1, 1])
+        assert_array_equal(out[2][:, 1, 0], skl[1, 1])
+        assert_array_equal(out[2][:, 1, 1], skl[0, 2])

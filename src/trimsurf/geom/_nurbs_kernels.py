@@ -482,19 +482,74 @@ def chord_criteria_kernel(p, weights, length, deviation):
 
 
 @njit(cache=True, nogil=True)
-def _eval_d2(pu, pv, ku, kv, pw, rational, u, v, scratch, out, S, D1, D2):
-    """S (3,), D1 (2, 3), D2 (2, 2, 3) at (u, v) clamped to the domain (as `nurbs.surface_derivatives`)."""
+def _d2_work(pu, pv, dimw):
+    """Work arrays of `_eval_d2`, allocated once per kernel call."""
+    return (np.empty((pu + 1, pu + 1)), np.empty((pv + 1, pv + 1)), np.empty((2, pu + 1)), np.empty((2, pv + 1)),
+            np.empty(pu + 1), np.empty(pu + 1), np.empty(pv + 1), np.empty(pv + 1), np.empty((3, pu + 1)),
+            np.empty((3, pv + 1)), np.empty((3, pu + 1, dimw)), np.empty((3, 3, dimw)), np.empty((3, 3, 3)))
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _eval_d2(pu, pv, ku, kv, pw, rational, u, v, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, o,
+             S, D1, D2):
+    """S (3,), D1 (2, 3), D2 (2, 2, 3) at (u, v) clamped to the domain: `_surface_point` with nd = 2, the
+    same operations in the same order (so the same numbers as `nurbs.surface_derivatives`), in one
+    function (3-4x faster than through the general one)."""
     u = min(max(u, ku[pu]), ku[ku.shape[0] - pu - 1])
     v = min(max(v, kv[pv]), kv[kv.shape[0] - pv - 1])
-    _surface_point(pu, pv, ku, kv, pw, rational, u, v, 2, scratch, out, 0)
+    nu_ctrl, nv_ctrl, dimw = pw.shape
+    dim = dimw - 1 if rational else dimw
+    su = _span(pu, ku, nu_ctrl, u)
+    sv = _span(pv, kv, nv_ctrl, v)
+    _ders_basis(su, u, pu, ku, 2, ndu_u, a_u, l_u, r_u, bu)
+    _ders_basis(sv, v, pv, kv, 2, ndu_v, a_v, l_v, r_v, bv)
+    for l in range(3):
+        for r in range(pu + 1):
+            for d in range(dimw):
+                tmp[l, r, d] = 0.0
+            for s in range(pv + 1):
+                b = bv[l, s]
+                if b != 0.0:
+                    for d in range(dimw):
+                        tmp[l, r, d] += b * pw[su - pu + r, sv - pv + s, d]
+    for k in range(3):
+        for l in range(3 - k):
+            for d in range(dimw):
+                acc = 0.0
+                for r in range(pu + 1):
+                    acc += bu[k, r] * tmp[l, r, d]
+                skl[k, l, d] = acc
+    if rational:
+        w0 = skl[0, 0, dim]
+        for k in range(3):
+            for l in range(3 - k):
+                for d in range(dim):
+                    val = skl[k, l, d]
+                    for j in range(1, l + 1):
+                        bl = 2.0 if (l == 2 and j == 1) else 1.0       # binom(l, j)
+                        val -= bl * skl[0, j, dim] * o[k, l - j, d]
+                    for q in range(1, k + 1):
+                        bk = 2.0 if (k == 2 and q == 1) else 1.0
+                        val -= bk * skl[q, 0, dim] * o[k - q, l, d]
+                        v2 = 0.0
+                        for j in range(1, l + 1):
+                            bl = 2.0 if (l == 2 and j == 1) else 1.0
+                            v2 += bl * skl[q, j, dim] * o[k - q, l - j, d]
+                        val -= bk * v2
+                    o[k, l, d] = val / w0
+    else:
+        for k in range(3):
+            for l in range(3 - k):
+                for d in range(dim):
+                    o[k, l, d] = skl[k, l, d]
     for d in range(3):
-        S[d] = out[0, 0, 0, d]
-        D1[0, d] = out[1, 0, 0, d]
-        D1[1, d] = out[0, 1, 0, d]
-        D2[0, 0, d] = out[2, 0, 0, d]
-        D2[0, 1, d] = out[1, 1, 0, d]
-        D2[1, 0, d] = out[1, 1, 0, d]
-        D2[1, 1, d] = out[0, 2, 0, d]
+        S[d] = o[0, 0, d]
+        D1[0, d] = o[1, 0, d]
+        D1[1, d] = o[0, 1, d]
+        D2[0, 0, d] = o[2, 0, d]
+        D2[0, 1, d] = o[1, 1, d]
+        D2[1, 0, d] = o[1, 1, d]
+        D2[1, 1, d] = o[0, 2, d]
 
 
 @njit(cache=True, nogil=True)
@@ -522,8 +577,7 @@ def project_newton_kernel(pu, pv, ku, kv, pw, rational, pts, x, S0, D10, D20, lo
     iteration (crease crossing, crease minima, saddle-free step, backtracking, Gauss-Newton after a
     failed line search, final polish). x (m, 2) is updated in place; foot, conv, onb are written.
     Returns the largest number of iterations any point ran."""
-    scratch = _surface_scratch(pu, pv, 2, pw.shape[2])
-    out = np.zeros((3, 3, 1, 3))
+    ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, o = _d2_work(pu, pv, pw.shape[2])
     S = np.empty(3)
     D1 = np.empty((2, 3))
     D2 = np.empty((2, 2, 3))
@@ -609,7 +663,8 @@ def project_newton_kernel(pu, pv, ku, kv, pw, rational, pts, x, S0, D10, D20, lo
                 crossed_x[0] = x[i, 0]
                 crossed_x[1] = x[i, 1]
                 gn = False
-                _eval_d2(pu, pv, ku, kv, pw, rational, x[i, 0], x[i, 1], scratch, out, S, D1, D2)
+                _eval_d2(pu, pv, ku, kv, pw, rational, x[i, 0], x[i, 1], ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
+                         bu, bv, tmp, skl, o, S, D1, D2)
                 continue
             done = True
             for a in range(2):
@@ -669,7 +724,8 @@ def project_newton_kernel(pu, pv, ku, kv, pw, rational, pts, x, S0, D10, D20, lo
             while True:
                 for a in range(2):
                     trial[a] = min(max(x[i, a] + step[a], blo[a]), bhi[a])
-                _eval_d2(pu, pv, ku, kv, pw, rational, trial[0], trial[1], scratch, out, nS, nD1, nD2)
+                _eval_d2(pu, pv, ku, kv, pw, rational, trial[0], trial[1], ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v,
+                         r_v, bu, bv, tmp, skl, o, nS, nD1, nD2)
                 q0 = nS[0] - pts[i, 0]
                 q1 = nS[1] - pts[i, 1]
                 q2 = nS[2] - pts[i, 2]
@@ -706,8 +762,8 @@ def project_newton_kernel(pu, pv, ku, kv, pw, rational, pts, x, S0, D10, D20, lo
 def surface_eval_d2_kernel(pu, pv, ku, kv, pw, rational, uv, S, D1, D2):
     """S (n, 3), D1 (n, 2, 3), D2 (n, 2, 2, 3) at uv (n, 2) clamped to the domain: the values of
     `surface_derivatives_kernel` with nd = 2, in `projection._surface_eval`'s layout."""
-    scratch = _surface_scratch(pu, pv, 2, pw.shape[2])
-    out = np.zeros((3, 3, 1, 3))
+    ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, o = _d2_work(pu, pv, pw.shape[2])
     for i in range(uv.shape[0]):
-        _eval_d2(pu, pv, ku, kv, pw, rational, uv[i, 0], uv[i, 1], scratch, out, S[i], D1[i], D2[i])
+        _eval_d2(pu, pv, ku, kv, pw, rational, uv[i, 0], uv[i, 1], ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu,
+                 bv, tmp, skl, o, S[i], D1[i], D2[i])
 
