@@ -87,10 +87,34 @@ def measure_mesh(mesh: TriMesh, shell: Shell, *, density: int = 3, n_domain: int
         figures; any other uncovered face (collapsed into its neighbours by
         stitching) enters with its measured distance to the whole mesh,
         listed in ``collapsed_faces``.
+
+    Notes
+    -----
+    What the deviation figures bound. The samples follow the triangles:
+    every triangle is sampled on a barycentric grid of k divisions per edge
+    (k = `density`, doubled up to 32 where needed) in both directions (mesh
+    points projected onto the face's surface, with restarts that look for
+    the global foot; surface points over the triangle's own (u, v)
+    footprint measured exactly to the face's triangles), plus a (u, v) grid
+    whose spacing is the triangles' median (u, v) extent / 2.5 (a hole one
+    triangle wide holds a sample) and the `n_domain` grid. k follows the
+    curvature: a triangle is sampled again at 2k while
+    ``D_t + beta_t / ((1 - kappa_t D_t) k^2)`` (D_t its largest sample,
+    beta_t from the shape operator along its edges at its corners' feet
+    and centre, x1.5) exceeds ``(1 + refine)`` x the maximum. So
+    ``max_deviation`` is the largest sample (never above the true two-sided
+    deviation, within ``refine`` of ``max_deviation_bound``), and
+    ``max_deviation_bound`` bounds the true deviation provided the
+    curvature sampled at each triangle's corners and centre, x1.5, bounds it
+    in between and the projections find the global foot: sampled, not
+    proven. A deviation confined to a region smaller than a triangle's
+    sample spacing (1/32 of the triangle at the densest) whose curvature
+    shows at none of those points can still pass unseen.
     """
     t0 = time.perf_counter()
     dev, states = _shell_deviation(mesh, shell, density=density, n_domain=n_domain, two_sided=True, tol_rel=1e-10,
                                    refine=refine)
+    # the centroids' feet, projected with the samples: `flipped_against_normal` does not project them again
     centroid_uv = {i: st.centroid_uv for i, st in enumerate(states) if st is not None and st.centroid_uv is not None}
     dev_bound = max((float(d.max_bound) for d in dev.faces if d is not None and np.isfinite(d.max_bound)),
                     default=float("nan"))
