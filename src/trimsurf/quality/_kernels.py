@@ -162,7 +162,7 @@ def grid_build_kernel(lo_box, hi_box, origin, h, dims, counts_only, start, items
 
 
 @njit(cache=True, nogil=True)
-def grid_closest_kernel(q, a, b, c, origin, h, dims, start, items, best_d, best_t, best_p, best_w):
+def grid_closest_kernel(q, a, b, c, lo_box, hi_box, origin, h, dims, start, items, best_d, best_t, best_p, best_w):
     """Exact closest triangle for every query (`best_*` may hold an upper bound already: a pair replaces
     it only when strictly nearer). Searches cube shells of cells around the query's cell, r = 0, 1, ...:
     after shell r every triangle with a point within r h of the query has been tried, so the search stops
@@ -212,6 +212,12 @@ def grid_closest_kernel(q, a, b, c, origin, h, dims, start, items, best_d, best_
                                 if stamp[t] == n:
                                     continue
                                 stamp[t] = n
+                                # the triangle's box farther than the best so far: so is the triangle
+                                bx = max(lo_box[t, 0] - q[n, 0], q[n, 0] - hi_box[t, 0], 0.0)
+                                by = max(lo_box[t, 1] - q[n, 1], q[n, 1] - hi_box[t, 1], 0.0)
+                                bz = max(lo_box[t, 2] - q[n, 2], q[n, 2] - hi_box[t, 2], 0.0)
+                                if bx * bx + by * by + bz * bz >= best_d[n] * best_d[n]:
+                                    continue
                                 d = _tri_closest(q[n, 0], q[n, 1], q[n, 2], a[t], b[t], c[t], out)
                                 if d < best_d[n]:
                                     best_d[n] = d

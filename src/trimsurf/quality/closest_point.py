@@ -180,9 +180,9 @@ class _TriangleLocator:
 
     @property
     def grid(self):
-        """(origin, cell side, dims, start, items): the triangles' boxes binned in a dense grid (CSR), cells
-        about the median triangle's size (larger where the boxes would fill more than 16 cells per triangle
-        on average or the grid exceed 2^21 cells)."""
+        """(box lo, box hi, origin, cell side, dims, start, items): the triangles' boxes, binned in a dense
+        grid (CSR) of cells about the median triangle's size (larger where the boxes would fill more than
+        16 cells per triangle on average or the grid exceed 2^21 cells)."""
         if self._grid is None:
             lo = np.minimum(np.minimum(self.a, self.b), self.c)
             hi = np.maximum(np.maximum(self.a, self.b), self.c)
@@ -204,7 +204,7 @@ class _TriangleLocator:
             items = np.empty(int(start[-1]), dtype=np.int64)
             fill_at = start[:-1].copy()
             grid_build_kernel(lo, hi, origin, h, dims, False, fill_at, items)
-            self._grid = (origin, h, dims, start, items)
+            self._grid = (lo, hi, origin, h, dims, start, items)
         return self._grid
 
     def exact(self, q: np.ndarray, tri: np.ndarray):
@@ -265,6 +265,7 @@ def _closest(q: np.ndarray, loc: _TriangleLocator) -> ClosestPoints:
     if n == 0:
         return ClosestPoints(best_d, best_t, best_p, best_w)
     q = np.ascontiguousarray(q, dtype=np.float64)
-    origin, h, dims, start, items = loc.grid
-    grid_closest_kernel(q, loc.a, loc.b, loc.c, origin, h, dims, start, items, best_d, best_t, best_p, best_w)
+    lo, hi, origin, h, dims, start, items = loc.grid
+    grid_closest_kernel(q, loc.a, loc.b, loc.c, lo, hi, origin, h, dims, start, items, best_d, best_t, best_p,
+                        best_w)
     return ClosestPoints(best_d, best_t, best_p, best_w)
