@@ -231,3 +231,23 @@ def grid_closest_kernel(q, a, b, c, lo_box, hi_box, origin, h, dims, start, item
             if r >= r_all:
                 break
             r += 1
+
+
+@njit(cache=True, nogil=True)
+def segments_distance_kernel(p, a, b, out):
+    """out[i] = distance from p[i] (2D) to the nearest segment a[j]-b[j] (`sampling.distance_outside_face`'s
+    numpy expression per pair: t clipped to [0, 1], den floored at the smallest normal double)."""
+    tiny = np.finfo(np.float64).tiny
+    for i in range(p.shape[0]):
+        best = np.inf
+        for j in range(a.shape[0]):
+            ab0, ab1 = b[j, 0] - a[j, 0], b[j, 1] - a[j, 1]
+            den = max(ab0 * ab0 + ab1 * ab1, tiny)
+            t = ((p[i, 0] - a[j, 0]) * ab0 + (p[i, 1] - a[j, 1]) * ab1) / den
+            t = min(max(t, 0.0), 1.0)
+            r0 = p[i, 0] - (a[j, 0] + t * ab0)
+            r1 = p[i, 1] - (a[j, 1] + t * ab1)
+            d = np.sqrt(r0 * r0 + r1 * r1)
+            if d < best:
+                best = d
+        out[i] = best

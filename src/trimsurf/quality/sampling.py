@@ -22,6 +22,7 @@ import numpy as np
 from ..errors import InputError
 from ..geom.predicates import _points_in_polygons_kernel, points_in_polygons
 from ..model import NurbsSurface, TriMesh, TrimmedFace
+from ._kernels import segments_distance_kernel
 
 __all__ = ["TriangleSamples", "sample_triangles", "as_face", "loop_polygons", "inside_face",
            "distance_outside_face", "sample_face_domain"]
@@ -245,7 +246,9 @@ def inside_face(face: TrimmedFace, uv, *, n_per_segment: int = 32) -> np.ndarray
 
 def distance_outside_face(face: TrimmedFace, uv, *, n_per_segment: int = 32,
                           chunk_size: int = 1 << 22) -> np.ndarray:
-    """Distance in (u, v) from each point (n, 2) to the face's trimmed region, 0 inside, shape (n,)."""
+    """Distance in (u, v) from each point (n, 2) to the face's trimmed region, 0 inside, shape (n,).
+
+    Compiled, point by point (`chunk_size`, the memory bound of the former array version, is not used)."""
     uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
     out = np.zeros(len(uv))
     polys = loop_polygons(face, n_per_segment=n_per_segment)
@@ -256,17 +259,11 @@ def distance_outside_face(face: TrimmedFace, uv, *, n_per_segment: int = 32,
         outside = np.flatnonzero((uv[:, 0] < u0) | (uv[:, 0] > u1) | (uv[:, 1] < v0) | (uv[:, 1] > v1))
     if not outside.size:
         return out
-    a = np.concatenate(polys)
-    b = np.concatenate([np.roll(p, -1, axis=0) for p in polys])
-    ab = b - a
-    den = np.maximum(np.einsum("ij,ij->i", ab, ab), np.finfo(float).tiny)
-    step = max(1, chunk_size // len(a))
-    for s in range(0, outside.size, step):
-        idx = outside[s:s + step]
-        p = uv[idx][:, None, :]
-        t = np.clip(np.einsum("kej,ej->ke", p - a[None], ab) / den, 0.0, 1.0)
-        d = np.linalg.norm(p - (a[None] + t[..., None] * ab[None]), axis=2)
-        out[idx] = d.min(axis=1)
+    a = np.ascontiguousarray(np.concatenate(polys))
+    b = np.ascontiguousarray(np.concatenate([np.roll(p, -1, axis=0) for p in polys]))
+    d = np.empty(outside.size)
+    segments_distance_kernel(np.ascontiguousarray(uv[outside]), a, b, d)
+    out[outside] = d
     return out
 
 
