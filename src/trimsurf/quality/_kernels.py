@@ -1,8 +1,10 @@
-"""Compiled (numba) kernels of the measurement: exact point-to-triangle distances over (query, triangle) pairs.
+"""Compiled (numba) kernels of the measurement: exact closest points on a mesh, distances to trim polygons.
 
-`closest_pairs_kernel` is `closest_point.point_triangle_closest` (Ericson's
-Voronoi-region test, zero-area triangles as their three edges) point by point,
-folding each pair into the query's best so far, without the (pairs, 3) arrays.
+`_tri_closest` is `closest_point.point_triangle_closest` (Ericson's
+Voronoi-region test, zero-area triangles as their three edges) for one pair;
+`grid_closest_kernel` searches a face mesh's triangles binned in a uniform grid
+(`grid_build_kernel`) with it; `segments_distance_kernel` is the (u, v)
+distance to trim polygons.
 """
 
 from __future__ import annotations
@@ -104,37 +106,6 @@ def _tri_closest(p0, p1, p2, a, b, c, out):
     out[3], out[4], out[5] = u, v, w
     r0, r1, r2 = p0 - x0, p1 - x1, p2 - x2
     return np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
-
-
-@njit(cache=True, nogil=True)
-def closest_pairs_kernel(q, a, b, c, qi, tri, best_d, best_t, best_p, best_w):
-    """Fold the exact distance of every pair (q[qi[k]], triangle tri[k]) into the query's best: a pair
-    replaces it when strictly nearer (so of equal distances the earlier pair or the current best stays)."""
-    out = np.empty(6)
-    for k in range(qi.shape[0]):
-        i = qi[k]
-        t = tri[k]
-        d = _tri_closest(q[i, 0], q[i, 1], q[i, 2], a[t], b[t], c[t], out)
-        if d < best_d[i]:
-            best_d[i] = d
-            best_t[i] = t
-            for j in range(3):
-                best_p[i, j] = out[j]
-                best_w[i, j] = out[3 + j]
-
-
-@njit(cache=True, nogil=True)
-def ball_pairs_kernel(q, centroid, radius, qi, tri, best_d):
-    """Mask of the pairs whose triangle could be nearer than the query's best: |q - c_t| - R_t < best."""
-    keep = np.empty(qi.shape[0], dtype=np.bool_)
-    for k in range(qi.shape[0]):
-        i = qi[k]
-        t = tri[k]
-        r0 = q[i, 0] - centroid[t, 0]
-        r1 = q[i, 1] - centroid[t, 1]
-        r2 = q[i, 2] - centroid[t, 2]
-        keep[k] = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2) - radius[t] < best_d[i]
-    return keep
 
 
 @njit(cache=True, nogil=True)

@@ -173,9 +173,6 @@ class _TriangleLocator:
     def __init__(self, vertices: np.ndarray, triangles: np.ndarray):
         self.a, self.b, self.c = (np.ascontiguousarray(vertices[triangles[:, k]], dtype=np.float64)
                                   for k in range(3))
-        self.centroid = (self.a + self.b + self.c) / 3.0
-        self.radius = np.sqrt(np.max(np.stack([_dot(x - self.centroid, x - self.centroid)
-                                               for x in (self.a, self.b, self.c)]), axis=0))
         self._grid = None
 
     @property
