@@ -12,7 +12,16 @@ with ``TRIMSURF_OCC_IN_PROCESS=1``, so "isolation s" = trimsurf s - in-process s
 the isolation per read (fork + pickled transfer). The server's one-time start (an interpreter
 importing Open CASCADE and reading two tiny files) is in the first read, timed on its own.
 
+With ``--cli`` it instead runs ``trimsurf tessellate FILE -o x.ply --report r.json`` in a fresh
+process per run (what a user pays for one command: the reader's start included) and prints the
+report's ``seconds_read``, ``seconds_mesh`` and ``seconds_measure``, median of ``--repeats`` runs
+per file, with the wall time of the whole command. ``--src DIR`` runs the trimsurf of another source
+tree (e.g. an exported older commit: ``git archive COMMIT src | tar -x -C /tmp/old``); given twice,
+the two trees run interleaved (file by file, round by round) for a before/after table under the same
+load. One untimed run first fills numba's cache of each tree.
+
 Usage: python benchmarks/read_speed.py [--json out.json] [--data DIR]
+       python benchmarks/read_speed.py --cli [--repeats 3] [--src DIR [--src DIR2]] [--files a,b] [--json out.json]
 """
 
 from __future__ import annotations
@@ -20,7 +29,10 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import statistics
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -61,12 +73,81 @@ def best_of(fn, *args):
     return best, out
 
 
+def cli_run(path: Path, src: Path, tmp: Path) -> dict:
+    """One ``trimsurf tessellate`` in a fresh process: the report's entry plus the command's wall time."""
+    env = dict(os.environ, PYTHONPATH=str(src) + (os.pathsep + os.environ["PYTHONPATH"]
+                                                  if os.environ.get("PYTHONPATH") else ""))
+    report = tmp / "r.json"
+    report.unlink(missing_ok=True)
+    t = time.perf_counter()
+    done = subprocess.run([sys.executable, "-m", "trimsurf", "tessellate", str(path), "-o", str(tmp / "x.ply"),
+                           "--report", str(report)], env=env, cwd=tmp, stdout=subprocess.DEVNULL,
+                          stderr=subprocess.PIPE, text=True)
+    wall = time.perf_counter() - t
+    if not report.exists():
+        raise RuntimeError(f"{path.name}: trimsurf tessellate exited {done.returncode}: {done.stderr.strip()[-300:]}")
+    entry = json.loads(report.read_text())["inputs"][0]
+    return {"read": entry["seconds_read"], "mesh": entry["seconds_mesh"], "measure": entry["seconds_measure"],
+            "wall": wall, "early": entry.get("seconds_read_started_early")}
+
+
+def cli_table(files: list[Path], srcs: list[Path], repeats: int) -> dict[str, list[dict]]:
+    """Median over `repeats` fresh ``trimsurf tessellate`` processes per file and source tree.
+
+    Rounds interleave the files and the source trees (file 1 tree A, file 1 tree B, file 2 tree A, ...),
+    so that a change of the machine's load hits every column alike.
+    """
+    runs = {str(src): {p.name: [] for p in files} for src in srcs}
+    with tempfile.TemporaryDirectory(prefix="trimsurf-read-speed-") as tmp:
+        for src in srcs:  # fills numba's cache of each tree
+            cli_run(min(files, key=lambda p: p.stat().st_size), src, Path(tmp))
+        for _ in range(repeats):
+            for p in files:
+                for src in srcs:
+                    runs[str(src)][p.name].append(cli_run(p, src, Path(tmp)))
+    tables = {}
+    for src in srcs:
+        out = []
+        print(f"trimsurf from {src}; median of {repeats} fresh processes per file")
+        print(f"{'file':40s} {'read s':>7s} {'mesh s':>7s} {'measure s':>9s} {'read/mesh':>9s} {'command s':>9s}"
+              f" {'early s':>7s}")
+        for name, rr in runs[str(src)].items():
+            med = {k: statistics.median(r[k] for r in rr) for k in ("read", "mesh", "measure", "wall")}
+            early = [r["early"] for r in rr if r["early"] is not None]
+            med["early"] = statistics.median(early) if early else None
+            med["runs"] = rr
+            out.append({"file": name} | med)
+            print(f"{name[:40]:40s} {med['read']:7.3f} {med['mesh']:7.3f} {med['measure']:9.3f} "
+                  f"{med['read'] / med['mesh']:9.2f} {med['wall']:9.2f} "
+                  f"{'-' if med['early'] is None else format(med['early'], '7.3f'):>7s}")
+        tot = {k: sum(r[k] for r in out) for k in ("read", "mesh", "measure", "wall")}
+        print(f"{'total':40s} {tot['read']:7.3f} {tot['mesh']:7.3f} {tot['measure']:9.3f} "
+              f"{tot['read'] / tot['mesh']:9.2f} {tot['wall']:9.2f}")
+        tables[str(src)] = out
+    return tables
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--json", type=Path, help="also write the rows as JSON")
     parser.add_argument("--data", type=Path, default=DATA, help="folder of STEP/IGES files")
+    parser.add_argument("--cli", action="store_true",
+                        help="time seconds_read/mesh/measure of fresh `trimsurf tessellate` processes instead")
+    parser.add_argument("--repeats", type=int, default=3, help="--cli: runs per file (median)")
+    parser.add_argument("--src", type=Path, action="append",
+                        help="--cli: a source tree whose trimsurf runs (default: this one); repeat it to "
+                             "compare trees, runs interleaved")
+    parser.add_argument("--files", default="", help="--cli: only files whose name holds one of these (a,b)")
     args = parser.parse_args(argv)
     files = sorted(p for p in args.data.iterdir() if p.suffix.lower() in (".step", ".stp", ".iges", ".igs"))
+    if args.cli:
+        if args.files:
+            files = [p for p in files if any(f in p.name for f in args.files.split(","))]
+        srcs = [p.resolve() for p in args.src] if args.src else [Path(__file__).resolve().parents[1] / "src"]
+        tables = cli_table(files, srcs, args.repeats)
+        if args.json:
+            args.json.write_text(json.dumps({"repeats": args.repeats, "tables": tables}, indent=1))
+        return 0
     rows = []
     smallest = min(files, key=lambda p: p.stat().st_size)
     t = time.perf_counter()

@@ -9,6 +9,12 @@ input or usage.
 
 from __future__ import annotations
 
+# first of all: a command that will read a CAD file starts the reader server now, so that its start
+# (an interpreter importing Open CASCADE) overlaps the imports below instead of following them
+from ..io._server import start_early as _start_reader_early
+
+_start_reader_early()
+
 import argparse
 import contextlib
 import os

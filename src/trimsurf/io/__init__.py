@@ -15,9 +15,12 @@ import warnings
 from collections.abc import Iterator
 from importlib import import_module
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..errors import FaceSkippedWarning, FileFormatError
-from ..model import Shell, TriMesh
+
+if TYPE_CHECKING:  # not imported at run time: `trimsurf.io._server` must stay cheap to import (trimsurf.cli)
+    from ..model import Shell, TriMesh
 
 __all__ = ["read", "read_shell", "read_mesh", "write_shell", "write_mesh", "CAD_SUFFIXES", "MESH_SUFFIXES",
            "occ_mesh_faces", "skipped_faces", "from_occ", "to_occ"]

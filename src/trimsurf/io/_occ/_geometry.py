@@ -22,15 +22,22 @@ def _reals(arr) -> np.ndarray:
     return np.fromiter(arr, dtype=np.float64, count=arr.Length())
 
 
+# Points are read by index (``Value``): iterating an OCP point array costs ~80 us per point (its
+# iterator), ``Value`` ~2 us; with iteration, copying the points was half of the conversion (measured
+# on the shared files: 0.88 s of 1.45 s for U_Joint, bearing, featuretype and cornetta).
+
 def _points2(arr) -> np.ndarray:
     """Array2_gp_Pnt (rows along u) -> (nu, nv, 3)."""
-    pts = np.array([p.Coord() for p in arr], dtype=np.float64)
+    value, r0, c0 = arr.Value, arr.LowerRow(), arr.LowerCol()
+    cols = range(c0, c0 + arr.NbColumns())
+    pts = np.array([value(i, j).Coord() for i in range(r0, r0 + arr.NbRows()) for j in cols], dtype=np.float64)
     return pts.reshape(arr.NbRows(), arr.NbColumns(), 3)
 
 
 def _points1(arr, dim: int) -> np.ndarray:
     """Array1_gp_Pnt or Array1_gp_Pnt2d -> (n, dim)."""
-    return np.array([p.Coord() for p in arr], dtype=np.float64).reshape(-1, dim)
+    value, lo = arr.Value, arr.Lower()
+    return np.array([value(i).Coord() for i in range(lo, lo + arr.Length())], dtype=np.float64).reshape(-1, dim)
 
 
 def _homogeneous(points: np.ndarray, weights: np.ndarray | None) -> np.ndarray:

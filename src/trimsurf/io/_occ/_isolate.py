@@ -10,7 +10,9 @@ caller goes on.
 
 The children are forked by a small server process
 (`trimsurf.io._occ._worker`, started once with ``subprocess`` on the first
-read, ended when this process ends) that has imported Open CASCADE once; a
+read -- or by the ``trimsurf`` command as its first action, so that its start
+overlaps the command's own, `trimsurf.io._server` -- and ended when this
+process ends) that has imported Open CASCADE once; a
 read costs one ``fork`` and the transfer of the pickled result through a
 temporary file. The server is a fresh interpreter that never calls Open
 CASCADE itself: no fork of a parent that may hold threads, no re-import of
@@ -23,22 +25,17 @@ process (debugging; crashes are then not contained).
 
 from __future__ import annotations
 
-import atexit
 import contextlib
-import json
 import os
 import pickle
-import select
 import signal
-import subprocess
-import sys
 import tempfile
-import threading
 import time
 import warnings
 from pathlib import Path
 
 from ... import errors
+from .. import _server
 from ...errors import FileFormatError
 from ...model import Shell
 
@@ -77,111 +74,7 @@ def convert_file(path: str, fmt: str) -> Shell:
 
 def _in_process() -> bool:
     """Read in this process: asked for with TRIMSURF_OCC_IN_PROCESS=1, or no ``fork`` (not POSIX)."""
-    return os.environ.get("TRIMSURF_OCC_IN_PROCESS", "").strip() not in ("", "0") or not hasattr(os, "fork")
-
-
-def _child_env() -> dict[str, str]:
-    """The server's environment: ours, this trimsurf first on PYTHONPATH, one BLAS/OpenMP thread (it forks)."""
-    env = dict(os.environ)
-    root = str(Path(__file__).resolve().parents[3])
-    env["PYTHONPATH"] = root + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
-    for name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        env[name] = "1"
-    return env
-
-
-class _Server:
-    """The fork server process and its two pipes (see `trimsurf.io._occ._worker`)."""
-
-    def __init__(self) -> None:
-        to_server_r, self.to_server = os.pipe()
-        self.from_server, from_server_w = os.pipe()
-        self.pid_owner = os.getpid()
-        try:
-            self.proc = subprocess.Popen(
-                [sys.executable, "-m", "trimsurf.io._occ._worker", str(to_server_r), str(from_server_w)],
-                stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                pass_fds=(to_server_r, from_server_w), env=_child_env())
-        finally:
-            os.close(to_server_r)
-            os.close(from_server_w)
-        self.buffer = b""
-
-    def alive(self) -> bool:
-        return self.pid_owner == os.getpid() and self.proc.poll() is None
-
-    def _line(self, deadline: float | None) -> str | None:
-        """The next line from the server; None at the deadline; raises EOFError when the server ended."""
-        while b"\n" not in self.buffer:
-            wait = None if deadline is None else max(0.0, deadline - time.monotonic())
-            ready, _, _ = select.select([self.from_server], [], [], wait)
-            if not ready:
-                return None
-            chunk = os.read(self.from_server, 4096)
-            if not chunk:
-                raise EOFError("the reader server ended")
-            self.buffer += chunk
-        line, self.buffer = self.buffer.split(b"\n", 1)
-        return line.decode()
-
-    def run(self, fmt: str, path: str, answer: str, timeout: float) -> int | None:
-        """Exit status of the child that read `path` (minus the signal if killed); None after `timeout`."""
-        # one JSON line (paths may hold tabs or newlines); the child reads from our working folder, so
-        # relative paths, and the messages naming them, stay the caller's
-        request = json.dumps(["READ", fmt, path, answer, os.getcwd()]) + "\n"
-        os.write(self.to_server, request.encode("utf-8", "surrogateescape"))
-        # the server answers PID at once after its start-up; the time limit runs from the fork
-        first = self._line(time.monotonic() + _SERVER_START_S)
-        if first is None or not first.startswith("PID "):
-            raise EOFError("the reader server did not answer")
-        pid = int(first.split()[1])
-        deadline = time.monotonic() + timeout
-        try:
-            last = self._line(deadline)
-        except BaseException:
-            with contextlib.suppress(OSError):
-                os.kill(pid, signal.SIGKILL)
-            raise
-        if last is None:
-            with contextlib.suppress(OSError):
-                os.kill(pid, signal.SIGKILL)
-            self._line(time.monotonic() + 10.0)  # the server's EXIT line for the killed child
-            return None
-        return int(last.split()[1])
-
-    def close(self) -> None:
-        for fd in (self.to_server, self.from_server):
-            with contextlib.suppress(OSError):
-                os.close(fd)
-        with contextlib.suppress(Exception):
-            self.proc.wait(timeout=5)
-
-
-_LOCK = threading.Lock()
-_SERVER: _Server | None = None
-_SERVER_START_S = 120.0  # allowance for starting the server (importing Open CASCADE on a loaded machine)
-
-
-def _server() -> _Server:
-    global _SERVER
-    if _SERVER is None or not _SERVER.alive():
-        _SERVER = _Server()
-    return _SERVER
-
-
-def _discard_server() -> None:
-    global _SERVER
-    if _SERVER is not None:
-        with contextlib.suppress(Exception):
-            _SERVER.proc.kill()
-        _SERVER.close()
-    _SERVER = None
-
-
-@atexit.register
-def _stop_server() -> None:
-    if _SERVER is not None and _SERVER.pid_owner == os.getpid():
-        _SERVER.close()
+    return _server.in_process()
 
 
 def _signal_name(code: int) -> str:
@@ -208,12 +101,16 @@ def read_isolated(path: str | os.PathLike, fmt: str, error: type[FileFormatError
     fd, answer = tempfile.mkstemp(prefix="trimsurf-read-", suffix=".pickle")
     os.close(fd)
     try:
-        with _LOCK:
+        with _server.LOCK:
+            asked_at = time.monotonic()
             try:
-                code = _server().run(fmt, str(path), answer, timeout)
+                srv = _server.server()
+                code = srv.run(fmt, str(path), answer, timeout)
             except (EOFError, BrokenPipeError):  # the server ended (killed from outside): start a new one, once
-                _discard_server()
-                code = _server().run(fmt, str(path), answer, timeout)
+                _server.discard_server()
+                srv = _server.server()
+                code = srv.run(fmt, str(path), answer, timeout)
+            _server.note_read(srv, asked_at)
         if code is None:
             raise error(f"{path}: reading the {fmt} file did not finish within {timeout:.3g} s (stopped; Open "
                         "CASCADE is probably stuck on a malformed file; TRIMSURF_READ_TIMEOUT=SECONDS allows "
