@@ -72,7 +72,8 @@ out with a `FaceSkippedWarning` naming it, never the whole file.
 
 Modules: `_read` (quiet reading, B-spline conversion), `_geometry` (curves and
 surfaces both ways), `_to_shell` (shape -> Shell), `_to_shape` (Shell -> shape),
-`_checks` (finite-geometry checks), `_isolate` / `_worker` (the child process).
+`_checks` (finite-geometry checks), `_isolate` / `_worker` (the child process; the server that forks it
+is managed by `trimsurf.io._server`, which the ``trimsurf`` command starts first thing).
 """
 
 from __future__ import annotations
