@@ -20,7 +20,12 @@ tree (e.g. an exported older commit: ``git archive COMMIT src | tar -x -C /tmp/o
 the two trees run interleaved (file by file, round by round) for a before/after table under the same
 load. One untimed run first fills numba's cache of each tree.
 
+``--phases`` prints where the reader child's time goes per file (the text check of the numbers, Open
+CASCADE's read and transfer, the geometry check, ``BRepBuilderAPI_NurbsConvert``, the copy into the
+model, pickling), measured in this process.
+
 Usage: python benchmarks/read_speed.py [--json out.json] [--data DIR]
+       python benchmarks/read_speed.py --phases
        python benchmarks/read_speed.py --cli [--repeats 3] [--src DIR [--src DIR2]] [--files a,b] [--json out.json]
 """
 
@@ -127,6 +132,54 @@ def cli_table(files: list[Path], srcs: list[Path], repeats: int) -> dict[str, li
     return tables
 
 
+def phases_table(files: list[Path]) -> list[dict]:
+    """Where the reader child's time goes, per file, in this process (after the server's warm-up).
+
+    The steps `trimsurf.io._occ._isolate.convert_file` runs: the text check of the numbers, Open CASCADE's
+    read and transfer, the geometry check, ``BRepBuilderAPI_NurbsConvert``, the copy into the model
+    (`shape_to_shell`), and pickling the Shell for the parent. One run each (after one warm-up read).
+    """
+    import pickle
+    import warnings
+
+    import numpy as np
+
+    from trimsurf.io._occ import _checks, _read, nurbs_shape, shape_to_shell
+    from trimsurf.io._occ._worker import _warm_up
+
+    _warm_up()
+    keys = ("numbers", "read", "check", "nurbs", "model", "pickle")
+    print(f"{'file':40s} " + " ".join(f"{k + ' s':>9s}" for k in keys))
+    rows = []
+    skip = _read.check_file_numbers, _read.check_shape_geometry
+    _read.check_file_numbers = _read.check_shape_geometry = lambda *a, **k: None  # timed on their own here
+    try:
+        for path in files:
+            fmt = "IGES" if path.suffix.lower() in (".iges", ".igs") else "STEP"
+            t = [time.perf_counter()]
+            _checks.check_file_numbers(path, fmt)
+            t.append(time.perf_counter())
+            shape = _read.read_shape(path, fmt, RuntimeError)
+            t.append(time.perf_counter())
+            _checks.check_shape_geometry(shape, path)
+            t.append(time.perf_counter())
+            with warnings.catch_warnings(), np.errstate(all="ignore"):
+                warnings.simplefilter("ignore")
+                converted = nurbs_shape(shape, path=path)
+                t.append(time.perf_counter())
+                shell = shape_to_shell(converted, name=path.name, skip_bad_faces=True)
+                t.append(time.perf_counter())
+            pickle.dumps(shell, protocol=pickle.HIGHEST_PROTOCOL)
+            t.append(time.perf_counter())
+            row = {"file": path.name} | {k: b - a for k, a, b in zip(keys, t, t[1:])}
+            rows.append(row)
+            print(f"{path.name[:40]:40s} " + " ".join(f"{row[k]:9.3f}" for k in keys))
+    finally:
+        _read.check_file_numbers, _read.check_shape_geometry = skip
+    print(f"{'total':40s} " + " ".join(f"{sum(r[k] for r in rows):9.3f}" for k in keys))
+    return rows
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--json", type=Path, help="also write the rows as JSON")
@@ -138,8 +191,15 @@ def main(argv=None) -> int:
                         help="--cli: a source tree whose trimsurf runs (default: this one); repeat it to "
                              "compare trees, runs interleaved")
     parser.add_argument("--files", default="", help="--cli: only files whose name holds one of these (a,b)")
+    parser.add_argument("--phases", action="store_true",
+                        help="where the reader child's time goes per file (in this process) instead")
     args = parser.parse_args(argv)
     files = sorted(p for p in args.data.iterdir() if p.suffix.lower() in (".step", ".stp", ".iges", ".igs"))
+    if args.phases:
+        rows = phases_table(files)
+        if args.json:
+            args.json.write_text(json.dumps({"phases": rows}, indent=1))
+        return 0
     if args.cli:
         if args.files:
             files = [p for p in files if any(f in p.name for f in args.files.split(","))]
