@@ -293,6 +293,16 @@ def adaptive_values(evaluate: LineFamily, a: float, b: float, *, tolerance: floa
     elif strategy == "uniform":
         x = _uniform(evaluate, a, b, tolerance, max_edge, weights_fn)
         return x
+    elif hasattr(evaluate, "family") and (weights_fn is None or weights_fn == getattr(evaluate, "weights", None)):
+        # a compiled family: the whole placement in one compiled call (the same numbers)
+        from ._line_kernels import equidistributed_kernel
+
+        x0 = np.unique(np.clip(np.r_[a, init, b], a, b))
+        x, needed = equidistributed_kernel(evaluate.family(), x0, a, b, float(tolerance), float(max_edge),
+                                           float(max_values))
+        if needed >= 0:
+            raise _too_many(needed, max_values, tolerance, max_edge)
+        return x
     else:
         x, checked = _equidistributed(evaluate, a, b, tolerance, max_edge, init, weights_fn, max_values)
         if checked:     # every interval already met both criteria

@@ -90,6 +90,10 @@ def _inside_raster(polys: list, lo: np.ndarray, hi: np.ndarray, n: int = 96):
         j = np.clip(np.rint((uv[:, 1] - lo[1]) / step[1]).astype(np.int64), 0, n - 1)
         return dil[i, j]
 
+    # the raster as the compiled families read it (`_line_kernels`)
+    lookup.dil = np.ascontiguousarray(dil, dtype=np.bool_)
+    lookup.lo = np.ascontiguousarray(lo, dtype=np.float64)
+    lookup.step = np.ascontiguousarray(step, dtype=np.float64)
     return lookup
 
 
@@ -99,10 +103,11 @@ class IsoLines:
     pairs (interval, line) that do not count are not evaluated; the result is bit for bit the numpy one).
     """
 
-    def __init__(self, surface, axis: int, lines: np.ndarray):
+    def __init__(self, surface, axis: int, lines: np.ndarray, raster=None):
         self.surface = surface
         self.axis = axis
         self.lines = np.asarray(lines, dtype=np.float64)
+        self.raster = raster        # `_inside_raster`'s lookup: only intervals at the trim count (`weights`)
         s = surface
         from ..geom.nurbs import _homogeneous, read_only
 
@@ -118,6 +123,33 @@ class IsoLines:
         uv[..., self.axis] = x[:, None]
         uv[..., 1 - self.axis] = self.lines[None, :]
         return self.surface.evaluate(uv.reshape(-1, 2)).reshape(len(x), len(self.lines), 3)
+
+    def weights(self, x: np.ndarray) -> np.ndarray:
+        """(len(x) - 1, L) bool: the lines that count on each interval, those inside the trim at an end
+        or the middle of the interval (by the raster; all without one)."""
+        if self.raster is None:
+            return np.ones((len(x) - 1, len(self.lines)), dtype=bool)
+        axis, other = self.axis, self.lines
+        xm = np.r_[x, 0.5 * (x[:-1] + x[1:])]
+        uv = np.empty((len(xm), len(other), 2))
+        uv[..., axis] = xm[:, None]
+        uv[..., 1 - axis] = other[None, :]
+        ins = self.raster(uv.reshape(-1, 2)).reshape(len(xm), len(other))
+        n = len(x)
+        return ins[:n - 1] | ins[1:n] | ins[n:]
+
+    def family(self) -> tuple:
+        """The family as `_line_kernels` takes it (kind 0), with `weights` computed inside."""
+        from ._line_kernels import (DUMMY_1D as D1, DUMMY_2 as D2, DUMMY_2D, DUMMY_3DW, DUMMY_4D, DUMMY_BOOL,
+                                    DUMMY_CF, DUMMY_CI)
+        from ..geom.nurbs import read_only
+
+        r = self.raster
+        s = self.surface
+        return (0, int(self.axis), self._lines_c, read_only(self.lines), float(self._xr[0]), float(self._xr[1]),
+                r is not None, DUMMY_BOOL if r is None else r.dil, D2 if r is None else r.lo,
+                D2 if r is None else r.step, s.degree_u, s.degree_v, self._ku, self._kv, self._pw,
+                s.weights is not None, DUMMY_CI, DUMMY_CF, DUMMY_2D, DUMMY_3DW, DUMMY_2D, DUMMY_2D, DUMMY_4D)
 
     def criteria(self, x: np.ndarray, n_sub: int, weights) -> tuple[np.ndarray, np.ndarray]:
         """`interval_criteria` of this family."""
@@ -178,18 +210,8 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
             other = lines[axis]
             knots = s.knots_u if axis == 0 else s.knots_v
 
-            evaluate = IsoLines(s, axis, other)
-
-            weights_fn = None
-            if polys is not None:
-                def weights_fn(x, axis=axis, other=other):
-                    xm = np.r_[x, 0.5 * (x[:-1] + x[1:])]
-                    uv = np.empty((len(xm), len(other), 2))
-                    uv[..., axis] = xm[:, None]
-                    uv[..., 1 - axis] = other[None, :]
-                    ins = raster(uv.reshape(-1, 2)).reshape(len(xm), len(other))
-                    n = len(x)
-                    return ins[:n - 1] | ins[1:n] | ins[n:]
+            evaluate = IsoLines(s, axis, other, raster)
+            weights_fn = None if raster is None else evaluate.weights
             init = np.unique(np.r_[np.linspace(lo[axis], hi[axis], 17), _knots_in(knots, lo[axis], hi[axis])])
             # grid size max_edge / sqrt(2): the cell diagonals (triangle edges) stay within max_edge
             try:

@@ -63,9 +63,17 @@ class ChunkUse:
         """(uv (n, 2), xyz (n, 3)) at the chunk parameters s, in one compiled pass (xyz left
         uninitialized without `with_xyz`)."""
         from ..geom._nurbs_kernels import pcurve_surface_kernel
-        from ..geom.nurbs import _homogeneous, read_only
+        from ..geom.nurbs import read_only
 
+        s = read_only(np.asarray(s, dtype=np.float64).reshape(-1))
+        uv, xyz = np.empty((len(s), 2)), np.empty((len(s) if with_xyz else 0, 3))
+        pcurve_surface_kernel(*self.kernel_args(), s, with_xyz, uv, xyz)
+        return uv, xyz
+
+    def kernel_args(self) -> tuple:
+        """The arguments of `pcurve_surface_kernel` before s (built once)."""
         if self._kernel_args is None:
+            from ..geom.nurbs import _homogeneous, read_only
 
             c, f = self.pcurve.curve, self.surface
             lo, hi = sorted((self.pcurve.t0, self.pcurve.t1))
@@ -74,10 +82,7 @@ class ChunkUse:
                 (c.degree, read_only(c.knots), _homogeneous(c.control_points, c.weights),
                  c.weights is not None, float(lo), float(hi), box, f.degree_u, f.degree_v, read_only(f.knots_u),
                  read_only(f.knots_v), _homogeneous(f.control_points, f.weights), f.weights is not None))
-        s = read_only(np.asarray(s, dtype=np.float64).reshape(-1))
-        uv, xyz = np.empty((len(s), 2)), np.empty((len(s) if with_xyz else 0, 3))
-        pcurve_surface_kernel(*self._kernel_args, s, with_xyz, uv, xyz)
-        return uv, xyz
+        return self._kernel_args
 
 
 @dataclass(eq=False)
@@ -168,13 +173,47 @@ class _ChunkLines:
 
     def __init__(self, uses: list):
         self.uses = uses
+        self._family = None
 
     def __call__(self, s: np.ndarray) -> np.ndarray:
         return np.stack([u.xyz(s) for u in self.uses], axis=1)
 
+    def family(self) -> tuple:
+        """The family as `_line_kernels` takes it (kind 1: the uses' arrays padded into one array each)."""
+        if self._family is None:
+            from ._line_kernels import DUMMY_1D as D1, DUMMY_2 as D2, DUMMY_3D as D3, DUMMY_BOOL as DB
+
+            args = [u.kernel_args() for u in self.uses]
+            n = len(args)
+            ci = np.zeros((n, 13), dtype=np.int64)
+            cf = np.zeros((n, 6))
+            ck = np.zeros((n, max(len(a[1]) for a in args)))
+            cpw = np.zeros((n, max(a[2].shape[0] for a in args), 3))
+            cku = np.zeros((n, max(len(a[9]) for a in args)))
+            ckv = np.zeros((n, max(len(a[10]) for a in args)))
+            cpw4 = np.zeros((n, max(a[11].shape[0] for a in args), max(a[11].shape[1] for a in args), 4))
+            for j, (cp, kc, cw, crat, lo, hi, box, pu, pv, ku, kv, pw, srat) in enumerate(args):
+                ci[j] = (cp, crat, pu, pv, srat, len(kc), cw.shape[0], cw.shape[1], len(ku), len(kv), *pw.shape)
+                cf[j] = (lo, hi, *box)
+                ck[j, :len(kc)] = kc
+                cpw[j, :cw.shape[0], :cw.shape[1]] = cw
+                cku[j, :len(ku)] = ku
+                ckv[j, :len(kv)] = kv
+                cpw4[j, :pw.shape[0], :pw.shape[1], :pw.shape[2]] = pw
+            self._family = (1, 0, D1, D1, 0.0, 0.0, False, DB, D2, D2, 0, 0, D1, D1, D3, False,
+                            ci, cf, ck, cpw, cku, ckv, cpw4)
+        return self._family
+
     def criteria(self, x: np.ndarray, n_sub: int, weights) -> tuple[np.ndarray, np.ndarray]:
         from ..geom._nurbs_kernels import chord_criteria_kernel
 
+        if weights is None:
+            from ._line_kernels import family_criteria_kernel
+
+            x = np.ascontiguousarray(x, dtype=np.float64)
+            length, dev = np.empty(len(x) - 1), np.empty(len(x) - 1)
+            family_criteria_kernel(self.family(), x, n_sub, length, dev)
+            return length, dev
         n, m = len(x) - 1, n_sub + 2
         t = np.linspace(0.0, 1.0, m)
         xs = (x[:-1, None] + (x[1:] - x[:-1])[:, None] * t[None, :]).ravel()

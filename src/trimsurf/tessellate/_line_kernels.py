@@ -1,0 +1,331 @@
+"""Compiled 1-D adaptive sampling (numba, nogil): `domain._equidistributed` and the bisection rounds of
+`domain.adaptive_values` in one call per curve family, with the family's `interval_criteria` computed
+inside (a face's iso-lines, or a chunk's uses: a p-curve on its surface each).
+
+Every number is computed with the same operations in the same order as the numpy path (the criteria
+as `iso_line_criteria_kernel` / `pcurve_surface_kernel` + `chord_criteria_kernel` compute them; the
+placement as `np.linspace`, `np.interp`, `np.cumsum` do), so the values are the numpy path's bit for
+bit. An interval's criteria depend on its two ends only, so they are computed once, for the new
+intervals of each round (the numpy path recomputed the checked placement's).
+
+A family is a tuple F (see `face.IsoLines.family`, `trims._ChunkLines.family`):
+
+    (kind, axis, lines_c, lines_raw, xr0, xr1, has_raster, dil, rlo, rstep,
+     pu, pv, ku, kv, pw, rational,                      # kind 0: iso-lines of one surface
+     ci, cf, ck, cpw, cku, ckv, cpw4)                   # kind 1: chunk uses, padded per use
+
+kind 1 per use j: ci[j] = (cp, crat, pu, pv, srat, n_ck, n_cpw, cdimw, n_ku, n_kv, nu, nv, dimw),
+cf[j] = (lo, hi, u0, u1, v0, v1) (the p-curve range and the face's grid box).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..geom._nurbs_kernels import _curve_point, _point_scratch, _surface_point01, iso_line_criteria_kernel
+from ..geom.nurbs import read_only
+
+#: the other kind's members of a family tuple (one compiled signature for both kinds)
+DUMMY_1D = read_only(np.zeros(1))
+DUMMY_3D = read_only(np.zeros((1, 1, 3)))
+DUMMY_BOOL = np.zeros((1, 1), dtype=np.bool_)
+DUMMY_2 = np.zeros(2)
+DUMMY_CI = np.zeros((1, 13), dtype=np.int64)
+DUMMY_CF = np.zeros((1, 6))
+DUMMY_2D = np.zeros((1, 1))
+DUMMY_3DW = np.zeros((1, 1, 1))
+DUMMY_4D = np.zeros((1, 1, 1, 1))
+
+
+@njit(cache=True, nogil=True)
+def _linspace01(m):
+    """np.linspace(0.0, 1.0, m)."""
+    t = np.empty(m)
+    step = 1.0 / (m - 1)
+    for k in range(m):
+        t[k] = k * step
+    t[m - 1] = 1.0
+    return t
+
+
+@njit(cache=True, nogil=True)
+def _raster_in(F, u, v):
+    dil, rlo, rstep = F[7], F[8], F[9]
+    nr = dil.shape[0]
+    i = int(np.rint((u - rlo[0]) / rstep[0]))
+    j = int(np.rint((v - rlo[1]) / rstep[1]))
+    i = min(max(i, 0), nr - 1)
+    j = min(max(j, 0), nr - 1)
+    return dil[i, j]
+
+
+@njit(cache=True, nogil=True)
+def _iso_criteria(F, a, b, m, length, dev):
+    axis, lines_c, lines_raw, xr0, xr1, has_raster = F[1], F[2], F[3], F[4], F[5], F[6]
+    pu, pv, ku, kv, pw, rational = F[10], F[11], F[12], F[13], F[14], F[15]
+    n = a.shape[0]
+    n_lines = lines_c.shape[0]
+    t = _linspace01(m)
+    xs = np.empty((n, m))
+    for i in range(n):
+        d = b[i] - a[i]
+        for k in range(m):
+            xs[i, k] = min(max(a[i] + d * t[k], xr0), xr1)
+    w = np.ones((n, n_lines), dtype=np.bool_)
+    if has_raster:
+        for i in range(n):
+            xm = 0.5 * (a[i] + b[i])
+            for l in range(n_lines):
+                ln = lines_raw[l]
+                if axis == 0:
+                    w[i, l] = _raster_in(F, a[i], ln) or _raster_in(F, b[i], ln) or _raster_in(F, xm, ln)
+                else:
+                    w[i, l] = _raster_in(F, ln, a[i]) or _raster_in(F, ln, b[i]) or _raster_in(F, ln, xm)
+    iso_line_criteria_kernel(pu, pv, ku, kv, pw, rational, axis, lines_c, xs, w, length, dev)
+
+
+@njit(cache=True, nogil=True)
+def _chunk_criteria(F, a, b, m, length, dev):
+    ci, cf, ck, cpw, cku, ckv, cpw4 = F[16], F[17], F[18], F[19], F[20], F[21], F[22]
+    n_uses = ci.shape[0]
+    mcp, mpu, mpv = 0, 0, 0
+    for j in range(n_uses):
+        mcp = max(mcp, ci[j, 0])
+        mpu = max(mpu, ci[j, 2])
+        mpv = max(mpv, ci[j, 3])
+    ndu = np.empty((mcp + 1, mcp + 1))
+    aa = np.empty((2, mcp + 1))
+    left = np.empty(mcp + 1)
+    right = np.empty(mcp + 1)
+    ders = np.empty((1, mcp + 1))
+    ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(mpu, mpv, 4)
+    uv = np.empty(2)
+    res = np.empty((3, 3))
+    t = _linspace01(m)
+    pts = np.empty((m, n_uses, 3))
+    for i in range(a.shape[0]):
+        d = b[i] - a[i]
+        for j in range(n_uses):
+            cp, crat, pu, pv, srat = ci[j, 0], ci[j, 1] != 0, ci[j, 2], ci[j, 3], ci[j, 4]
+            kc = ck[j, :ci[j, 5]]
+            cw = cpw[j, :ci[j, 6], :ci[j, 7]]
+            ku = cku[j, :ci[j, 8]]
+            kv = ckv[j, :ci[j, 9]]
+            pw = cpw4[j, :ci[j, 10], :ci[j, 11], :ci[j, 12]]
+            lo, hi = cf[j, 0], cf[j, 1]
+            t0, t1 = kc[cp], kc[kc.shape[0] - cp - 1]
+            su0, su1 = ku[pu], ku[ku.shape[0] - pu - 1]
+            sv0, sv1 = kv[pv], kv[kv.shape[0] - pv - 1]
+            for k in range(m):
+                s = a[i] + d * t[k]
+                tt = lo + s * (hi - lo)
+                tt = min(max(tt, t0), t1)
+                _curve_point(cp, kc, cw, crat, tt, ndu, aa, left, right, ders, uv)
+                uu = min(max(uv[0], cf[j, 2]), cf[j, 3])
+                vv = min(max(uv[1], cf[j, 4]), cf[j, 5])
+                _surface_point01(pu, pv, ku, kv, pw, srat != 0, min(max(uu, su0), su1), min(max(vv, sv0), sv1), 0,
+                                 ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
+                for q in range(3):
+                    pts[k, j, q] = res[0, q]
+        # as chord_criteria_kernel
+        lmax = 0.0
+        dmax = 0.0
+        for l in range(n_uses):
+            a0, a1, a2 = pts[0, l, 0], pts[0, l, 1], pts[0, l, 2]
+            ab0, ab1, ab2 = pts[m - 1, l, 0] - a0, pts[m - 1, l, 1] - a1, pts[m - 1, l, 2] - a2
+            den = ab0 * ab0 + ab1 * ab1 + ab2 * ab2
+            ln = np.sqrt(den)
+            if ln > lmax:
+                lmax = ln
+            dd = den if den > 0 else 1.0
+            for k in range(1, m - 1):
+                q0, q1, q2 = pts[k, l, 0] - a0, pts[k, l, 1] - a1, pts[k, l, 2] - a2
+                tq = (q0 * ab0 + q1 * ab1 + q2 * ab2) / dd
+                if tq < 0.0:
+                    tq = 0.0
+                elif tq > 1.0:
+                    tq = 1.0
+                r0, r1, r2 = q0 - tq * ab0, q1 - tq * ab1, q2 - tq * ab2
+                dist = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+                if dist > dmax:
+                    dmax = dist
+        length[i] = lmax
+        dev[i] = dmax
+
+
+@njit(cache=True, nogil=True)
+def _criteria(F, a, b, m, length, dev):
+    if F[0] == 0:
+        _iso_criteria(F, a, b, m, length, dev)
+    else:
+        _chunk_criteria(F, a, b, m, length, dev)
+
+
+@njit(cache=True, nogil=True)
+def family_criteria_kernel(F, x, n_sub, length, dev):
+    """`interval_criteria(family, x, n_sub=n_sub)` into length, dev (n - 1,)."""
+    _criteria(F, x[:-1], x[1:], n_sub + 2, length, dev)
+
+
+@njit(cache=True, nogil=True)
+def _place(cum, x, a, b, n):
+    """np.unique(v) of v = np.interp(np.linspace(0, cum[-1], n + 1), cum, x), v[0] = a, v[-1] = b."""
+    total = cum[cum.shape[0] - 1]
+    step = total / n
+    v = np.empty(n + 1)
+    nxp = cum.shape[0]
+    j = 0
+    for i in range(n + 1):
+        key = i * step + 0.0
+        if i == n:
+            key = total
+        if key > cum[nxp - 1]:
+            v[i] = x[nxp - 1]
+            continue
+        if key < cum[0]:
+            v[i] = x[0]
+            continue
+        while j + 1 < nxp and cum[j + 1] <= key:    # the largest j with cum[j] <= key (np.interp's)
+            j += 1
+        if j == nxp - 1 or cum[j] == key:
+            v[i] = x[j]
+        else:
+            slope = (x[j + 1] - x[j]) / (cum[j + 1] - cum[j])
+            r = slope * (key - cum[j]) + x[j]
+            if np.isnan(r):
+                r = slope * (key - cum[j + 1]) + x[j + 1]
+                if np.isnan(r) and x[j] == x[j + 1]:
+                    r = x[j]
+            v[i] = r
+    v[0] = a
+    v[n] = b
+    return np.unique(v)
+
+
+@njit(cache=True, nogil=True)
+def _ok(F, v, tolerance, max_edge):
+    n = v.shape[0] - 1
+    ln = np.empty(n)
+    dv = np.empty(n)
+    _criteria(F, v[:-1], v[1:], 9, ln, dv)
+    for i in range(n):
+        if not (ln[i] <= max_edge and dv[i] <= tolerance):
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _split(x, length, dev, bad, nbad, F, m):
+    """x with the midpoints of the bad intervals inserted, and the criteria of the new intervals
+    (those of the kept intervals copied)."""
+    n = x.shape[0] - 1
+    sa = np.empty(2 * nbad)
+    sb = np.empty(2 * nbad)
+    k = 0
+    for i in range(n):
+        if bad[i]:
+            mid = 0.5 * (x[i] + x[i + 1])
+            sa[k], sb[k] = x[i], mid
+            sa[k + 1], sb[k + 1] = mid, x[i + 1]
+            k += 2
+    sl = np.empty(2 * nbad)
+    sd = np.empty(2 * nbad)
+    _criteria(F, sa, sb, m, sl, sd)
+    nx = np.empty(n + 1 + nbad)
+    nl = np.empty(n + nbad)
+    nd = np.empty(n + nbad)
+    k = 0
+    q = 0
+    for i in range(n):
+        nx[k] = x[i]
+        if bad[i]:
+            nx[k + 1] = sb[q]
+            nl[k], nd[k] = sl[q], sd[q]
+            nl[k + 1], nd[k + 1] = sl[q + 1], sd[q + 1]
+            q += 2
+            k += 2
+        else:
+            nl[k], nd[k] = length[i], dev[i]
+            k += 1
+    nx[k] = x[n]
+    return nx, nl, nd
+
+
+@njit(cache=True, nogil=True)
+def equidistributed_kernel(F, x0, a, b, tolerance, max_edge, max_values):
+    """`domain._equidistributed` then `adaptive_values`' bisection rounds, for the family F from the
+    fine sampling's start x0 (np.unique(np.clip(np.r_[a, init, b], a, b))).
+
+    Returns (values, needed): needed < 0 if the values meet both criteria (or the rounds ran out, as
+    the numpy path), else the count of intervals that exceeds max_values (the caller refuses)."""
+    x = x0
+    n = x.shape[0] - 1
+    length = np.empty(n)
+    dev = np.empty(n)
+    _criteria(F, x[:-1], x[1:], 5, length, dev)
+    for _ in range(8):
+        n = x.shape[0] - 1
+        bad = np.empty(n, dtype=np.bool_)
+        nbad = 0
+        for i in range(n):
+            bad[i] = (length[i] > 0.25 * max_edge) or (dev[i] > 0.0625 * tolerance)
+            nbad += bad[i]
+        if nbad == 0 or x.shape[0] > 20000:
+            break
+        x, length, dev = _split(x, length, dev, bad, nbad, F, 5)
+    n = x.shape[0] - 1
+    cum = np.empty(n + 1)
+    cum[0] = 0.0
+    for i in range(n):
+        p = length[i] / max_edge
+        q = np.sqrt(dev[i] / tolerance)
+        nd = p if p >= q else q
+        if np.isnan(p) or np.isnan(q):
+            nd = np.nan
+        cum[i + 1] = cum[i] + nd
+    total = cum[n]
+    checked = False
+    v = np.empty(2)
+    v[0], v[1] = a, b
+    if total > 0:
+        if not total <= max_values:
+            return v, total
+        n0 = max(1, int(np.ceil(total - 1e-9)))
+        done = False
+        if n0 > 1 and total - (n0 - 1) < 0.1:
+            v = _place(cum, x, a, b, n0 - 1)
+            if _ok(F, v, tolerance, max_edge):
+                done = True
+                checked = True
+        if not done:
+            nn = n0
+            while nn <= 1.5 * n0 + 2:
+                v = _place(cum, x, a, b, nn)
+                if _ok(F, v, tolerance, max_edge):
+                    checked = True
+                    break
+                nn += max(1, int(0.04 * nn))
+            if not checked:
+                v = _place(cum, x, a, b, n0)
+    if checked:
+        return v, -1.0
+    # every interval against both criteria; bisect where one fails (adaptive_values' rounds)
+    x = v
+    n = x.shape[0] - 1
+    length = np.empty(n)
+    dev = np.empty(n)
+    _criteria(F, x[:-1], x[1:], 9, length, dev)
+    for _ in range(12):
+        n = x.shape[0] - 1
+        bad = np.empty(n, dtype=np.bool_)
+        nbad = 0
+        for i in range(n):
+            bad[i] = (length[i] > max_edge) or (dev[i] > tolerance)
+            nbad += bad[i]
+        if nbad == 0:
+            break
+        x, length, dev = _split(x, length, dev, bad, nbad, F, 9)
+        if x.shape[0] - 1 > max_values:
+            return x, float(x.shape[0] - 1)
+    return x, -1.0
