@@ -329,3 +329,220 @@ def equidistributed_kernel(F, x0, a, b, tolerance, max_edge, max_values):
         if x.shape[0] - 1 > max_values:
             return x, float(x.shape[0] - 1)
     return x, -1.0
+
+
+@njit(cache=True, nogil=True)
+def _use_uv(F, j, s, out):
+    """uv of use j of a chunk family at the chunk parameters s (as `ChunkUse.uv`: p(t(s)) clipped into
+    the grid box), into out (n, 2)."""
+    ci, cf, ck, cpw = F[16], F[17], F[18], F[19]
+    cp, crat = ci[j, 0], ci[j, 1] != 0
+    kc = ck[j, :ci[j, 5]]
+    cw = cpw[j, :ci[j, 6], :ci[j, 7]]
+    ndu = np.empty((cp + 1, cp + 1))
+    aa = np.empty((2, cp + 1))
+    left = np.empty(cp + 1)
+    right = np.empty(cp + 1)
+    ders = np.empty((1, cp + 1))
+    uv = np.empty(2)
+    lo, hi = cf[j, 0], cf[j, 1]
+    t0, t1 = kc[cp], kc[kc.shape[0] - cp - 1]
+    for i in range(s.shape[0]):
+        tt = lo + s[i] * (hi - lo)
+        tt = min(max(tt, t0), t1)
+        _curve_point(cp, kc, cw, crat, tt, ndu, aa, left, right, ders, uv)
+        out[i, 0] = min(max(uv[0], cf[j, 2]), cf[j, 3])
+        out[i, 1] = min(max(uv[1], cf[j, 4]), cf[j, 5])
+
+
+@njit(cache=True, nogil=True)
+def _snap1(v, grid, tol):
+    """`trims._snap` of one value: (snapped, hit)."""
+    n = grid.shape[0]
+    j = np.searchsorted(grid, v)
+    j = min(max(j, 1), n - 1)
+    lo, hi = grid[j - 1], grid[j]
+    near = lo if abs(v - lo) <= abs(v - hi) else hi
+    if abs(v - near) <= tol:
+        return near, True
+    return v, False
+
+
+@njit(cache=True, nogil=True)
+def _sgn(x):
+    if x > 0:
+        return 1.0
+    if x < 0:
+        return -1.0
+    if x == 0:
+        return 0.0
+    return np.nan
+
+
+@njit(cache=True, nogil=True)
+def _refine_crossing(F, j, axis, ptol, s, value, lo, hi):
+    """`trims._refine_crossing` (Illinois regula falsi, all crossings in lockstep until all converge)."""
+    n = s.shape[0]
+    buf = np.empty((n, 2))
+    _use_uv(F, j, lo, buf)
+    flo = np.empty(n)
+    fhi = np.empty(n)
+    for i in range(n):
+        flo[i] = buf[i, axis] - value[i]
+    _use_uv(F, j, hi, buf)
+    for i in range(n):
+        fhi[i] = buf[i, axis] - value[i]
+    side = np.zeros(n, dtype=np.int8)
+    lo = lo.copy()
+    hi = hi.copy()
+    s = s.copy()
+    fs = np.empty(n)
+    for _ in range(40):
+        for i in range(n):
+            den = fhi[i] - flo[i]
+            if abs(den) > 0:
+                si = lo[i] - flo[i] * (hi[i] - lo[i]) / (den if den != 0 else 1.0)
+            else:
+                si = 0.5 * (lo[i] + hi[i])
+            a, b = min(lo[i], hi[i]), max(lo[i], hi[i])
+            s[i] = min(max(si, a), b)
+        _use_uv(F, j, s, buf)
+        conv = True
+        for i in range(n):
+            fs[i] = buf[i, axis] - value[i]
+            if not abs(fs[i]) <= 1e-3 * ptol:
+                conv = False
+        if conv:
+            break
+        for i in range(n):
+            left = _sgn(fs[i]) == _sgn(flo[i])
+            if left:
+                lo[i], flo[i] = s[i], fs[i]
+            else:
+                hi[i], fhi[i] = s[i], fs[i]
+            if left and side[i] == 1:
+                fhi[i] = 0.5 * fhi[i]
+            if (not left) and side[i] == -1:
+                flo[i] = 0.5 * flo[i]
+            side[i] = 1 if left else -1
+    return s
+
+
+@njit(cache=True, nogil=True)
+def _grid(G, gl, j, axis):
+    return G[j, axis, :gl[j, axis]]
+
+
+@njit(cache=True, nogil=True)
+def chunk_iso_kernel(F, G, gl, ptol, s):
+    """`trims.discretize_chunk` from the sampled s to the iso flags: every use's grid-line crossings
+    inserted (four rounds), near-duplicates dropped, each use's (u, v) snapped onto its grid lines and
+    the crossings set exactly onto theirs. G (L, 2, g) the uses' grids (us, vs) padded, gl their
+    lengths, ptol (L,) the uses' parameter tolerances. Returns (s_all, uvs (L, k, 2), iso (k,))."""
+    n_uses = G.shape[0]
+    cap = 16
+    f_sc = np.empty(cap)
+    f_val = np.empty(cap)
+    f_ui = np.empty(cap, dtype=np.int64)
+    f_ax = np.empty(cap, dtype=np.int64)
+    nf = 0
+    s_all = s
+    for _ in range(4):
+        ex = np.empty(0)
+        n_ex = 0
+        k_all = s_all.shape[0]
+        for ui in range(n_uses):
+            uv = np.empty((k_all, 2))
+            _use_uv(F, ui, s_all, uv)
+            for q in range(nf):
+                if f_ui[q] == ui:
+                    uv[np.searchsorted(s_all, f_sc[q]), f_ax[q]] = f_val[q]
+            for axis in range(2):
+                grid = _grid(G, gl, ui, axis)
+                coord = np.empty(k_all)
+                for i in range(k_all):
+                    coord[i] = _snap1(uv[i, axis], grid, ptol[ui])[0]
+                # iso_crossings
+                cnt_total = 0
+                for i in range(k_all - 1):
+                    a, b = coord[i], coord[i + 1]
+                    first = np.searchsorted(grid, min(a, b), side="right")
+                    last = np.searchsorted(grid, max(a, b), side="left")
+                    if last > first:
+                        cnt_total += last - first
+                if cnt_total == 0:
+                    continue
+                sc = np.empty(cnt_total)
+                val = np.empty(cnt_total)
+                c = 0
+                for i in range(k_all - 1):
+                    a, b = coord[i], coord[i + 1]
+                    first = np.searchsorted(grid, min(a, b), side="right")
+                    last = np.searchsorted(grid, max(a, b), side="left")
+                    for g in range(first, last):
+                        vv = grid[g]
+                        f = (vv - a) / (b - a)
+                        sc[c] = s_all[i] + f * (s_all[i + 1] - s_all[i])
+                        val[c] = vv
+                        c += 1
+                lo = np.empty(cnt_total)
+                hi = np.empty(cnt_total)
+                for q in range(cnt_total):
+                    k = np.searchsorted(s_all, sc[q], side="right") - 1
+                    k = min(max(k, 0), k_all - 2)
+                    lo[q], hi[q] = s_all[k], s_all[k + 1]
+                sc = _refine_crossing(F, ui, axis, ptol[ui], sc, val, lo, hi)
+                for q in range(cnt_total):
+                    k = np.searchsorted(s_all, sc[q])
+                    k = min(max(k, 0), k_all - 1)
+                    if abs(s_all[k] - sc[q]) > 1e-13:
+                        if n_ex == ex.shape[0]:
+                            ex2 = np.empty(2 * n_ex + 8)
+                            ex2[:n_ex] = ex[:n_ex]
+                            ex = ex2
+                        ex[n_ex] = sc[q]
+                        n_ex += 1
+                        if nf == cap:
+                            cap *= 2
+                            a1, a2 = np.empty(cap), np.empty(cap)
+                            a3, a4 = np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64)
+                            a1[:nf], a2[:nf], a3[:nf], a4[:nf] = f_sc[:nf], f_val[:nf], f_ui[:nf], f_ax[:nf]
+                            f_sc, f_val, f_ui, f_ax = a1, a2, a3, a4
+                        f_sc[nf], f_val[nf], f_ui[nf], f_ax[nf] = sc[q], val[q], ui, axis
+                        nf += 1
+        if n_ex == 0:
+            break
+        merged = np.empty(k_all + n_ex)
+        merged[:k_all] = s_all
+        merged[k_all:] = ex[:n_ex]
+        s_all = np.unique(merged)
+    # drop near-duplicate parameters
+    k_all = s_all.shape[0]
+    keep = np.ones(k_all, dtype=np.bool_)
+    for i in range(1, k_all):
+        keep[i] = s_all[i] - s_all[i - 1] > 1e-13
+    s_all = s_all[keep]
+    k_all = s_all.shape[0]
+    uvs = np.empty((n_uses, k_all, 2))
+    iso = np.zeros(k_all, dtype=np.bool_)
+    for ui in range(n_uses):
+        _use_uv(F, ui, s_all, uvs[ui])
+        for axis in range(2):
+            grid = _grid(G, gl, ui, axis)
+            for i in range(k_all):
+                v, hit = _snap1(uvs[ui, i, axis], grid, ptol[ui])
+                uvs[ui, i, axis] = v
+                if hit:
+                    iso[i] = True
+    # the crossings lie exactly on their iso-line (whatever the solver's last digit)
+    for q in range(nf):
+        sc = f_sc[q]
+        k = np.searchsorted(s_all, sc)
+        k = min(max(k, 0), k_all - 1)
+        if k > 0 and abs(s_all[k - 1] - sc) < abs(s_all[k] - sc):
+            k -= 1
+        uvs[f_ui[q], k, f_ax[q]] = f_val[q]
+        iso[k] = True
+    iso[0] = True
+    iso[k_all - 1] = True
+    return s_all, uvs, iso

@@ -267,48 +267,9 @@ def discretize_chunk(uses: list, *, tolerance: float, max_edge: float, strategy:
         s = adaptive_values(evaluate, 0.0, 1.0, tolerance=chord_tol, max_edge=max_edge, strategy=strategy,
                             init=init)
     # insert the iso-values of every use (the crossings of its u and v grid lines); repeat on the new
-    # points, since a curve that dips across a line and back inside one interval shows up only then
-    forced = []
-    s_all = s
-    for _ in range(4):
-        extra = []
-        for ui, use in enumerate(uses):
-            uv = use.uv(s_all)
-            for sc, fu, axis, val in forced:
-                if fu == ui:
-                    uv[np.searchsorted(s_all, sc), axis] = val
-            for axis, grid in ((0, use.us), (1, use.vs)):
-                coord, _ = _snap(uv[:, axis], grid, use.param_tol)
-                sc, val = iso_crossings(s_all, coord, grid)
-                if len(sc):
-                    k = np.clip(np.searchsorted(s_all, sc, side="right") - 1, 0, len(s_all) - 2)
-                    sc = _refine_crossing(use, sc, axis, val, s_all[k], s_all[k + 1])
-                    fresh = np.abs(s_all[np.clip(np.searchsorted(s_all, sc), 0, len(s_all) - 1)] - sc) > 1e-13
-                    sc, val = sc[fresh], val[fresh]
-                    extra.append(sc)
-                    forced.extend((float(a), ui, axis, float(v)) for a, v in zip(sc, val))
-        if not extra or not sum(len(e) for e in extra):
-            break
-        s_all = np.unique(np.r_[s_all, np.concatenate(extra)])
-    forced = [(sc, ui, axis, val) for sc, ui, axis, val in forced]
-    # drop near-duplicate parameters
-    keep = np.r_[True, np.diff(s_all) > 1e-13]
-    s_all = s_all[keep]
-    uvs, iso = [], np.zeros(len(s_all), dtype=bool)
-    for use in uses:
-        uv = use.uv(s_all)
-        for axis, grid in ((0, use.us), (1, use.vs)):
-            uv[:, axis], hit = _snap(uv[:, axis], grid, use.param_tol)
-            iso |= hit
-        uvs.append(uv)
-    # the crossings lie exactly on their iso-line (whatever the solver's last digit)
-    for sc, ui, axis, val in forced:
-        k = int(np.clip(np.searchsorted(s_all, sc), 0, len(s_all) - 1))
-        if k > 0 and abs(s_all[k - 1] - sc) < abs(s_all[k] - sc):
-            k -= 1
-        uvs[ui][k, axis] = val
-        iso[k] = True
-    iso[[0, -1]] = True
+    # points, since a curve that dips across a line and back inside one interval shows up only then;
+    # then every use's (u, v) snapped onto its grid lines, the crossings exactly onto theirs (compiled)
+    s_all, uvs, iso = _insert_iso_values(evaluate, uses, s)
     # merge points that (nearly) coincide in some use: a back-step of 1e-8 makes a trim polygon cross itself
     if len(s_all) > 2:
         gap = np.full(len(s_all) - 1, np.inf)
@@ -467,3 +428,67 @@ def _even_spacing(evaluate, s, uvs, iso, tolerance, max_edge, uses):
             iso_new |= hit
         uvs_out.append(np.r_[uv[~drop], inner][order])
     return s_out[order], uvs_out, np.r_[iso[~drop], iso_new][order]
+
+
+def _insert_iso_values(evaluate, uses: list, s: np.ndarray):
+    """The crossings of every use's u and v grid lines inserted into s (four rounds: a curve that dips
+    across a line and back inside one interval shows up only on the new points), near-duplicates
+    dropped, each use's (u, v) snapped onto its grid lines and the crossings set exactly onto theirs.
+    Returns (s_all, uvs: list of (k, 2) per use, iso (k,) bool); `_line_kernels.chunk_iso_kernel`."""
+    from ._line_kernels import chunk_iso_kernel
+
+    g = max(max(len(u.us), len(u.vs)) for u in uses)
+    grids = np.zeros((len(uses), 2, g))
+    gl = np.zeros((len(uses), 2), dtype=np.int64)
+    for j, u in enumerate(uses):
+        grids[j, 0, :len(u.us)], grids[j, 1, :len(u.vs)] = u.us, u.vs
+        gl[j] = len(u.us), len(u.vs)
+    ptol = np.array([float(u.param_tol) for u in uses])
+    s_all, uv, iso = chunk_iso_kernel(evaluate.family(), grids, gl, ptol, np.ascontiguousarray(s, dtype=np.float64))
+    return s_all, list(uv), iso
+
+
+def _insert_iso_values_numpy(uses: list, s: np.ndarray):
+    """`_insert_iso_values` with numpy (the reference the compiled kernel is tested against)."""
+    forced = []
+    s_all = s
+    for _ in range(4):
+        extra = []
+        for ui, use in enumerate(uses):
+            uv = use.uv(s_all)
+            for sc, fu, axis, val in forced:
+                if fu == ui:
+                    uv[np.searchsorted(s_all, sc), axis] = val
+            for axis, grid in ((0, use.us), (1, use.vs)):
+                coord, _ = _snap(uv[:, axis], grid, use.param_tol)
+                sc, val = iso_crossings(s_all, coord, grid)
+                if len(sc):
+                    k = np.clip(np.searchsorted(s_all, sc, side="right") - 1, 0, len(s_all) - 2)
+                    sc = _refine_crossing(use, sc, axis, val, s_all[k], s_all[k + 1])
+                    fresh = np.abs(s_all[np.clip(np.searchsorted(s_all, sc), 0, len(s_all) - 1)] - sc) > 1e-13
+                    sc, val = sc[fresh], val[fresh]
+                    extra.append(sc)
+                    forced.extend((float(a), ui, axis, float(v)) for a, v in zip(sc, val))
+        if not extra or not sum(len(e) for e in extra):
+            break
+        s_all = np.unique(np.r_[s_all, np.concatenate(extra)])
+    forced = [(sc, ui, axis, val) for sc, ui, axis, val in forced]
+    # drop near-duplicate parameters
+    keep = np.r_[True, np.diff(s_all) > 1e-13]
+    s_all = s_all[keep]
+    uvs, iso = [], np.zeros(len(s_all), dtype=bool)
+    for use in uses:
+        uv = use.uv(s_all)
+        for axis, grid in ((0, use.us), (1, use.vs)):
+            uv[:, axis], hit = _snap(uv[:, axis], grid, use.param_tol)
+            iso |= hit
+        uvs.append(uv)
+    # the crossings lie exactly on their iso-line (whatever the solver's last digit)
+    for sc, ui, axis, val in forced:
+        k = int(np.clip(np.searchsorted(s_all, sc), 0, len(s_all) - 1))
+        if k > 0 and abs(s_all[k - 1] - sc) < abs(s_all[k] - sc):
+            k -= 1
+        uvs[ui][k, axis] = val
+        iso[k] = True
+    iso[[0, -1]] = True
+    return s_all, uvs, iso
