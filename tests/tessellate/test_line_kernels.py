@@ -1,0 +1,91 @@
+"""The compiled 1-D adaptive sampling (`_line_kernels`) against the numpy path it replaces: the same
+values bit for bit (the meshes' hashes depend on it), on real faces and trim curves."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from trimsurf.errors import InputError
+from trimsurf.io import read_shell
+from trimsurf.samples import build_sample
+from trimsurf.tessellate import domain
+from trimsurf.tessellate.face import IsoLines, _inside_raster, _loop_polys, face_domain_values, grid_box
+from trimsurf.tessellate.trims import ChunkUse, _ChunkLines, _insert_iso_values, _insert_iso_values_numpy
+
+
+class _Plain:
+    """A family without `family()`: adaptive_values takes the numpy path."""
+
+    def __init__(self, fam):
+        self.fam = fam
+
+    def __call__(self, x):
+        return self.fam(x)
+
+    def criteria(self, x, n_sub, weights):
+        return self.fam.criteria(x, n_sub, weights)
+
+
+@pytest.fixture(scope="module")
+def t20(shared_data):
+    return read_shell(shared_data / "cad" / "gmsh__t20_data.step")
+
+
+def _faces(t20):
+    return list(t20.faces[:10]) + [build_sample("fender").faces[0]]
+
+
+@pytest.mark.parametrize("tol_scale", [1e-3, 3e-5])
+def test_iso_line_values_equal_numpy_path(t20, tol_scale):
+    # tol_scale 3e-5 makes some placements fail the check (the bisection rounds run)
+    d = t20.diagonal()
+    for face in _faces(t20):
+        s = face.surface
+        lo, hi = grid_box(face)
+        raster = _inside_raster(_loop_polys(face), lo, hi) if face.loops else None
+        for axis in (0, 1):
+            o = 1 - axis
+            lines = np.linspace(lo[o], hi[o], 9)
+            fam = IsoLines(s, axis, lines, raster)
+            wf = None if raster is None else fam.weights
+            init = np.linspace(lo[axis], hi[axis], 17)
+            kw = dict(tolerance=tol_scale * d, max_edge=0.05 * d / np.sqrt(2.0), init=init)
+            got = domain.adaptive_values(fam, lo[axis], hi[axis], weights_fn=wf, **kw)
+            ref = domain.adaptive_values(_Plain(fam), lo[axis], hi[axis], weights_fn=wf, **kw)
+            assert np.array_equal(got, ref)
+            # and the values meet both criteria on the counted lines, sampled 4x finer than the check
+            ln, dv = domain.interval_criteria(fam, got, n_sub=31, weights=None if wf is None else wf(got))
+            assert np.all(ln <= kw["max_edge"] * (1 + 1e-9))
+            assert np.all(dv <= 1.05 * kw["tolerance"])     # checked at 7 samples: sampled, not proven
+
+
+def test_compiled_placement_refuses_beyond_max_values(t20):
+    face = t20.faces[0]
+    s = face.surface
+    lo, hi = grid_box(face)
+    fam = IsoLines(s, 0, np.linspace(lo[1], hi[1], 5))
+    with pytest.raises(InputError, match="intervals needed"):
+        domain.adaptive_values(fam, lo[0], hi[0], tolerance=1e-9, max_edge=1e-6, max_values=50)
+
+
+def test_chunk_values_and_iso_insertion_equal_numpy_path(t20):
+    d = t20.diagonal()
+    n = 0
+    for fi, face in enumerate(t20.faces[:12]):
+        us, vs = face_domain_values(face, tolerance=1e-3 * d, max_edge=0.03 * d)
+        for li, loop in enumerate(face.loops):
+            for si, seg in enumerate(loop.segments):
+                uses = [ChunkUse(fi, li, si, seg, face.surface, us, vs, 1e-9 * max(np.ptp(us), np.ptp(vs)))]
+                fam = _ChunkLines(uses)
+                kw = dict(tolerance=1e-3 * d, max_edge=0.03 * d, init=np.linspace(0.0, 1.0, 9))
+                s = domain.adaptive_values(fam, 0.0, 1.0, **kw)
+                assert np.array_equal(s, domain.adaptive_values(_Plain(fam), 0.0, 1.0, **kw))
+                got = _insert_iso_values(fam, uses, s)
+                ref = _insert_iso_values_numpy(uses, s)
+                assert np.array_equal(got[0], ref[0]) and np.array_equal(got[2], ref[2])
+                assert all(np.array_equal(g, r) for g, r in zip(got[1], ref[1]))
+                # every crossing of a grid line is a point exactly on it
+                assert got[2].sum() >= 2
+                n += 1
+    assert n > 20
