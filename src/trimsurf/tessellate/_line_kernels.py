@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..geom._nurbs_kernels import _curve_point, _point_scratch, _surface_point01, iso_line_criteria_kernel
+from ..geom._nurbs_kernels import _curve_point, _ders_basis, _moving_basis, _point_scratch, _span, _surface_point01
 from ..geom.nurbs import read_only
 
 #: the other kind's members of a family tuple (one compiled signature for both kinds)
@@ -50,8 +50,7 @@ def _linspace01(m):
 
 
 @njit(cache=True, nogil=True)
-def _raster_in(F, u, v):
-    dil, rlo, rstep = F[7], F[8], F[9]
+def _raster_in(dil, rlo, rstep, u, v):
     nr = dil.shape[0]
     i = int(np.rint((u - rlo[0]) / rstep[0]))
     j = int(np.rint((v - rlo[1]) / rstep[1]))
@@ -61,32 +60,139 @@ def _raster_in(F, u, v):
 
 
 @njit(cache=True, nogil=True)
-def _iso_criteria(F, a, b, m, length, dev):
+def _iso_criteria(F, a, b, m, length, dev, max_len, max_dev, stop):
+    """`iso_line_criteria_kernel` over the intervals [a_i, b_i] (weights from the raster), interval by
+    interval: a point equal to the previous interval's last one (same parameter, same line) is taken
+    from it; with `stop`, returns False at the first interval over max_len or max_dev."""
     axis, lines_c, lines_raw, xr0, xr1, has_raster = F[1], F[2], F[3], F[4], F[5], F[6]
+    dil, rlo, rstep = F[7], F[8], F[9]
     pu, pv, ku, kv, pw, rational = F[10], F[11], F[12], F[13], F[14], F[15]
+    nu_ctrl, nv_ctrl, dimw = pw.shape
+    if axis == 0:
+        pf, kf, nf, pm, km, nm = pv, kv, nv_ctrl, pu, ku, nu_ctrl
+    else:
+        pf, kf, nf, pm, km, nm = pu, ku, nu_ctrl, pv, kv, nv_ctrl
     n = a.shape[0]
     n_lines = lines_c.shape[0]
+    lspan = np.empty((1, n_lines), dtype=np.int64)
+    lbasis = np.empty((1, n_lines, pf + 1))
+    _moving_basis(pf, kf, nf, lines_c.reshape(1, n_lines), lspan, lbasis)
     t = _linspace01(m)
-    xs = np.empty((n, m))
+    xs = np.empty((1, m))
+    mspan = np.empty((1, m), dtype=np.int64)
+    mbasis = np.empty((1, m, pm + 1))
+    pts = np.empty((n_lines, m, 3))
+    tmp = np.empty((pu + 1, dimw))
+    ndu = np.empty((pm + 1, pm + 1))
+    aa = np.empty((2, pm + 1))
+    left = np.empty(pm + 1)
+    right = np.empty(pm + 1)
+    ders = np.empty((1, pm + 1))
+    prev_ok = np.zeros(n_lines, dtype=np.bool_)     # pts[l, m - 1] holds the point at prev_x on line l
+    prev_x = np.nan
+    w = np.empty(n_lines, dtype=np.bool_)
     for i in range(n):
         d = b[i] - a[i]
         for k in range(m):
-            xs[i, k] = min(max(a[i] + d * t[k], xr0), xr1)
-    w = np.ones((n, n_lines), dtype=np.bool_)
-    if has_raster:
-        for i in range(n):
-            xm = 0.5 * (a[i] + b[i])
-            for l in range(n_lines):
+            xs[0, k] = min(max(a[i] + d * t[k], xr0), xr1)
+        any_w = False
+        for l in range(n_lines):
+            if has_raster:
                 ln = lines_raw[l]
+                xm = 0.5 * (a[i] + b[i])
                 if axis == 0:
-                    w[i, l] = _raster_in(F, a[i], ln) or _raster_in(F, b[i], ln) or _raster_in(F, xm, ln)
+                    w[l] = (_raster_in(dil, rlo, rstep, a[i], ln) or _raster_in(dil, rlo, rstep, b[i], ln)
+                            or _raster_in(dil, rlo, rstep, xm, ln))
                 else:
-                    w[i, l] = _raster_in(F, ln, a[i]) or _raster_in(F, ln, b[i]) or _raster_in(F, ln, xm)
-    iso_line_criteria_kernel(pu, pv, ku, kv, pw, rational, axis, lines_c, xs, w, length, dev)
+                    w[l] = (_raster_in(dil, rlo, rstep, ln, a[i]) or _raster_in(dil, rlo, rstep, ln, b[i])
+                            or _raster_in(dil, rlo, rstep, ln, xm))
+            else:
+                w[l] = True
+            any_w = any_w or w[l]
+        lmax = 0.0
+        dmax = 0.0
+        if any_w:
+            for k in range(m):
+                sk = _span(pm, km, nm, xs[0, k])
+                _ders_basis(sk, xs[0, k], pm, km, 0, ndu, aa, left, right, ders)
+                mspan[0, k] = sk
+                for r in range(pm + 1):
+                    mbasis[0, k, r] = ders[0, r]
+        same = xs[0, 0] == prev_x
+        for l in range(n_lines):
+            if not w[l]:
+                continue
+            k0 = 0
+            if same and prev_ok[l]:
+                for q in range(3):
+                    pts[l, 0, q] = pts[l, m - 1, q]
+                k0 = 1
+            for k in range(k0, m):
+                if axis == 0:
+                    su = mspan[0, k]
+                    sv = lspan[0, l]
+                else:
+                    su = lspan[0, l]
+                    sv = mspan[0, k]
+                for r in range(pu + 1):
+                    for dd_ in range(dimw):
+                        tmp[r, dd_] = 0.0
+                    for s_ in range(pv + 1):
+                        bb = lbasis[0, l, s_] if axis == 0 else mbasis[0, k, s_]
+                        if bb != 0.0:
+                            row = su - pu + r
+                            col = sv - pv + s_
+                            for dd_ in range(dimw):
+                                tmp[r, dd_] += bb * pw[row, col, dd_]
+                w0 = 1.0
+                for dd_ in range(dimw):
+                    acc = 0.0
+                    for r in range(pu + 1):
+                        bu = mbasis[0, k, r] if axis == 0 else lbasis[0, l, r]
+                        acc += bu * tmp[r, dd_]
+                    if dd_ < 3:
+                        pts[l, k, dd_] = acc
+                    else:
+                        w0 = acc
+                if rational:
+                    for dd_ in range(dimw - 1):
+                        pts[l, k, dd_] = pts[l, k, dd_] / w0
+            a0, a1, a2 = pts[l, 0, 0], pts[l, 0, 1], pts[l, 0, 2]
+            ab0, ab1, ab2 = pts[l, m - 1, 0] - a0, pts[l, m - 1, 1] - a1, pts[l, m - 1, 2] - a2
+            den = (ab0 * ab0 + ab2 * ab2) + ab1 * ab1
+            lnl = np.sqrt(den)
+            if lnl > lmax:
+                lmax = lnl
+            dd = den if den > 0 else 1.0
+            worst = 0.0
+            for k in range(1, m - 1):
+                q0, q1, q2 = pts[l, k, 0] - a0, pts[l, k, 1] - a1, pts[l, k, 2] - a2
+                tq = ((q0 * ab0 + q2 * ab2) + q1 * ab1) / dd
+                if tq < 0.0:
+                    tq = 0.0
+                elif tq > 1.0:
+                    tq = 1.0
+                r0, r1, r2 = q0 - tq * ab0, q1 - tq * ab1, q2 - tq * ab2
+                dist = np.sqrt((r0 * r0 + r1 * r1) + r2 * r2)
+                if dist > worst or k == 1:
+                    worst = dist
+            if worst > dmax:
+                dmax = worst
+        for l in range(n_lines):
+            prev_ok[l] = w[l]
+        prev_x = xs[0, m - 1]
+        length[i] = lmax
+        dev[i] = dmax
+        if stop and not (lmax <= max_len and dmax <= max_dev):
+            return False
+    return True
 
 
 @njit(cache=True, nogil=True)
-def _chunk_criteria(F, a, b, m, length, dev):
+def _chunk_criteria(F, a, b, m, length, dev, max_len, max_dev, stop):
+    """`_ChunkLines.criteria` (`pcurve_surface_kernel` then `chord_criteria_kernel`) over the intervals
+    [a_i, b_i]: a point at the previous interval's last parameter is taken from it; with `stop`,
+    returns False at the first interval over max_len or max_dev."""
     ci, cf, ck, cpw, cku, ckv, cpw4 = F[16], F[17], F[18], F[19], F[20], F[21], F[22]
     n_uses = ci.shape[0]
     mcp, mpu, mpv = 0, 0, 0
@@ -104,8 +210,15 @@ def _chunk_criteria(F, a, b, m, length, dev):
     res = np.empty((3, 3))
     t = _linspace01(m)
     pts = np.empty((m, n_uses, 3))
+    prev_s = np.nan
     for i in range(a.shape[0]):
         d = b[i] - a[i]
+        k0 = 0
+        if a[i] + d * t[0] == prev_s:
+            for j in range(n_uses):
+                for q in range(3):
+                    pts[0, j, q] = pts[m - 1, j, q]
+            k0 = 1
         for j in range(n_uses):
             cp, crat, pu, pv, srat = ci[j, 0], ci[j, 1] != 0, ci[j, 2], ci[j, 3], ci[j, 4]
             kc = ck[j, :ci[j, 5]]
@@ -117,7 +230,7 @@ def _chunk_criteria(F, a, b, m, length, dev):
             t0, t1 = kc[cp], kc[kc.shape[0] - cp - 1]
             su0, su1 = ku[pu], ku[ku.shape[0] - pu - 1]
             sv0, sv1 = kv[pv], kv[kv.shape[0] - pv - 1]
-            for k in range(m):
+            for k in range(k0, m):
                 s = a[i] + d * t[k]
                 tt = lo + s * (hi - lo)
                 tt = min(max(tt, t0), t1)
@@ -128,6 +241,7 @@ def _chunk_criteria(F, a, b, m, length, dev):
                                  ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
                 for q in range(3):
                     pts[k, j, q] = res[0, q]
+        prev_s = a[i] + d * t[m - 1]
         # as chord_criteria_kernel
         lmax = 0.0
         dmax = 0.0
@@ -152,14 +266,16 @@ def _chunk_criteria(F, a, b, m, length, dev):
                     dmax = dist
         length[i] = lmax
         dev[i] = dmax
+        if stop and not (lmax <= max_len and dmax <= max_dev):
+            return False
+    return True
 
 
 @njit(cache=True, nogil=True)
-def _criteria(F, a, b, m, length, dev):
+def _criteria(F, a, b, m, length, dev, max_len=np.inf, max_dev=np.inf, stop=False):
     if F[0] == 0:
-        _iso_criteria(F, a, b, m, length, dev)
-    else:
-        _chunk_criteria(F, a, b, m, length, dev)
+        return _iso_criteria(F, a, b, m, length, dev, max_len, max_dev, stop)
+    return _chunk_criteria(F, a, b, m, length, dev, max_len, max_dev, stop)
 
 
 @njit(cache=True, nogil=True)
@@ -208,11 +324,7 @@ def _ok(F, v, tolerance, max_edge):
     n = v.shape[0] - 1
     ln = np.empty(n)
     dv = np.empty(n)
-    _criteria(F, v[:-1], v[1:], 9, ln, dv)
-    for i in range(n):
-        if not (ln[i] <= max_edge and dv[i] <= tolerance):
-            return False
-    return True
+    return _criteria(F, v[:-1], v[1:], 9, ln, dv, max_edge, tolerance, True)
 
 
 @njit(cache=True, nogil=True)
