@@ -658,3 +658,219 @@ def chunk_iso_kernel(F, G, gl, ptol, s):
     iso[0] = True
     iso[k_all - 1] = True
     return s_all, uvs, iso
+
+
+@njit(cache=True, nogil=True)
+def _on_grid(v, grid):
+    """np.isin(v, grid) for a sorted grid."""
+    j = np.searchsorted(grid, v)
+    return j < grid.shape[0] and grid[j] == v
+
+
+@njit(cache=True, nogil=True)
+def _crossing_points(G, gl, uvs):
+    """`trims._crossing_points`: points on a grid line of some use that the polygon does not run along
+    on both sides."""
+    n_uses, k = uvs.shape[0], uvs.shape[1]
+    must = np.zeros(k, dtype=np.bool_)
+    for j in range(n_uses):
+        for axis in range(2):
+            grid = _grid(G, gl, j, axis)
+            for i in range(k):
+                c = uvs[j, i, axis]
+                along = 0 < i < k - 1 and uvs[j, i - 1, axis] == c and uvs[j, i + 1, axis] == c
+                if not along and _on_grid(c, grid):
+                    must[i] = True
+    return must
+
+
+@njit(cache=True, nogil=True)
+def _one_cell(G, gl, j, ua, va, ub, vb):
+    """Whether (ua, va) and (ub, vb) lie in one closed grid cell of use j (`trims._in_one_cell`)."""
+    for axis in range(2):
+        grid = _grid(G, gl, j, axis)
+        x, y = (ua, ub) if axis == 0 else (va, vb)
+        lo, hi = min(x, y), max(x, y)
+        if not np.searchsorted(grid, lo, side="right") >= np.searchsorted(grid, hi, side="left"):
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _reduce(F, G, gl, s, uvs, must, flags, tolerance, max_edge):
+    """`trims._reduce` (points that are no `must` point removed while their neighbours' chord meets both
+    criteria and crosses no grid line of any use; four alternating rounds); returns the kept
+    (s, uvs, flags)."""
+    n_uses, k_all = uvs.shape[0], uvs.shape[1]
+    keep = np.ones(k_all, dtype=np.bool_)
+    for rnd in range(4):
+        parity = rnd % 2
+        idx = np.flatnonzero(keep)
+        if idx.shape[0] < 3:
+            break
+        nc = 0
+        cand = np.empty(idx.shape[0], dtype=np.int64)
+        for c in range(1, idx.shape[0] - 1):
+            if c % 2 == parity and not must[idx[c]]:
+                cand[nc] = c
+                nc += 1
+        if nc == 0:
+            continue
+        a = np.empty(nc)
+        b = np.empty(nc)
+        for q in range(nc):
+            a[q] = s[idx[cand[q] - 1]]
+            b[q] = s[idx[cand[q] + 1]]
+        ln = np.empty(nc)
+        dv = np.empty(nc)
+        _criteria(F, a, b, 9, ln, dv)
+        for q in range(nc):
+            if not (ln[q] <= max_edge and dv[q] <= tolerance):
+                continue
+            i0, i1 = idx[cand[q] - 1], idx[cand[q] + 1]
+            same = True
+            for j in range(n_uses):
+                if not _one_cell(G, gl, j, uvs[j, i0, 0], uvs[j, i0, 1], uvs[j, i1, 0], uvs[j, i1, 1]):
+                    same = False
+                    break
+            if same:
+                keep[idx[cand[q]]] = False
+    return s[keep], uvs[:, keep], flags[keep]
+
+
+@njit(cache=True, nogil=True)
+def _even_spacing(F, G, gl, ptol, s, uvs, iso, tolerance, max_edge):
+    """`trims._even_spacing`: between consecutive grid-line crossings, the fewest equally spaced points
+    (in s) that meet both criteria and stay in one grid cell per chord, where they are no more than
+    the reduction kept there."""
+    n_uses, k_all = uvs.shape[0], uvs.shape[1]
+    must = _crossing_points(G, gl, uvs)
+    must[0] = True
+    must[k_all - 1] = True
+    mi = np.flatnonzero(must)
+    nm = mi.shape[0] - 1
+    cnt = 0
+    for q in range(nm):
+        if mi[q + 1] - mi[q] - 1 > 0:
+            cnt += 1
+    if cnt == 0:
+        return s, uvs, iso
+    cand = np.empty(cnt, dtype=np.int64)
+    c = 0
+    for q in range(nm):
+        if mi[q + 1] - mi[q] - 1 > 0:
+            cand[c] = q
+            c += 1
+    a = np.empty(cnt)
+    b = np.empty(cnt)
+    m = np.empty(cnt, dtype=np.int64)
+    for q in range(cnt):
+        a[q], b[q] = s[mi[cand[q]]], s[mi[cand[q] + 1]]
+        m[q] = mi[cand[q] + 1] - mi[cand[q]] - 1
+    best = np.zeros(cnt, dtype=np.int64)
+    uvq = np.empty((n_uses, 2))
+    uvp = np.empty((n_uses, 2))
+    one = np.empty((1, 2))
+    ln = np.empty(1)
+    dv = np.empty(1)
+    for n in range(1, m.max() + 2):
+        any_sel = False
+        for q in range(cnt):
+            if best[q] != 0 or not n <= m[q] + 1:
+                continue
+            any_sel = True
+            d = b[q] - a[q]
+            gs = np.empty(n + 1)
+            for jj in range(n + 1):
+                gs[jj] = a[q] + d * (jj / n)
+            la = np.empty(n)
+            lb = np.empty(n)
+            for jj in range(n):
+                la[jj], lb[jj] = gs[jj], gs[jj + 1]
+            ok = _criteria(F, la, lb, 9, np.empty(n), np.empty(n), max_edge, tolerance, True)
+            if not ok:
+                continue
+            # (u, v) of the sequence: end, interior points (snapped), end; every chord in one cell
+            cell = True
+            for jj in range(n + 1):
+                for j in range(n_uses):
+                    if jj == 0:
+                        uvq[j, 0], uvq[j, 1] = uvs[j, mi[cand[q]], 0], uvs[j, mi[cand[q]], 1]
+                    elif jj == n:
+                        uvq[j, 0], uvq[j, 1] = uvs[j, mi[cand[q] + 1], 0], uvs[j, mi[cand[q] + 1], 1]
+                    else:
+                        _use_uv(F, j, gs[jj:jj + 1], one)
+                        uvq[j, 0] = _snap1(one[0, 0], _grid(G, gl, j, 0), ptol[j])[0]
+                        uvq[j, 1] = _snap1(one[0, 1], _grid(G, gl, j, 1), ptol[j])[0]
+                    if jj > 0 and not _one_cell(G, gl, j, uvp[j, 0], uvp[j, 1], uvq[j, 0], uvq[j, 1]):
+                        cell = False
+                if not cell:
+                    break
+                for j in range(n_uses):
+                    uvp[j, 0], uvp[j, 1] = uvq[j, 0], uvq[j, 1]
+            if cell:
+                best[q] = n
+        if not any_sel:
+            break
+    n_done = 0
+    n_new = 0
+    drop = np.zeros(k_all, dtype=np.bool_)
+    for q in range(cnt):
+        if best[q] > 0:
+            n_done += 1
+            for i in range(mi[cand[q]] + 1, mi[cand[q] + 1]):
+                drop[i] = True
+            n_new += best[q] - 1
+    if n_done == 0:
+        return s, uvs, iso
+    new_s = np.empty(n_new)
+    c = 0
+    for q in range(cnt):
+        nb = best[q]
+        if nb > 1:
+            for jj in range(1, nb):
+                new_s[c] = a[q] + ((b[q] - a[q]) * jj) / nb
+                c += 1
+    keep = ~drop
+    s_out = np.concatenate((s[keep], new_s))
+    order = np.argsort(s_out, kind="mergesort")
+    n_out = s_out.shape[0]
+    uvs_out = np.empty((n_uses, n_out, 2))
+    iso_all = np.concatenate((iso[keep], np.zeros(n_new, dtype=np.bool_)))
+    n_kept = n_out - n_new
+    inner = np.empty((n_new, 2))
+    for j in range(n_uses):
+        _use_uv(F, j, new_s, inner)
+        for axis in range(2):
+            grid = _grid(G, gl, j, axis)
+            for i in range(n_new):
+                v, hit = _snap1(inner[i, axis], grid, ptol[j])
+                inner[i, axis] = v
+                if hit:
+                    iso_all[n_kept + i] = True
+        kept = uvs[j][keep]
+        for i in range(n_out):
+            o = order[i]
+            if o < n_kept:
+                uvs_out[j, i, 0], uvs_out[j, i, 1] = kept[o, 0], kept[o, 1]
+            else:
+                uvs_out[j, i, 0], uvs_out[j, i, 1] = inner[o - n_kept, 0], inner[o - n_kept, 1]
+    return s_out[order], uvs_out, iso_all[order]
+
+
+@njit(cache=True, nogil=True)
+def chunk_reduce_kernel(F, G, gl, ptol, s, uvs, iso, tolerance, max_edge, shared):
+    """`trims.discretize_chunk`'s polygon reduction: `_reduce` keeping the grid-line crossings (on a
+    shared edge only those the polygon does not run along; the iso points of a single use), then on
+    a shared edge `_even_spacing`. Returns (s, uvs (L, k, 2), iso)."""
+    k_all = s.shape[0]
+    if shared:
+        must = _crossing_points(G, gl, uvs)
+    else:
+        must = iso.copy()
+    must[0] = True
+    must[k_all - 1] = True
+    s, uvs, iso = _reduce(F, G, gl, s, uvs, must, iso, tolerance, max_edge)
+    if shared:
+        s, uvs, iso = _even_spacing(F, G, gl, ptol, s, uvs, iso, tolerance, max_edge)
+    return s, uvs, iso
