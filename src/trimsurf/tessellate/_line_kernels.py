@@ -8,14 +8,21 @@ placement as `np.linspace`, `np.interp`, `np.cumsum` do), so the values are the 
 bit. An interval's criteria depend on its two ends only, so they are computed once, for the new
 intervals of each round (the numpy path recomputed the checked placement's).
 
-A family is a tuple F (see `face.IsoLines.family`, `trims._ChunkLines.family`):
+A family is a tuple F (see `face.IsoLines.family`, `trims._ChunkLines.family`), passed to the kernels
+as separate arguments (`*F`: numba compiles functions with a tuple of arrays several times slower):
 
-    (kind, axis, lines_c, lines_raw, xr0, xr1, has_raster, dil, rlo, rstep,
-     pu, pv, ku, kv, pw, rational,                      # kind 0: iso-lines of one surface
-     ci, cf, ck, cpw, cku, ckv, cpw4)                   # kind 1: chunk uses, padded per use
+    (kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,   # kind 0: iso-lines of one surface
+     ci, cf, ck, cpw, cku, ckv, cpw4)                                 # kind 1: chunk uses
 
-kind 1 per use j: ci[j] = (cp, crat, pu, pv, srat, n_ck, n_cpw, cdimw, n_ku, n_kv, nu, nv, dimw),
-cf[j] = (lo, hi, u0, u1, v0, v1) (the p-curve range and the face's grid box).
+kind 0: iso_i = (axis, has_raster, pu, pv, rational), iso_f = (x0, x1) (the moving parameter's range),
+lines_c / lines_raw the lines clipped into the domain / as given, dil the inside raster of
+`face._inside_raster` and rgeo = (u0, v0, du, dv) its origin and steps, ku, kv, pw the surface.
+
+kind 1 per use j: ci[j] = (cp, crat, pu, pv, srat, o_ck, n_ck, o_cw, rows_cw, cols_cw, o_ku, n_ku, o_kv,
+n_kv, o_pw, nu, nv, dimw) (degrees, flags, offsets and shapes in the flat read-only arrays ck, cpw, cku,
+ckv, cpw4 of all uses), cf[j] = (lo, hi, u0, u1, v0, v1) (the p-curve range and the face's grid box).
+Flat read-only C arrays: the curve and surface helpers of `_nurbs_kernels` are then called with the
+types `pcurve_surface_kernel` calls them with (no second compiled version).
 """
 
 from __future__ import annotations
@@ -30,15 +37,11 @@ from ..geom.nurbs import read_only
 DUMMY_1D = read_only(np.zeros(1))
 DUMMY_3D = read_only(np.zeros((1, 1, 3)))
 DUMMY_BOOL = np.zeros((1, 1), dtype=np.bool_)
-DUMMY_2 = np.zeros(2)
-DUMMY_CI = np.zeros((1, 13), dtype=np.int64)
+DUMMY_CI = np.zeros((1, 18), dtype=np.int64)
 DUMMY_CF = np.zeros((1, 6))
-DUMMY_2D = np.zeros((1, 1))
-DUMMY_3DW = np.zeros((1, 1, 1))
-DUMMY_4D = np.zeros((1, 1, 1, 1))
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _linspace01(m):
     """np.linspace(0.0, 1.0, m)."""
     t = np.empty(m)
@@ -49,24 +52,119 @@ def _linspace01(m):
     return t
 
 
-@njit(cache=True, nogil=True)
-def _raster_in(dil, rlo, rstep, u, v):
+# numba's np.searchsorted / np.unique / np.argsort / boolean indexing cost seconds of compile time per
+# use; these plain loops give the same results on sorted, NaN-free input
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _ss_left(a, v):
+    """np.searchsorted(a, v) (side="left")."""
+    lo, hi = 0, a.shape[0]
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if a[mid] < v:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _ss_right(a, v):
+    """np.searchsorted(a, v, side="right")."""
+    lo, hi = 0, a.shape[0]
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if a[mid] <= v:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _stable_order(x):
+    """np.argsort(x, kind="stable") (insertion sort: the inputs are nearly sorted)."""
+    n = x.shape[0]
+    order = np.arange(n)
+    for i in range(1, n):
+        o = order[i]
+        v = x[o]
+        j = i - 1
+        while j >= 0 and x[order[j]] > v:
+            order[j + 1] = order[j]
+            j -= 1
+        order[j + 1] = o
+    return order
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _unique(x):
+    """np.unique(x)."""
+    n = x.shape[0]
+    if n == 0:
+        return x.copy()
+    order = _stable_order(x)
+    out = np.empty(n)
+    k = 0
+    for i in range(n):
+        v = x[order[i]]
+        if k == 0 or v != out[k - 1]:
+            out[k] = v
+            k += 1
+    return out[:k].copy()
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _nonzero(mask):
+    """np.flatnonzero(mask)."""
+    n = 0
+    for i in range(mask.shape[0]):
+        n += mask[i]
+    out = np.empty(n, dtype=np.int64)
+    k = 0
+    for i in range(mask.shape[0]):
+        if mask[i]:
+            out[k] = i
+            k += 1
+    return out
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _take(x, idx):
+    out = np.empty(idx.shape[0], dtype=x.dtype)
+    for i in range(idx.shape[0]):
+        out[i] = x[idx[i]]
+    return out
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _take_uv(uvs, idx):
+    out = np.empty((uvs.shape[0], idx.shape[0], 2))
+    for j in range(uvs.shape[0]):
+        for i in range(idx.shape[0]):
+            out[j, i, 0] = uvs[j, idx[i], 0]
+            out[j, i, 1] = uvs[j, idx[i], 1]
+    return out
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _raster_in(dil, rgeo, u, v):
     nr = dil.shape[0]
-    i = int(np.rint((u - rlo[0]) / rstep[0]))
-    j = int(np.rint((v - rlo[1]) / rstep[1]))
+    i = int(np.rint((u - rgeo[0]) / rgeo[2]))
+    j = int(np.rint((v - rgeo[1]) / rgeo[3]))
     i = min(max(i, 0), nr - 1)
     j = min(max(j, 0), nr - 1)
     return dil[i, j]
 
 
-@njit(cache=True, nogil=True)
-def _iso_criteria(F, a, b, m, length, dev, max_len, max_dev, stop):
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b, m, length, dev, max_len, max_dev, stop):
     """`iso_line_criteria_kernel` over the intervals [a_i, b_i] (weights from the raster), interval by
     interval: a point equal to the previous interval's last one (same parameter, same line) is taken
     from it; with `stop`, returns False at the first interval over max_len or max_dev."""
-    axis, lines_c, lines_raw, xr0, xr1, has_raster = F[1], F[2], F[3], F[4], F[5], F[6]
-    dil, rlo, rstep = F[7], F[8], F[9]
-    pu, pv, ku, kv, pw, rational = F[10], F[11], F[12], F[13], F[14], F[15]
+    axis, has_raster, pu, pv, rational = iso_i[0], iso_i[1] != 0, iso_i[2], iso_i[3], iso_i[4] != 0
+    xr0, xr1 = iso_f[0], iso_f[1]
     nu_ctrl, nv_ctrl, dimw = pw.shape
     if axis == 0:
         pf, kf, nf, pm, km, nm = pv, kv, nv_ctrl, pu, ku, nu_ctrl
@@ -101,11 +199,11 @@ def _iso_criteria(F, a, b, m, length, dev, max_len, max_dev, stop):
                 ln = lines_raw[l]
                 xm = 0.5 * (a[i] + b[i])
                 if axis == 0:
-                    w[l] = (_raster_in(dil, rlo, rstep, a[i], ln) or _raster_in(dil, rlo, rstep, b[i], ln)
-                            or _raster_in(dil, rlo, rstep, xm, ln))
+                    w[l] = (_raster_in(dil, rgeo, a[i], ln) or _raster_in(dil, rgeo, b[i], ln)
+                            or _raster_in(dil, rgeo, xm, ln))
                 else:
-                    w[l] = (_raster_in(dil, rlo, rstep, ln, a[i]) or _raster_in(dil, rlo, rstep, ln, b[i])
-                            or _raster_in(dil, rlo, rstep, ln, xm))
+                    w[l] = (_raster_in(dil, rgeo, ln, a[i]) or _raster_in(dil, rgeo, ln, b[i])
+                            or _raster_in(dil, rgeo, ln, xm))
             else:
                 w[l] = True
             any_w = any_w or w[l]
@@ -188,12 +286,23 @@ def _iso_criteria(F, a, b, m, length, dev, max_len, max_dev, stop):
     return True
 
 
-@njit(cache=True, nogil=True)
-def _chunk_criteria(F, a, b, m, length, dev, max_len, max_dev, stop):
+@njit(cache=True, nogil=True, inline="always")
+def _use_arrays(ci, ck, cpw, cku, ckv, cpw4, j):
+    """Use j's p-curve knots, control points, surface knots u, v and control net (views of the flat arrays)."""
+    kc = ck[ci[j, 5]:ci[j, 5] + ci[j, 6]]
+    cw = cpw[ci[j, 7]:ci[j, 7] + ci[j, 8] * ci[j, 9]].reshape((ci[j, 8], ci[j, 9]))
+    ku = cku[ci[j, 10]:ci[j, 10] + ci[j, 11]]
+    kv = ckv[ci[j, 12]:ci[j, 12] + ci[j, 13]]
+    o = ci[j, 14]
+    pw = cpw4[o:o + ci[j, 15] * ci[j, 16] * ci[j, 17]].reshape((ci[j, 15], ci[j, 16], ci[j, 17]))
+    return kc, cw, ku, kv, pw
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop):
     """`_ChunkLines.criteria` (`pcurve_surface_kernel` then `chord_criteria_kernel`) over the intervals
     [a_i, b_i]: a point at the previous interval's last parameter is taken from it; with `stop`,
     returns False at the first interval over max_len or max_dev."""
-    ci, cf, ck, cpw, cku, ckv, cpw4 = F[16], F[17], F[18], F[19], F[20], F[21], F[22]
     n_uses = ci.shape[0]
     mcp, mpu, mpv = 0, 0, 0
     for j in range(n_uses):
@@ -221,11 +330,7 @@ def _chunk_criteria(F, a, b, m, length, dev, max_len, max_dev, stop):
             k0 = 1
         for j in range(n_uses):
             cp, crat, pu, pv, srat = ci[j, 0], ci[j, 1] != 0, ci[j, 2], ci[j, 3], ci[j, 4]
-            kc = ck[j, :ci[j, 5]]
-            cw = cpw[j, :ci[j, 6], :ci[j, 7]]
-            ku = cku[j, :ci[j, 8]]
-            kv = ckv[j, :ci[j, 9]]
-            pw = cpw4[j, :ci[j, 10], :ci[j, 11], :ci[j, 12]]
+            kc, cw, ku, kv, pw = _use_arrays(ci, ck, cpw, cku, ckv, cpw4, j)
             lo, hi = cf[j, 0], cf[j, 1]
             t0, t1 = kc[cp], kc[kc.shape[0] - cp - 1]
             su0, su1 = ku[pu], ku[ku.shape[0] - pu - 1]
@@ -271,20 +376,22 @@ def _chunk_criteria(F, a, b, m, length, dev, max_len, max_dev, stop):
     return True
 
 
-@njit(cache=True, nogil=True)
-def _criteria(F, a, b, m, length, dev, max_len=np.inf, max_dev=np.inf, stop=False):
-    if F[0] == 0:
-        return _iso_criteria(F, a, b, m, length, dev, max_len, max_dev, stop)
-    return _chunk_criteria(F, a, b, m, length, dev, max_len, max_dev, stop)
+@njit(cache=True, nogil=True, inline="always")
+def _rt():
+    """(5, 9, False, True) as run-time values: numba compiles a callee once per literal argument, so
+    constants passed down would multiply the compiled versions of the criteria (and the cold start)."""
+    c = np.array([5, 9, 0, 1])
+    return c[0], c[1], c[2] != 0, c[3] != 0
 
 
-@njit(cache=True, nogil=True)
-def family_criteria_kernel(F, x, n_sub, length, dev):
-    """`interval_criteria(family, x, n_sub=n_sub)` into length, dev (n - 1,)."""
-    _criteria(F, x[:-1], x[1:], n_sub + 2, length, dev)
+@njit(cache=True, nogil=True, inline="always")
+def _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop):
+    if kind == 0:
+        return _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b, m, length, dev, max_len, max_dev, stop)
+    return _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _place(cum, x, a, b, n):
     """np.unique(v) of v = np.interp(np.linspace(0, cum[-1], n + 1), cum, x), v[0] = a, v[-1] = b."""
     total = cum[cum.shape[0] - 1]
@@ -316,19 +423,19 @@ def _place(cum, x, a, b, n):
             v[i] = r
     v[0] = a
     v[n] = b
-    return np.unique(v)
+    return _unique(v)
 
 
-@njit(cache=True, nogil=True)
-def _ok(F, v, tolerance, max_edge):
+@njit(cache=True, nogil=True, inline="always")
+def _ok(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, v, tolerance, max_edge, m9, yes):
     n = v.shape[0] - 1
     ln = np.empty(n)
     dv = np.empty(n)
-    return _criteria(F, v[:-1], v[1:], 9, ln, dv, max_edge, tolerance, True)
+    return _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, v[:-1], v[1:], m9, ln, dv, max_edge, tolerance, yes)
 
 
-@njit(cache=True, nogil=True)
-def _split(x, length, dev, bad, nbad, F, m):
+@njit(cache=True, nogil=True, inline="always")
+def _split(x, length, dev, bad, nbad, kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, m, no):
     """x with the midpoints of the bad intervals inserted, and the criteria of the new intervals
     (those of the kept intervals copied)."""
     n = x.shape[0] - 1
@@ -343,7 +450,7 @@ def _split(x, length, dev, bad, nbad, F, m):
             k += 2
     sl = np.empty(2 * nbad)
     sd = np.empty(2 * nbad)
-    _criteria(F, sa, sb, m, sl, sd)
+    _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, sa, sb, m, sl, sd, np.inf, np.inf, no)
     nx = np.empty(n + 1 + nbad)
     nl = np.empty(n + nbad)
     nd = np.empty(n + nbad)
@@ -365,8 +472,8 @@ def _split(x, length, dev, bad, nbad, F, m):
 
 
 @njit(cache=True, nogil=True)
-def equidistributed_kernel(F, x0, a, b, tolerance, max_edge, max_values):
-    """`domain._equidistributed` then `adaptive_values`' bisection rounds, for the family F from the
+def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, x0, a, b, tolerance, max_edge, max_values):
+    """`domain._equidistributed` then `adaptive_values`' bisection rounds, for the family (*F) from the
     fine sampling's start x0 (np.unique(np.clip(np.r_[a, init, b], a, b))).
 
     Returns (values, needed): needed < 0 if the values meet both criteria (or the rounds ran out, as
@@ -375,7 +482,8 @@ def equidistributed_kernel(F, x0, a, b, tolerance, max_edge, max_values):
     n = x.shape[0] - 1
     length = np.empty(n)
     dev = np.empty(n)
-    _criteria(F, x[:-1], x[1:], 5, length, dev)
+    m5, m9, no, yes = _rt()
+    _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, x[:-1], x[1:], m5, length, dev, np.inf, np.inf, no)
     for _ in range(8):
         n = x.shape[0] - 1
         bad = np.empty(n, dtype=np.bool_)
@@ -385,7 +493,7 @@ def equidistributed_kernel(F, x0, a, b, tolerance, max_edge, max_values):
             nbad += bad[i]
         if nbad == 0 or x.shape[0] > 20000:
             break
-        x, length, dev = _split(x, length, dev, bad, nbad, F, 5)
+        x, length, dev = _split(x, length, dev, bad, nbad, kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, m5, no)
     n = x.shape[0] - 1
     cum = np.empty(n + 1)
     cum[0] = 0.0
@@ -407,14 +515,14 @@ def equidistributed_kernel(F, x0, a, b, tolerance, max_edge, max_values):
         done = False
         if n0 > 1 and total - (n0 - 1) < 0.1:
             v = _place(cum, x, a, b, n0 - 1)
-            if _ok(F, v, tolerance, max_edge):
+            if _ok(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, v, tolerance, max_edge, m9, yes):
                 done = True
                 checked = True
         if not done:
             nn = n0
             while nn <= 1.5 * n0 + 2:
                 v = _place(cum, x, a, b, nn)
-                if _ok(F, v, tolerance, max_edge):
+                if _ok(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, v, tolerance, max_edge, m9, yes):
                     checked = True
                     break
                 nn += max(1, int(0.04 * nn))
@@ -427,7 +535,7 @@ def equidistributed_kernel(F, x0, a, b, tolerance, max_edge, max_values):
     n = x.shape[0] - 1
     length = np.empty(n)
     dev = np.empty(n)
-    _criteria(F, x[:-1], x[1:], 9, length, dev)
+    _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, x[:-1], x[1:], m9, length, dev, np.inf, np.inf, no)
     for _ in range(12):
         n = x.shape[0] - 1
         bad = np.empty(n, dtype=np.bool_)
@@ -437,20 +545,19 @@ def equidistributed_kernel(F, x0, a, b, tolerance, max_edge, max_values):
             nbad += bad[i]
         if nbad == 0:
             break
-        x, length, dev = _split(x, length, dev, bad, nbad, F, 9)
+        x, length, dev = _split(x, length, dev, bad, nbad, kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, m9, no)
         if x.shape[0] - 1 > max_values:
             return x, float(x.shape[0] - 1)
     return x, -1.0
 
 
-@njit(cache=True, nogil=True)
-def _use_uv(F, j, s, out):
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _use_uv(ci, cf, ck, cpw, j, s, out):
     """uv of use j of a chunk family at the chunk parameters s (as `ChunkUse.uv`: p(t(s)) clipped into
     the grid box), into out (n, 2)."""
-    ci, cf, ck, cpw = F[16], F[17], F[18], F[19]
     cp, crat = ci[j, 0], ci[j, 1] != 0
-    kc = ck[j, :ci[j, 5]]
-    cw = cpw[j, :ci[j, 6], :ci[j, 7]]
+    kc = ck[ci[j, 5]:ci[j, 5] + ci[j, 6]]
+    cw = cpw[ci[j, 7]:ci[j, 7] + ci[j, 8] * ci[j, 9]].reshape((ci[j, 8], ci[j, 9]))
     ndu = np.empty((cp + 1, cp + 1))
     aa = np.empty((2, cp + 1))
     left = np.empty(cp + 1)
@@ -467,11 +574,11 @@ def _use_uv(F, j, s, out):
         out[i, 1] = min(max(uv[1], cf[j, 4]), cf[j, 5])
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _snap1(v, grid, tol):
     """`trims._snap` of one value: (snapped, hit)."""
     n = grid.shape[0]
-    j = np.searchsorted(grid, v)
+    j = _ss_left(grid, v)
     j = min(max(j, 1), n - 1)
     lo, hi = grid[j - 1], grid[j]
     near = lo if abs(v - lo) <= abs(v - hi) else hi
@@ -480,7 +587,7 @@ def _snap1(v, grid, tol):
     return v, False
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _sgn(x):
     if x > 0:
         return 1.0
@@ -491,17 +598,17 @@ def _sgn(x):
     return np.nan
 
 
-@njit(cache=True, nogil=True)
-def _refine_crossing(F, j, axis, ptol, s, value, lo, hi):
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _refine_crossing(ci, cf, ck, cpw, j, axis, ptol, s, value, lo, hi):
     """`trims._refine_crossing` (Illinois regula falsi, all crossings in lockstep until all converge)."""
     n = s.shape[0]
     buf = np.empty((n, 2))
-    _use_uv(F, j, lo, buf)
+    _use_uv(ci, cf, ck, cpw, j, lo, buf)
     flo = np.empty(n)
     fhi = np.empty(n)
     for i in range(n):
         flo[i] = buf[i, axis] - value[i]
-    _use_uv(F, j, hi, buf)
+    _use_uv(ci, cf, ck, cpw, j, hi, buf)
     for i in range(n):
         fhi[i] = buf[i, axis] - value[i]
     side = np.zeros(n, dtype=np.int8)
@@ -518,7 +625,7 @@ def _refine_crossing(F, j, axis, ptol, s, value, lo, hi):
                 si = 0.5 * (lo[i] + hi[i])
             a, b = min(lo[i], hi[i]), max(lo[i], hi[i])
             s[i] = min(max(si, a), b)
-        _use_uv(F, j, s, buf)
+        _use_uv(ci, cf, ck, cpw, j, s, buf)
         conv = True
         for i in range(n):
             fs[i] = buf[i, axis] - value[i]
@@ -540,13 +647,13 @@ def _refine_crossing(F, j, axis, ptol, s, value, lo, hi):
     return s
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _grid(G, gl, j, axis):
     return G[j, axis, :gl[j, axis]]
 
 
 @njit(cache=True, nogil=True)
-def chunk_iso_kernel(F, G, gl, ptol, s):
+def chunk_iso_kernel(ci, cf, ck, cpw, G, gl, ptol, s):
     """`trims.discretize_chunk` from the sampled s to the iso flags: every use's grid-line crossings
     inserted (four rounds), near-duplicates dropped, each use's (u, v) snapped onto its grid lines and
     the crossings set exactly onto theirs. G (L, 2, g) the uses' grids (us, vs) padded, gl their
@@ -565,10 +672,10 @@ def chunk_iso_kernel(F, G, gl, ptol, s):
         k_all = s_all.shape[0]
         for ui in range(n_uses):
             uv = np.empty((k_all, 2))
-            _use_uv(F, ui, s_all, uv)
+            _use_uv(ci, cf, ck, cpw, ui, s_all, uv)
             for q in range(nf):
                 if f_ui[q] == ui:
-                    uv[np.searchsorted(s_all, f_sc[q]), f_ax[q]] = f_val[q]
+                    uv[_ss_left(s_all, f_sc[q]), f_ax[q]] = f_val[q]
             for axis in range(2):
                 grid = _grid(G, gl, ui, axis)
                 coord = np.empty(k_all)
@@ -578,8 +685,8 @@ def chunk_iso_kernel(F, G, gl, ptol, s):
                 cnt_total = 0
                 for i in range(k_all - 1):
                     a, b = coord[i], coord[i + 1]
-                    first = np.searchsorted(grid, min(a, b), side="right")
-                    last = np.searchsorted(grid, max(a, b), side="left")
+                    first = _ss_right(grid, min(a, b))
+                    last = _ss_left(grid, max(a, b))
                     if last > first:
                         cnt_total += last - first
                 if cnt_total == 0:
@@ -589,8 +696,8 @@ def chunk_iso_kernel(F, G, gl, ptol, s):
                 c = 0
                 for i in range(k_all - 1):
                     a, b = coord[i], coord[i + 1]
-                    first = np.searchsorted(grid, min(a, b), side="right")
-                    last = np.searchsorted(grid, max(a, b), side="left")
+                    first = _ss_right(grid, min(a, b))
+                    last = _ss_left(grid, max(a, b))
                     for g in range(first, last):
                         vv = grid[g]
                         f = (vv - a) / (b - a)
@@ -600,12 +707,12 @@ def chunk_iso_kernel(F, G, gl, ptol, s):
                 lo = np.empty(cnt_total)
                 hi = np.empty(cnt_total)
                 for q in range(cnt_total):
-                    k = np.searchsorted(s_all, sc[q], side="right") - 1
+                    k = _ss_right(s_all, sc[q]) - 1
                     k = min(max(k, 0), k_all - 2)
                     lo[q], hi[q] = s_all[k], s_all[k + 1]
-                sc = _refine_crossing(F, ui, axis, ptol[ui], sc, val, lo, hi)
+                sc = _refine_crossing(ci, cf, ck, cpw, ui, axis, ptol[ui], sc, val, lo, hi)
                 for q in range(cnt_total):
-                    k = np.searchsorted(s_all, sc[q])
+                    k = _ss_left(s_all, sc[q])
                     k = min(max(k, 0), k_all - 1)
                     if abs(s_all[k] - sc[q]) > 1e-13:
                         if n_ex == ex.shape[0]:
@@ -627,18 +734,18 @@ def chunk_iso_kernel(F, G, gl, ptol, s):
         merged = np.empty(k_all + n_ex)
         merged[:k_all] = s_all
         merged[k_all:] = ex[:n_ex]
-        s_all = np.unique(merged)
+        s_all = _unique(merged)
     # drop near-duplicate parameters
     k_all = s_all.shape[0]
     keep = np.ones(k_all, dtype=np.bool_)
     for i in range(1, k_all):
         keep[i] = s_all[i] - s_all[i - 1] > 1e-13
-    s_all = s_all[keep]
+    s_all = _take(s_all, _nonzero(keep))
     k_all = s_all.shape[0]
     uvs = np.empty((n_uses, k_all, 2))
     iso = np.zeros(k_all, dtype=np.bool_)
     for ui in range(n_uses):
-        _use_uv(F, ui, s_all, uvs[ui])
+        _use_uv(ci, cf, ck, cpw, ui, s_all, uvs[ui])
         for axis in range(2):
             grid = _grid(G, gl, ui, axis)
             for i in range(k_all):
@@ -649,7 +756,7 @@ def chunk_iso_kernel(F, G, gl, ptol, s):
     # the crossings lie exactly on their iso-line (whatever the solver's last digit)
     for q in range(nf):
         sc = f_sc[q]
-        k = np.searchsorted(s_all, sc)
+        k = _ss_left(s_all, sc)
         k = min(max(k, 0), k_all - 1)
         if k > 0 and abs(s_all[k - 1] - sc) < abs(s_all[k] - sc):
             k -= 1
@@ -660,14 +767,14 @@ def chunk_iso_kernel(F, G, gl, ptol, s):
     return s_all, uvs, iso
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _on_grid(v, grid):
     """np.isin(v, grid) for a sorted grid."""
-    j = np.searchsorted(grid, v)
+    j = _ss_left(grid, v)
     return j < grid.shape[0] and grid[j] == v
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _crossing_points(G, gl, uvs):
     """`trims._crossing_points`: points on a grid line of some use that the polygon does not run along
     on both sides."""
@@ -684,20 +791,21 @@ def _crossing_points(G, gl, uvs):
     return must
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _one_cell(G, gl, j, ua, va, ub, vb):
     """Whether (ua, va) and (ub, vb) lie in one closed grid cell of use j (`trims._in_one_cell`)."""
     for axis in range(2):
         grid = _grid(G, gl, j, axis)
         x, y = (ua, ub) if axis == 0 else (va, vb)
         lo, hi = min(x, y), max(x, y)
-        if not np.searchsorted(grid, lo, side="right") >= np.searchsorted(grid, hi, side="left"):
+        if not _ss_right(grid, lo) >= _ss_left(grid, hi):
             return False
     return True
 
 
-@njit(cache=True, nogil=True)
-def _reduce(F, G, gl, s, uvs, must, flags, tolerance, max_edge):
+@njit(cache=True, nogil=True, inline="always")
+def _reduce(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, s, uvs, must, flags, tolerance, max_edge):
+    m5, m9, no, yes = _rt()
     """`trims._reduce` (points that are no `must` point removed while their neighbours' chord meets both
     criteria and crosses no grid line of any use; four alternating rounds); returns the kept
     (s, uvs, flags)."""
@@ -705,7 +813,7 @@ def _reduce(F, G, gl, s, uvs, must, flags, tolerance, max_edge):
     keep = np.ones(k_all, dtype=np.bool_)
     for rnd in range(4):
         parity = rnd % 2
-        idx = np.flatnonzero(keep)
+        idx = _nonzero(keep)
         if idx.shape[0] < 3:
             break
         nc = 0
@@ -723,7 +831,7 @@ def _reduce(F, G, gl, s, uvs, must, flags, tolerance, max_edge):
             b[q] = s[idx[cand[q] + 1]]
         ln = np.empty(nc)
         dv = np.empty(nc)
-        _criteria(F, a, b, 9, ln, dv)
+        _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m9, ln, dv, np.inf, np.inf, no)
         for q in range(nc):
             if not (ln[q] <= max_edge and dv[q] <= tolerance):
                 continue
@@ -735,11 +843,13 @@ def _reduce(F, G, gl, s, uvs, must, flags, tolerance, max_edge):
                     break
             if same:
                 keep[idx[cand[q]]] = False
-    return s[keep], uvs[:, keep], flags[keep]
+    kk = _nonzero(keep)
+    return _take(s, kk), _take_uv(uvs, kk), _take(flags, kk)
 
 
-@njit(cache=True, nogil=True)
-def _even_spacing(F, G, gl, ptol, s, uvs, iso, tolerance, max_edge):
+@njit(cache=True, nogil=True, inline="always")
+def _even_spacing(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tolerance, max_edge):
+    m5, m9, no, yes = _rt()
     """`trims._even_spacing`: between consecutive grid-line crossings, the fewest equally spaced points
     (in s) that meet both criteria and stay in one grid cell per chord, where they are no more than
     the reduction kept there."""
@@ -747,7 +857,7 @@ def _even_spacing(F, G, gl, ptol, s, uvs, iso, tolerance, max_edge):
     must = _crossing_points(G, gl, uvs)
     must[0] = True
     must[k_all - 1] = True
-    mi = np.flatnonzero(must)
+    mi = _nonzero(must)
     nm = mi.shape[0] - 1
     cnt = 0
     for q in range(nm):
@@ -773,7 +883,10 @@ def _even_spacing(F, G, gl, ptol, s, uvs, iso, tolerance, max_edge):
     one = np.empty((1, 2))
     ln = np.empty(1)
     dv = np.empty(1)
-    for n in range(1, m.max() + 2):
+    m_max = 0
+    for q in range(cnt):
+        m_max = max(m_max, m[q])
+    for n in range(1, m_max + 2):
         any_sel = False
         for q in range(cnt):
             if best[q] != 0 or not n <= m[q] + 1:
@@ -787,7 +900,7 @@ def _even_spacing(F, G, gl, ptol, s, uvs, iso, tolerance, max_edge):
             lb = np.empty(n)
             for jj in range(n):
                 la[jj], lb[jj] = gs[jj], gs[jj + 1]
-            ok = _criteria(F, la, lb, 9, np.empty(n), np.empty(n), max_edge, tolerance, True)
+            ok = _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, la, lb, m9, np.empty(n), np.empty(n), max_edge, tolerance, yes)
             if not ok:
                 continue
             # (u, v) of the sequence: end, interior points (snapped), end; every chord in one cell
@@ -799,7 +912,7 @@ def _even_spacing(F, G, gl, ptol, s, uvs, iso, tolerance, max_edge):
                     elif jj == n:
                         uvq[j, 0], uvq[j, 1] = uvs[j, mi[cand[q] + 1], 0], uvs[j, mi[cand[q] + 1], 1]
                     else:
-                        _use_uv(F, j, gs[jj:jj + 1], one)
+                        _use_uv(ci, cf, ck, cpw, j, gs[jj:jj + 1], one)
                         uvq[j, 0] = _snap1(one[0, 0], _grid(G, gl, j, 0), ptol[j])[0]
                         uvq[j, 1] = _snap1(one[0, 1], _grid(G, gl, j, 1), ptol[j])[0]
                     if jj > 0 and not _one_cell(G, gl, j, uvp[j, 0], uvp[j, 1], uvq[j, 0], uvq[j, 1]):
@@ -831,35 +944,39 @@ def _even_spacing(F, G, gl, ptol, s, uvs, iso, tolerance, max_edge):
             for jj in range(1, nb):
                 new_s[c] = a[q] + ((b[q] - a[q]) * jj) / nb
                 c += 1
-    keep = ~drop
-    s_out = np.concatenate((s[keep], new_s))
-    order = np.argsort(s_out, kind="mergesort")
-    n_out = s_out.shape[0]
+    kk = _nonzero(~drop)
+    n_kept = kk.shape[0]
+    n_out = n_kept + n_new
+    s_out = np.empty(n_out)
+    iso_all = np.zeros(n_out, dtype=np.bool_)
+    for i in range(n_kept):
+        s_out[i] = s[kk[i]]
+        iso_all[i] = iso[kk[i]]
+    for i in range(n_new):
+        s_out[n_kept + i] = new_s[i]
+    order = _stable_order(s_out)
     uvs_out = np.empty((n_uses, n_out, 2))
-    iso_all = np.concatenate((iso[keep], np.zeros(n_new, dtype=np.bool_)))
-    n_kept = n_out - n_new
     inner = np.empty((n_new, 2))
     for j in range(n_uses):
-        _use_uv(F, j, new_s, inner)
-        for axis in range(2):
-            grid = _grid(G, gl, j, axis)
+        _use_uv(ci, cf, ck, cpw, j, new_s, inner)
+        for ax in range(2):
+            grid = _grid(G, gl, j, ax)
             for i in range(n_new):
-                v, hit = _snap1(inner[i, axis], grid, ptol[j])
-                inner[i, axis] = v
+                v, hit = _snap1(inner[i, ax], grid, ptol[j])
+                inner[i, ax] = v
                 if hit:
                     iso_all[n_kept + i] = True
-        kept = uvs[j][keep]
         for i in range(n_out):
             o = order[i]
             if o < n_kept:
-                uvs_out[j, i, 0], uvs_out[j, i, 1] = kept[o, 0], kept[o, 1]
+                uvs_out[j, i, 0], uvs_out[j, i, 1] = uvs[j, kk[o], 0], uvs[j, kk[o], 1]
             else:
                 uvs_out[j, i, 0], uvs_out[j, i, 1] = inner[o - n_kept, 0], inner[o - n_kept, 1]
-    return s_out[order], uvs_out, iso_all[order]
+    return _take(s_out, order), uvs_out, _take(iso_all, order)
 
 
 @njit(cache=True, nogil=True)
-def chunk_reduce_kernel(F, G, gl, ptol, s, uvs, iso, tolerance, max_edge, shared):
+def chunk_reduce_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tolerance, max_edge, shared):
     """`trims.discretize_chunk`'s polygon reduction: `_reduce` keeping the grid-line crossings (on a
     shared edge only those the polygon does not run along; the iso points of a single use), then on
     a shared edge `_even_spacing`. Returns (s, uvs (L, k, 2), iso)."""
@@ -870,7 +987,7 @@ def chunk_reduce_kernel(F, G, gl, ptol, s, uvs, iso, tolerance, max_edge, shared
         must = iso.copy()
     must[0] = True
     must[k_all - 1] = True
-    s, uvs, iso = _reduce(F, G, gl, s, uvs, must, iso, tolerance, max_edge)
+    s, uvs, iso = _reduce(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, s, uvs, must, iso, tolerance, max_edge)
     if shared:
-        s, uvs, iso = _even_spacing(F, G, gl, ptol, s, uvs, iso, tolerance, max_edge)
+        s, uvs, iso = _even_spacing(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tolerance, max_edge)
     return s, uvs, iso

@@ -298,7 +298,7 @@ def adaptive_values(evaluate: LineFamily, a: float, b: float, *, tolerance: floa
         from ._line_kernels import equidistributed_kernel
 
         x0 = np.unique(np.clip(np.r_[a, init, b], a, b))
-        x, needed = equidistributed_kernel(evaluate.family(), x0, a, b, float(tolerance), float(max_edge),
+        x, needed = equidistributed_kernel(*evaluate.family(), x0, a, b, float(tolerance), float(max_edge),
                                            float(max_values))
         if needed >= 0:
             raise _too_many(needed, max_values, tolerance, max_edge)

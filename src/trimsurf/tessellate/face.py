@@ -140,16 +140,16 @@ class IsoLines:
 
     def family(self) -> tuple:
         """The family as `_line_kernels` takes it (kind 0), with `weights` computed inside."""
-        from ._line_kernels import (DUMMY_1D as D1, DUMMY_2 as D2, DUMMY_2D, DUMMY_3DW, DUMMY_4D, DUMMY_BOOL,
-                                    DUMMY_CF, DUMMY_CI)
+        from ._line_kernels import DUMMY_1D as D1, DUMMY_BOOL, DUMMY_CF, DUMMY_CI
         from ..geom.nurbs import read_only
 
         r = self.raster
         s = self.surface
-        return (0, int(self.axis), self._lines_c, read_only(self.lines), float(self._xr[0]), float(self._xr[1]),
-                r is not None, DUMMY_BOOL if r is None else r.dil, D2 if r is None else r.lo,
-                D2 if r is None else r.step, s.degree_u, s.degree_v, self._ku, self._kv, self._pw,
-                s.weights is not None, DUMMY_CI, DUMMY_CF, DUMMY_2D, DUMMY_3DW, DUMMY_2D, DUMMY_2D, DUMMY_4D)
+        iso_i = np.array([self.axis, r is not None, s.degree_u, s.degree_v, s.weights is not None], dtype=np.int64)
+        iso_f = np.array([self._xr[0], self._xr[1]], dtype=np.float64)
+        rgeo = np.zeros(4) if r is None else np.r_[r.lo, r.step].astype(np.float64)
+        return (0, iso_i, iso_f, self._lines_c, read_only(self.lines), DUMMY_BOOL if r is None else r.dil, rgeo,
+                self._ku, self._kv, self._pw, DUMMY_CI, DUMMY_CF, D1, D1, D1, D1, D1)
 
     def criteria(self, x: np.ndarray, n_sub: int, weights) -> tuple[np.ndarray, np.ndarray]:
         """`interval_criteria` of this family."""

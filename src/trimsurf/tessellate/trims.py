@@ -179,41 +179,33 @@ class _ChunkLines:
         return np.stack([u.xyz(s) for u in self.uses], axis=1)
 
     def family(self) -> tuple:
-        """The family as `_line_kernels` takes it (kind 1: the uses' arrays padded into one array each)."""
+        """The family as `_line_kernels` takes it (kind 1: the uses' arrays in flat read-only arrays)."""
         if self._family is None:
-            from ._line_kernels import DUMMY_1D as D1, DUMMY_2 as D2, DUMMY_3D as D3, DUMMY_BOOL as DB
+            from ..geom.nurbs import read_only
+            from ._line_kernels import DUMMY_1D as D1, DUMMY_3D as D3, DUMMY_BOOL as DB
 
             args = [u.kernel_args() for u in self.uses]
-            n = len(args)
-            ci = np.zeros((n, 13), dtype=np.int64)
-            cf = np.zeros((n, 6))
-            ck = np.zeros((n, max(len(a[1]) for a in args)))
-            cpw = np.zeros((n, max(a[2].shape[0] for a in args), 3))
-            cku = np.zeros((n, max(len(a[9]) for a in args)))
-            ckv = np.zeros((n, max(len(a[10]) for a in args)))
-            cpw4 = np.zeros((n, max(a[11].shape[0] for a in args), max(a[11].shape[1] for a in args), 4))
+            ci = np.zeros((len(args), 18), dtype=np.int64)
+            cf = np.zeros((len(args), 6))
+            flat = ([], [], [], [], [])         # p-curve knots, its control points, surface knots u, v, net
+            off = [0, 0, 0, 0, 0]
             for j, (cp, kc, cw, crat, lo, hi, box, pu, pv, ku, kv, pw, srat) in enumerate(args):
-                ci[j] = (cp, crat, pu, pv, srat, len(kc), cw.shape[0], cw.shape[1], len(ku), len(kv), *pw.shape)
+                parts = (kc, cw, ku, kv, pw)
+                o = list(off)
+                for q, arr in enumerate(parts):
+                    flat[q].append(arr.ravel())
+                    off[q] += arr.size
+                ci[j] = (cp, crat, pu, pv, srat, o[0], len(kc), o[1], *cw.shape, o[2], len(ku), o[3], len(kv), o[4],
+                         *pw.shape)
                 cf[j] = (lo, hi, *box)
-                ck[j, :len(kc)] = kc
-                cpw[j, :cw.shape[0], :cw.shape[1]] = cw
-                cku[j, :len(ku)] = ku
-                ckv[j, :len(kv)] = kv
-                cpw4[j, :pw.shape[0], :pw.shape[1], :pw.shape[2]] = pw
-            self._family = (1, 0, D1, D1, 0.0, 0.0, False, DB, D2, D2, 0, 0, D1, D1, D3, False,
+            ck, cpw, cku, ckv, cpw4 = (read_only(np.concatenate(f)) for f in flat)
+            self._family = (1, np.zeros(5, dtype=np.int64), np.zeros(2), D1, D1, DB, np.zeros(4), D1, D1, D3,
                             ci, cf, ck, cpw, cku, ckv, cpw4)
         return self._family
 
     def criteria(self, x: np.ndarray, n_sub: int, weights) -> tuple[np.ndarray, np.ndarray]:
         from ..geom._nurbs_kernels import chord_criteria_kernel
 
-        if weights is None:
-            from ._line_kernels import family_criteria_kernel
-
-            x = np.ascontiguousarray(x, dtype=np.float64)
-            length, dev = np.empty(len(x) - 1), np.empty(len(x) - 1)
-            family_criteria_kernel(self.family(), x, n_sub, length, dev)
-            return length, dev
         n, m = len(x) - 1, n_sub + 2
         t = np.linspace(0.0, 1.0, m)
         xs = (x[:-1, None] + (x[1:] - x[:-1])[:, None] * t[None, :]).ravel()
@@ -442,7 +434,7 @@ def _reduce_chunk(evaluate, uses: list, s, uvs, iso, tolerance, max_edge):
     from ._line_kernels import chunk_reduce_kernel
 
     grids, gl, ptol = _grids(uses)
-    s, uv, iso = chunk_reduce_kernel(evaluate.family(), grids, gl, ptol, np.ascontiguousarray(s, dtype=np.float64),
+    s, uv, iso = chunk_reduce_kernel(*evaluate.family(), grids, gl, ptol, np.ascontiguousarray(s, dtype=np.float64),
                                      np.ascontiguousarray(np.stack(uvs), dtype=np.float64),
                                      np.ascontiguousarray(iso, dtype=np.bool_), float(tolerance), float(max_edge),
                                      len(uses) >= 2)
@@ -468,7 +460,7 @@ def _insert_iso_values(evaluate, uses: list, s: np.ndarray):
     from ._line_kernels import chunk_iso_kernel
 
     grids, gl, ptol = _grids(uses)
-    s_all, uv, iso = chunk_iso_kernel(evaluate.family(), grids, gl, ptol, np.ascontiguousarray(s, dtype=np.float64))
+    s_all, uv, iso = chunk_iso_kernel(*evaluate.family()[10:14], grids, gl, ptol, np.ascontiguousarray(s, dtype=np.float64))
     return s_all, list(uv), iso
 
 
