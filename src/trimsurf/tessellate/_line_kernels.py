@@ -159,7 +159,8 @@ def _raster_in(dil, rgeo, u, v):
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
-def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b, m, length, dev, max_len, max_dev, stop):
+def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b, m, length, dev, max_len, max_dev,
+                  stop):
     """`iso_line_criteria_kernel` over the intervals [a_i, b_i] (weights from the raster), interval by
     interval: a point equal to the previous interval's last one (same parameter, same line) is taken
     from it; with `stop`, returns False at the first interval over max_len or max_dev."""
@@ -385,9 +386,11 @@ def _rt():
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop):
+def _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
+              ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop):
     if kind == 0:
-        return _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b, m, length, dev, max_len, max_dev, stop)
+        return _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b, m, length, dev, max_len,
+                             max_dev, stop)
     return _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop)
 
 
@@ -427,15 +430,18 @@ def _place(cum, x, a, b, n):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _ok(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, v, tolerance, max_edge, m9, yes):
+def _ok(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
+        ci, cf, ck, cpw, cku, ckv, cpw4, v, tolerance, max_edge, m9, yes):
     n = v.shape[0] - 1
     ln = np.empty(n)
     dv = np.empty(n)
-    return _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, v[:-1], v[1:], m9, ln, dv, max_edge, tolerance, yes)
+    return _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
+                     ci, cf, ck, cpw, cku, ckv, cpw4, v[:-1], v[1:], m9, ln, dv, max_edge, tolerance, yes)
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _split(x, length, dev, bad, nbad, kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, m, no):
+def _split(x, length, dev, bad, nbad, kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
+                                      ci, cf, ck, cpw, cku, ckv, cpw4, m, no):
     """x with the midpoints of the bad intervals inserted, and the criteria of the new intervals
     (those of the kept intervals copied)."""
     n = x.shape[0] - 1
@@ -450,7 +456,8 @@ def _split(x, length, dev, bad, nbad, kind, iso_i, iso_f, lines_c, lines_raw, di
             k += 2
     sl = np.empty(2 * nbad)
     sd = np.empty(2 * nbad)
-    _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, sa, sb, m, sl, sd, np.inf, np.inf, no)
+    _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
+              ci, cf, ck, cpw, cku, ckv, cpw4, sa, sb, m, sl, sd, np.inf, np.inf, no)
     nx = np.empty(n + 1 + nbad)
     nl = np.empty(n + nbad)
     nd = np.empty(n + nbad)
@@ -472,7 +479,8 @@ def _split(x, length, dev, bad, nbad, kind, iso_i, iso_f, lines_c, lines_raw, di
 
 
 @njit(cache=True, nogil=True)
-def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, x0, a, b, tolerance, max_edge, max_values):
+def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
+                           ci, cf, ck, cpw, cku, ckv, cpw4, x0, a, b, tolerance, max_edge, max_values):
     """`domain._equidistributed` then `adaptive_values`' bisection rounds, for the family (*F) from the
     fine sampling's start x0 (np.unique(np.clip(np.r_[a, init, b], a, b))).
 
@@ -483,7 +491,8 @@ def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku
     length = np.empty(n)
     dev = np.empty(n)
     m5, m9, no, yes = _rt()
-    _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, x[:-1], x[1:], m5, length, dev, np.inf, np.inf, no)
+    _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
+              ci, cf, ck, cpw, cku, ckv, cpw4, x[:-1], x[1:], m5, length, dev, np.inf, np.inf, no)
     for _ in range(8):
         n = x.shape[0] - 1
         bad = np.empty(n, dtype=np.bool_)
@@ -493,7 +502,8 @@ def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku
             nbad += bad[i]
         if nbad == 0 or x.shape[0] > 20000:
             break
-        x, length, dev = _split(x, length, dev, bad, nbad, kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, m5, no)
+        x, length, dev = _split(x, length, dev, bad, nbad, kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv,
+                                pw, ci, cf, ck, cpw, cku, ckv, cpw4, m5, no)
     n = x.shape[0] - 1
     cum = np.empty(n + 1)
     cum[0] = 0.0
@@ -515,14 +525,16 @@ def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku
         done = False
         if n0 > 1 and total - (n0 - 1) < 0.1:
             v = _place(cum, x, a, b, n0 - 1)
-            if _ok(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, v, tolerance, max_edge, m9, yes):
+            if _ok(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
+                   ci, cf, ck, cpw, cku, ckv, cpw4, v, tolerance, max_edge, m9, yes):
                 done = True
                 checked = True
         if not done:
             nn = n0
             while nn <= 1.5 * n0 + 2:
                 v = _place(cum, x, a, b, nn)
-                if _ok(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, v, tolerance, max_edge, m9, yes):
+                if _ok(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
+                       ci, cf, ck, cpw, cku, ckv, cpw4, v, tolerance, max_edge, m9, yes):
                     checked = True
                     break
                 nn += max(1, int(0.04 * nn))
@@ -535,7 +547,8 @@ def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku
     n = x.shape[0] - 1
     length = np.empty(n)
     dev = np.empty(n)
-    _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, x[:-1], x[1:], m9, length, dev, np.inf, np.inf, no)
+    _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
+              ci, cf, ck, cpw, cku, ckv, cpw4, x[:-1], x[1:], m9, length, dev, np.inf, np.inf, no)
     for _ in range(12):
         n = x.shape[0] - 1
         bad = np.empty(n, dtype=np.bool_)
@@ -545,7 +558,8 @@ def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku
             nbad += bad[i]
         if nbad == 0:
             break
-        x, length, dev = _split(x, length, dev, bad, nbad, kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, m9, no)
+        x, length, dev = _split(x, length, dev, bad, nbad, kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv,
+                                pw, ci, cf, ck, cpw, cku, ckv, cpw4, m9, no)
         if x.shape[0] - 1 > max_values:
             return x, float(x.shape[0] - 1)
     return x, -1.0
@@ -804,7 +818,8 @@ def _one_cell(G, gl, j, ua, va, ub, vb):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _reduce(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, s, uvs, must, flags, tolerance, max_edge):
+def _reduce(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
+            ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, s, uvs, must, flags, tolerance, max_edge):
     m5, m9, no, yes = _rt()
     """`trims._reduce` (points that are no `must` point removed while their neighbours' chord meets both
     criteria and crosses no grid line of any use; four alternating rounds); returns the kept
@@ -831,7 +846,8 @@ def _reduce(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, c
             b[q] = s[idx[cand[q] + 1]]
         ln = np.empty(nc)
         dv = np.empty(nc)
-        _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m9, ln, dv, np.inf, np.inf, no)
+        _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
+                  ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m9, ln, dv, np.inf, np.inf, no)
         for q in range(nc):
             if not (ln[q] <= max_edge and dv[q] <= tolerance):
                 continue
@@ -848,7 +864,8 @@ def _reduce(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, c
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _even_spacing(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tolerance, max_edge):
+def _even_spacing(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
+                  ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tolerance, max_edge):
     m5, m9, no, yes = _rt()
     """`trims._even_spacing`: between consecutive grid-line crossings, the fewest equally spaced points
     (in s) that meet both criteria and stay in one grid cell per chord, where they are no more than
@@ -900,7 +917,9 @@ def _even_spacing(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
             lb = np.empty(n)
             for jj in range(n):
                 la[jj], lb[jj] = gs[jj], gs[jj + 1]
-            ok = _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, la, lb, m9, np.empty(n), np.empty(n), max_edge, tolerance, yes)
+            ok = _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
+                           ci, cf, ck, cpw, cku, ckv, cpw4,
+                           la, lb, m9, np.empty(n), np.empty(n), max_edge, tolerance, yes)
             if not ok:
                 continue
             # (u, v) of the sequence: end, interior points (snapped), end; every chord in one cell
@@ -976,7 +995,8 @@ def _even_spacing(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
 
 
 @njit(cache=True, nogil=True)
-def chunk_reduce_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tolerance, max_edge, shared):
+def chunk_reduce_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
+                        ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tolerance, max_edge, shared):
     """`trims.discretize_chunk`'s polygon reduction: `_reduce` keeping the grid-line crossings (on a
     shared edge only those the polygon does not run along; the iso points of a single use), then on
     a shared edge `_even_spacing`. Returns (s, uvs (L, k, 2), iso)."""
@@ -987,7 +1007,9 @@ def chunk_reduce_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, k
         must = iso.copy()
     must[0] = True
     must[k_all - 1] = True
-    s, uvs, iso = _reduce(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, s, uvs, must, iso, tolerance, max_edge)
+    s, uvs, iso = _reduce(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
+                          ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, s, uvs, must, iso, tolerance, max_edge)
     if shared:
-        s, uvs, iso = _even_spacing(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tolerance, max_edge)
+        s, uvs, iso = _even_spacing(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
+                                    ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tolerance, max_edge)
     return s, uvs, iso

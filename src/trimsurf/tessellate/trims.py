@@ -460,7 +460,8 @@ def _insert_iso_values(evaluate, uses: list, s: np.ndarray):
     from ._line_kernels import chunk_iso_kernel
 
     grids, gl, ptol = _grids(uses)
-    s_all, uv, iso = chunk_iso_kernel(*evaluate.family()[10:14], grids, gl, ptol, np.ascontiguousarray(s, dtype=np.float64))
+    s_all, uv, iso = chunk_iso_kernel(*evaluate.family()[10:14], grids, gl, ptol,
+                                      np.ascontiguousarray(s, dtype=np.float64))
     return s_all, list(uv), iso
 
 
