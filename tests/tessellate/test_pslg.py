@@ -178,3 +178,55 @@ def test_clean_pslg_gives_up_with_an_error_not_a_hang(monkeypatch):
     v = np.array([[0, 0], [1, 1], [0, 1], [1, 0]], float)
     with pytest.raises(TrimLoopError, match="still cross"):
         clean_pslg(v, np.array([[0, 1], [2, 3]]), eps=SNAP)
+
+
+def _grid_with_trim(rng, n_cells=6, n_trim=40, jitter=0.0):
+    """Cell sides of an n x n grid plus a closed trim polyline (a wobbly circle), as clean_pslg sees them."""
+    g = np.linspace(0.0, 1.0, n_cells + 1)
+    gu, gv = np.meshgrid(g, g, indexing="ij")
+    nodes = np.column_stack([gu.ravel(), gv.ravel()])
+    idx = np.arange(len(nodes)).reshape(n_cells + 1, n_cells + 1)
+    sides = np.r_[np.column_stack([idx[:-1].ravel(), idx[1:].ravel()]),
+                  np.column_stack([idx[:, :-1].ravel(), idx[:, 1:].ravel()])]
+    a = np.sort(rng.uniform(0, 2 * np.pi, n_trim))
+    r = 0.3 + 0.1 * rng.uniform(size=n_trim)
+    trim = np.column_stack([0.5 + r * np.cos(a), 0.5 + r * np.sin(a)]) + jitter * rng.standard_normal((n_trim, 2))
+    v = np.concatenate([nodes, trim])
+    k = len(nodes) + np.arange(n_trim)
+    return v, np.r_[sides, np.column_stack([k, np.roll(k, -1)])]
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_fast_path_is_the_full_rounds(seed, monkeypatch):
+    """The compiled check that skips the rounds (`_is_clean`) never skips a graph the rounds would change:
+    on grids with trims that cross their sides, near-duplicate points and points on segments, the output
+    with the check is the output of the rounds alone, array for array."""
+    import trimsurf.tessellate.pslg as pslg
+
+    rng = np.random.default_rng(seed)
+    v, s = _grid_with_trim(rng, jitter=0.05 if seed % 3 == 0 else 0.0)
+    if seed % 3 == 1:           # a vertex within eps of another, and one within eps of a segment
+        v = np.r_[v, [v[3] + 0.3e-10, 0.5 * (v[0] + v[1]) + [0.0, 0.4e-10]]]
+        s = np.r_[s, [[len(v) - 2, 5], [len(v) - 1, 9]]]
+    if seed % 3 == 2:           # the trim cut into the grid: sides split at the trim's points (clean)
+        v, s = v, s[: (len(s) * 2) // 3]
+    fast = clean_pslg(v, s, eps=1e-10)
+    monkeypatch.setattr(pslg, "_is_clean", lambda *a: False)
+    full = clean_pslg(v, s, eps=1e-10)
+    for x, y in zip(fast, full):
+        assert np.array_equal(x, y)
+
+
+def test_fast_path_sees_what_the_rounds_change():
+    """`_is_clean` says False for each kind of defect the rounds repair, True for a clean graph."""
+    from trimsurf.tessellate.pslg import _is_clean
+
+    v = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
+    sq = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])
+    assert _is_clean(v, sq, 1e-10)
+    assert not _is_clean(v, np.r_[sq, [[0, 2], [1, 3]]], 1e-10)                          # a crossing
+    assert not _is_clean(np.r_[v, [[0.5, 1e-11]]], sq, 1e-10)                            # on a segment
+    assert not _is_clean(np.r_[v, [[1 + 1e-11, 1]]], sq, 1e-10)                          # a near duplicate
+    # a crossing at a tiny angle whose float signs are uncertain
+    w = np.array([[0, 0], [1, 1e-17], [0, 1e-17], [1, 0]], float)
+    assert not _is_clean(w * 1e6, np.array([[0, 1], [2, 3]]), 1e-30)

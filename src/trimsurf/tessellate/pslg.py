@@ -19,6 +19,7 @@ lying exactly on it, which ends: `clean_pslg` hands it such a graph.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
@@ -225,6 +226,10 @@ def clean_pslg(vertices: np.ndarray, segments: np.ndarray, *, eps: float):
     seg = np.asarray(segments, dtype=np.int64).reshape(-1, 2)
     n0 = len(q)
     rep = np.arange(n0)
+    if n0 and _is_clean(q, seg, eps):
+        # nothing closer than 2 eps, no crossing possible: what the rounds below return at once
+        seg = seg[seg[:, 0] != seg[:, 1]]
+        return q, _unique_segments(seg), rep
     for _ in range(_ROUNDS):
         r, seg = _merge(q, seg, eps)
         rep = r[rep]
@@ -253,3 +258,149 @@ def clean_pslg(vertices: np.ndarray, segments: np.ndarray, *, eps: float):
         seg = _split(seg, np.r_[x[:, 0], x[:, 1]], np.r_[new, new], np.r_[ta, tc])
     raise TrimLoopError(f"constraint segments still cross after {_ROUNDS} rounds of splitting "
                         f"({len(crossing_segments(q, seg))} crossing(s)); the trim polygons cannot be triangulated")
+
+
+def _is_clean(q: np.ndarray, seg: np.ndarray, eps: float) -> bool:
+    """True when `clean_pslg` has nothing to do: no two vertices within 2 `eps`, no vertex within 2 `eps`
+    of a segment it does not end at, and no two segments without a common end whose boxes meet and
+    whose floating-point orientations are not certainly apart (Shewchuk's bound, as `crossing_segments`).
+    A conservative filter: False sends the graph through the full rounds."""
+    if not np.all(np.isfinite(q)) or (len(seg) and (seg.min() < 0 or seg.max() >= len(q))):
+        return False
+    return _is_clean_kernel(np.ascontiguousarray(q), np.ascontiguousarray(seg), float(eps), _CCW_BOUND)
+
+
+@njit(cache=True, nogil=True)
+def _bucket_range(lo, hi, x0, h, g):
+    a = min(max(int((lo - x0) / h), 0), g - 1)
+    b = min(max(int((hi - x0) / h), 0), g - 1)
+    return a, b
+
+
+@njit(cache=True, nogil=True)
+def _certain_sign(ax, ay, bx, by, cx, cy, bound):
+    left = (ax - cx) * (by - cy)
+    right = (ay - cy) * (bx - cx)
+    det = left - right
+    if abs(det) <= bound * (abs(left) + abs(right)):
+        return 0
+    return 1 if det > 0 else -1
+
+
+@njit(cache=True, nogil=True)
+def _is_clean_kernel(q, seg, eps, bound):
+    n, m = q.shape[0], seg.shape[0]
+    r = 2.0 * eps
+    x0, y0, x1, y1 = q[0, 0], q[0, 1], q[0, 0], q[0, 1]
+    for i in range(n):
+        x0 = min(x0, q[i, 0])
+        y0 = min(y0, q[i, 1])
+        x1 = max(x1, q[i, 0])
+        y1 = max(y1, q[i, 1])
+    x0 -= 2 * r
+    y0 -= 2 * r
+    x1 += 2 * r
+    y1 += 2 * r
+    g = max(1, int(np.sqrt(n + m)))
+    while True:
+        hx, hy = (x1 - x0) / g, (y1 - y0) / g
+        total = 0
+        for k in range(m):
+            a, b = seg[k, 0], seg[k, 1]
+            ia, ib = _bucket_range(min(q[a, 0], q[b, 0]) - r, max(q[a, 0], q[b, 0]) + r, x0, hx, g)
+            ja, jb = _bucket_range(min(q[a, 1], q[b, 1]) - r, max(q[a, 1], q[b, 1]) + r, y0, hy, g)
+            total += (ib - ia + 1) * (jb - ja + 1)
+        if g == 1 or total <= 16 * (m + n):
+            break
+        g = max(1, g // 2)
+    # vertices: one bucket each, the segments' boxes dilated by 2 r cover what lies within r
+    cnt = np.zeros(g * g + 1, dtype=np.int64)
+    vcnt = np.zeros(g * g + 1, dtype=np.int64)
+    for k in range(m):
+        a, b = seg[k, 0], seg[k, 1]
+        ia, ib = _bucket_range(min(q[a, 0], q[b, 0]) - r, max(q[a, 0], q[b, 0]) + r, x0, hx, g)
+        ja, jb = _bucket_range(min(q[a, 1], q[b, 1]) - r, max(q[a, 1], q[b, 1]) + r, y0, hy, g)
+        for i in range(ia, ib + 1):
+            for j in range(ja, jb + 1):
+                cnt[i * g + j + 1] += 1
+    for v in range(n):
+        ia, ib = _bucket_range(q[v, 0] - r, q[v, 0] + r, x0, hx, g)
+        ja, jb = _bucket_range(q[v, 1] - r, q[v, 1] + r, y0, hy, g)
+        for i in range(ia, ib + 1):
+            for j in range(ja, jb + 1):
+                vcnt[i * g + j + 1] += 1
+    for c in range(g * g):
+        cnt[c + 1] += cnt[c]
+        vcnt[c + 1] += vcnt[c]
+    sfill = cnt[:-1].copy()
+    vfill = vcnt[:-1].copy()
+    sb = np.empty(cnt[-1], dtype=np.int64)
+    vb = np.empty(vcnt[-1], dtype=np.int64)
+    for k in range(m):
+        a, b = seg[k, 0], seg[k, 1]
+        ia, ib = _bucket_range(min(q[a, 0], q[b, 0]) - r, max(q[a, 0], q[b, 0]) + r, x0, hx, g)
+        ja, jb = _bucket_range(min(q[a, 1], q[b, 1]) - r, max(q[a, 1], q[b, 1]) + r, y0, hy, g)
+        for i in range(ia, ib + 1):
+            for j in range(ja, jb + 1):
+                sb[sfill[i * g + j]] = k
+                sfill[i * g + j] += 1
+    for v in range(n):
+        ia, ib = _bucket_range(q[v, 0] - r, q[v, 0] + r, x0, hx, g)
+        ja, jb = _bucket_range(q[v, 1] - r, q[v, 1] + r, y0, hy, g)
+        for i in range(ia, ib + 1):
+            for j in range(ja, jb + 1):
+                vb[vfill[i * g + j]] = v
+                vfill[i * g + j] += 1
+    r2 = r * r
+    for c in range(g * g):
+        # vertex pairs
+        for s in range(vcnt[c], vcnt[c + 1]):
+            v = vb[s]
+            for t in range(s + 1, vcnt[c + 1]):
+                w = vb[t]
+                dx, dy = q[v, 0] - q[w, 0], q[v, 1] - q[w, 1]
+                if dx * dx + dy * dy <= r2:
+                    return False
+        # vertex near a segment it does not end at (closed segment)
+        for s in range(vcnt[c], vcnt[c + 1]):
+            v = vb[s]
+            px, py = q[v, 0], q[v, 1]
+            for t in range(cnt[c], cnt[c + 1]):
+                k = sb[t]
+                a, b = seg[k, 0], seg[k, 1]
+                if a == v or b == v:
+                    continue
+                ax, ay = q[a, 0], q[a, 1]
+                dx, dy = q[b, 0] - ax, q[b, 1] - ay
+                wx, wy = px - ax, py - ay
+                ll = dx * dx + dy * dy
+                u = (wx * dx + wy * dy) / ll if ll > 0 else 0.0
+                u = min(max(u, 0.0), 1.0)
+                ex, ey = wx - u * dx, wy - u * dy
+                if not ex * ex + ey * ey > r2:
+                    return False
+        # segment pairs without a common end
+        for s in range(cnt[c], cnt[c + 1]):
+            k = sb[s]
+            a, b = seg[k, 0], seg[k, 1]
+            ax, ay, bx, by = q[a, 0], q[a, 1], q[b, 0], q[b, 1]
+            for t in range(s + 1, cnt[c + 1]):
+                l = sb[t]
+                cc, d = seg[l, 0], seg[l, 1]
+                if cc == a or cc == b or d == a or d == b:
+                    continue
+                cx, cy, dx, dy = q[cc, 0], q[cc, 1], q[d, 0], q[d, 1]
+                if max(min(ax, bx), min(cx, dx)) > min(max(ax, bx), max(cx, dx)):
+                    continue
+                if max(min(ay, by), min(cy, dy)) > min(max(ay, by), max(cy, dy)):
+                    continue
+                s1 = _certain_sign(ax, ay, bx, by, cx, cy, bound)
+                s2 = _certain_sign(ax, ay, bx, by, dx, dy, bound)
+                if s1 * s2 > 0:
+                    continue
+                s3 = _certain_sign(cx, cy, dx, dy, ax, ay, bound)
+                s4 = _certain_sign(cx, cy, dx, dy, bx, by, bound)
+                if s3 * s4 > 0:
+                    continue
+                return False
+    return True
