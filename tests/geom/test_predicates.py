@@ -78,3 +78,40 @@ def test_points_in_polygons_bucketed_equals_brute_force():
     comb = np.array([[0, 0]] + [[i, 10.0 * (i % 2)] for i in range(1, 400)] + [[400, -1]], dtype=float)
     pts = rng.uniform([-1, -2], [401, 11], (3000, 2))
     assert_array_equal(points_in_polygons(pts, [comb]), _points_in_polygons_brute(pts, [comb]))
+
+
+def _self_intersections_brute(v, closed=True):
+    """Every non-adjacent pair by the exact `segment_intersections` (no filter)."""
+    a = v if closed else v[:-1]
+    b = np.roll(v, -1, axis=0) if closed else v[1:]
+    n = len(a)
+    i, j = np.triu_indices(n, 1)
+    keep = ~((j - i == 1) | (closed & (i == 0) & (j == n - 1)))
+    i, j = i[keep], j[keep]
+    hit = segment_intersections(a[i], b[i], a[j], b[j])
+    return np.column_stack([i[hit], j[hit]])
+
+
+def test_self_intersections_fast_path_equals_brute_force():
+    """The compiled pre-check (a polyline certainly simple: no exact test) changes no answer: random
+    wobbly loops, loops with a pinch (touching), collinear overlaps along a grid line and tiny crossings."""
+    rng = np.random.default_rng(7)
+    cases = []
+    for k in range(40):
+        n = int(rng.integers(5, 80))
+        a = np.sort(rng.uniform(0, 2 * np.pi, n))
+        r = 1.0 + (0.05 + 0.5 * (k % 4 == 0)) * rng.standard_normal(n)
+        cases.append(np.column_stack([r * np.cos(a), r * np.sin(a)]))
+    sq = np.array([[0, 0], [2, 0], [2, 2], [1, 2], [1, 0], [0.5, 0], [0, 1]], float)   # overlap along v = 0
+    pinch = np.array([[0, 0], [1, 0], [1, 1], [0.5, 0], [0, 1]], float)                 # touches a side
+    tiny = np.array([[0, 0], [1, 1e-17], [1, 1], [0, 1], [0.5, 1e-16], [0.5, -1]], float)
+    cases += [sq, pinch, tiny, sq[::-1], pinch * 1e-9 + 3.0]
+    n_hit = 0
+    for v in cases:
+        for closed in (True, False):
+            got = polyline_self_intersections(v, closed=closed)
+            want = _self_intersections_brute(v, closed)
+            assert_array_equal(got, want[np.lexsort((want[:, 1], want[:, 0]))] if len(want) else got)
+            assert len(got) == len(want)
+            n_hit += len(got) > 0
+    assert n_hit >= 10          # the cases do cross and touch

@@ -164,6 +164,9 @@ def polyline_self_intersections(vertices, *, closed: bool = True) -> np.ndarray:
     n = len(a)
     if n < 3:
         return np.zeros((0, 2), dtype=np.int64)
+    if np.all(np.isfinite(v)) and _segments_apart_kernel(np.ascontiguousarray(a), np.ascontiguousarray(b),
+                                                         bool(closed), _CCW_BOUND):
+        return np.zeros((0, 2), dtype=np.int64)     # certainly simple: what the exact test finds too
     mid = 0.5 * (a + b)
     rad = 0.5 * np.linalg.norm(b - a, axis=1)
     tree = cKDTree(mid)
@@ -179,3 +182,90 @@ def polyline_self_intersections(vertices, *, closed: bool = True) -> np.ndarray:
     hit = segment_intersections(a[i], b[i], a[j], b[j])
     out = np.column_stack([i[hit], j[hit]]).astype(np.int64)
     return out[np.lexsort((out[:, 1], out[:, 0]))] if len(out) else out
+
+
+@njit(cache=True, nogil=True)
+def _sign_certain(ax, ay, bx, by, cx, cy, bound):
+    left = (ax - cx) * (by - cy)
+    right = (ay - cy) * (bx - cx)
+    det = left - right
+    if abs(det) <= bound * (abs(left) + abs(right)):
+        return 0
+    return 1 if det > 0 else -1
+
+
+@njit(cache=True, nogil=True)
+def _segments_apart_kernel(a, b, closed, bound):
+    """True when no two non-adjacent segments (a[i], b[i]) of a polyline can meet: every pair whose
+    closed boxes overlap is apart by certain floating-point orientations (Shewchuk's bound). False
+    means "maybe" (the exact test decides). Segments are bucketed on a uniform grid of their boxes."""
+    n = a.shape[0]
+    x0, y0 = min(a[0, 0], b[0, 0]), min(a[0, 1], b[0, 1])
+    x1, y1 = max(a[0, 0], b[0, 0]), max(a[0, 1], b[0, 1])
+    for i in range(n):
+        x0 = min(x0, min(a[i, 0], b[i, 0]))
+        y0 = min(y0, min(a[i, 1], b[i, 1]))
+        x1 = max(x1, max(a[i, 0], b[i, 0]))
+        y1 = max(y1, max(a[i, 1], b[i, 1]))
+    g = max(1, int(np.sqrt(n)))
+    hx = (x1 - x0) / g if x1 > x0 else 1.0
+    hy = (y1 - y0) / g if y1 > y0 else 1.0
+    while True:
+        total = 0
+        for i in range(n):
+            ia = min(int((min(a[i, 0], b[i, 0]) - x0) / hx), g - 1)
+            ib = min(int((max(a[i, 0], b[i, 0]) - x0) / hx), g - 1)
+            ja = min(int((min(a[i, 1], b[i, 1]) - y0) / hy), g - 1)
+            jb = min(int((max(a[i, 1], b[i, 1]) - y0) / hy), g - 1)
+            total += (ib - ia + 1) * (jb - ja + 1)
+        if g == 1 or total <= 16 * n:
+            break
+        g = max(1, g // 2)
+        hx = (x1 - x0) / g if x1 > x0 else 1.0
+        hy = (y1 - y0) / g if y1 > y0 else 1.0
+    cnt = np.zeros(g * g + 1, dtype=np.int64)
+    for i in range(n):
+        ia = min(int((min(a[i, 0], b[i, 0]) - x0) / hx), g - 1)
+        ib = min(int((max(a[i, 0], b[i, 0]) - x0) / hx), g - 1)
+        ja = min(int((min(a[i, 1], b[i, 1]) - y0) / hy), g - 1)
+        jb = min(int((max(a[i, 1], b[i, 1]) - y0) / hy), g - 1)
+        for p in range(ia, ib + 1):
+            for q in range(ja, jb + 1):
+                cnt[p * g + q + 1] += 1
+    for c in range(g * g):
+        cnt[c + 1] += cnt[c]
+    fill = cnt[:-1].copy()
+    sb = np.empty(cnt[-1], dtype=np.int64)
+    for i in range(n):
+        ia = min(int((min(a[i, 0], b[i, 0]) - x0) / hx), g - 1)
+        ib = min(int((max(a[i, 0], b[i, 0]) - x0) / hx), g - 1)
+        ja = min(int((min(a[i, 1], b[i, 1]) - y0) / hy), g - 1)
+        jb = min(int((max(a[i, 1], b[i, 1]) - y0) / hy), g - 1)
+        for p in range(ia, ib + 1):
+            for q in range(ja, jb + 1):
+                sb[fill[p * g + q]] = i
+                fill[p * g + q] += 1
+    for c in range(g * g):
+        for s in range(cnt[c], cnt[c + 1]):
+            i = sb[s]
+            ax, ay, bx, by = a[i, 0], a[i, 1], b[i, 0], b[i, 1]
+            for t in range(s + 1, cnt[c + 1]):
+                j = sb[t]
+                lo, hi = min(i, j), max(i, j)
+                if hi - lo == 1 or (closed and lo == 0 and hi == n - 1):
+                    continue
+                cx, cy, dx, dy = a[j, 0], a[j, 1], b[j, 0], b[j, 1]
+                if max(min(ax, bx), min(cx, dx)) > min(max(ax, bx), max(cx, dx)):
+                    continue
+                if max(min(ay, by), min(cy, dy)) > min(max(ay, by), max(cy, dy)):
+                    continue
+                s1 = _sign_certain(cx, cy, dx, dy, ax, ay, bound)
+                s2 = _sign_certain(cx, cy, dx, dy, bx, by, bound)
+                if s1 * s2 > 0:
+                    continue
+                s3 = _sign_certain(ax, ay, bx, by, cx, cy, bound)
+                s4 = _sign_certain(ax, ay, bx, by, dx, dy, bound)
+                if s3 * s4 > 0:
+                    continue
+                return False
+    return True
