@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit
 from scipy.spatial import cKDTree
 
-__all__ = ["orient2d", "points_in_polygons", "segment_intersections", "polyline_self_intersections",
+__all__ = ["orient2d", "points_in_polygons", "PolygonIndex", "segment_intersections", "polyline_self_intersections",
            "polygon_signed_area"]
 
 _EPS = np.finfo(np.float64).eps / 2
@@ -61,14 +61,64 @@ def polygon_signed_area(polygon) -> float:
     return 0.5 * float(np.sum(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]))
 
 
+class PolygonIndex:
+    """Closed polygons (an outer boundary and holes, even-odd rule) with their edges bucketed into
+    horizontal slabs, for many `points_in_polygons` queries against the same polygons.
+
+    Parameters
+    ----------
+    polygons : sequence of (k_i, 2) float64
+        Closed polygons (last vertex not repeated).
+    """
+
+    def __init__(self, polygons):
+        self.polygons = polygons
+        a = np.concatenate([np.asarray(p, dtype=np.float64) for p in polygons])
+        b = np.concatenate([np.roll(np.asarray(p, dtype=np.float64), -1, axis=0) for p in polygons])
+        self.a, self.b = np.ascontiguousarray(a), np.ascontiguousarray(b)
+        if not len(a):
+            return
+        # edges bucketed into horizontal slabs (about one edge per slab and row): each point tests only
+        # the edges of its slab, with the same crossing test as the brute-force count
+        ylo = np.minimum(a[:, 1], b[:, 1])
+        yhi = np.maximum(a[:, 1], b[:, 1])
+        y0, y1 = float(ylo.min()), float(yhi.max())
+        n_slab = int(min(max(1, len(a)), 1 << 16))
+        while True:
+            h = (y1 - y0) / n_slab if y1 > y0 else 1.0
+            first = np.clip(((ylo - y0) / h).astype(np.int64), 0, n_slab - 1)
+            last = np.clip(((yhi - y0) / h).astype(np.int64), 0, n_slab - 1)
+            cnt = last - first + 1
+            if n_slab == 1 or int(cnt.sum()) <= 8 * len(a) + (1 << 16):    # tall edges: fewer slabs
+                break
+            n_slab //= 4
+        edge = np.repeat(np.arange(len(a)), cnt)
+        slab = np.repeat(first, cnt) + (np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt))
+        order = np.argsort(slab, kind="stable")
+        self.y0, self.h, self.n_slab = y0, h, n_slab
+        self.start = np.ascontiguousarray(np.searchsorted(slab[order], np.arange(n_slab + 1)), dtype=np.int64)
+        self.edges = np.ascontiguousarray(edge[order], dtype=np.int64)
+
+    def contains(self, points) -> np.ndarray:
+        """`points_in_polygons` of these polygons, (n,) bool."""
+        pts = np.ascontiguousarray(np.atleast_2d(np.asarray(points, dtype=np.float64)))
+        inside = np.zeros(len(pts), dtype=bool)
+        if not len(pts) or not len(self.a):
+            return inside
+        _points_in_polygons_kernel(np.array(pts, order="C"), self.a, self.b, self.y0, self.h, self.n_slab,
+                                   self.start, self.edges, inside)
+        return inside
+
+
 def points_in_polygons(points, polygons, *, chunk_size: int = 1 << 22) -> np.ndarray:
     """Whether each point lies inside the region bounded by closed polygons (even-odd rule).
 
     Parameters
     ----------
     points : (n, 2) float64
-    polygons : sequence of (k_i, 2) float64
-        Closed polygons (last vertex not repeated): an outer boundary and holes.
+    polygons : sequence of (k_i, 2) float64, or PolygonIndex
+        Closed polygons (last vertex not repeated): an outer boundary and holes; a `PolygonIndex`
+        of them when the same polygons are asked many times.
     chunk_size : int
         Bounds memory: points x edges pairs processed at once.
 
@@ -76,34 +126,8 @@ def points_in_polygons(points, polygons, *, chunk_size: int = 1 << 22) -> np.nda
     -------
     (n,) bool
     """
-    pts = np.ascontiguousarray(np.atleast_2d(np.asarray(points, dtype=np.float64)))
-    a = np.concatenate([np.asarray(p, dtype=np.float64) for p in polygons])
-    b = np.concatenate([np.roll(np.asarray(p, dtype=np.float64), -1, axis=0) for p in polygons])
-    inside = np.zeros(len(pts), dtype=bool)
-    if not len(pts) or not len(a):
-        return inside
-    # edges bucketed into horizontal slabs (about one edge per slab and row): each point tests only
-    # the edges of its slab, with the same crossing test as the brute-force count
-    ylo = np.minimum(a[:, 1], b[:, 1])
-    yhi = np.maximum(a[:, 1], b[:, 1])
-    y0, y1 = float(ylo.min()), float(yhi.max())
-    n_slab = int(min(max(1, len(a)), 1 << 16))
-    while True:
-        h = (y1 - y0) / n_slab if y1 > y0 else 1.0
-        first = np.clip(((ylo - y0) / h).astype(np.int64), 0, n_slab - 1)
-        last = np.clip(((yhi - y0) / h).astype(np.int64), 0, n_slab - 1)
-        cnt = last - first + 1
-        if n_slab == 1 or int(cnt.sum()) <= 8 * len(a) + (1 << 16):    # tall edges: fewer slabs
-            break
-        n_slab //= 4
-    edge = np.repeat(np.arange(len(a)), cnt)
-    slab = np.repeat(first, cnt) + (np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt))
-    order = np.argsort(slab, kind="stable")
-    start = np.searchsorted(slab[order], np.arange(n_slab + 1))
-    _points_in_polygons_kernel(np.array(pts, order="C"), np.ascontiguousarray(a), np.ascontiguousarray(b), y0, h,
-                               n_slab, np.ascontiguousarray(start, dtype=np.int64),
-                               np.ascontiguousarray(edge[order], dtype=np.int64), inside)
-    return inside
+    index = polygons if isinstance(polygons, PolygonIndex) else PolygonIndex(polygons)
+    return index.contains(points)
 
 
 @njit(cache=True, nogil=True)

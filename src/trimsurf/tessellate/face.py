@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError, TrimLoopError
-from ..geom.predicates import points_in_polygons
+from ..geom.predicates import PolygonIndex, points_in_polygons
 from ..model import TriMesh, TrimmedFace
 from .domain import MAX_VALUES, adaptive_values
 from .grid import triangulate_domain
@@ -279,7 +279,7 @@ def _worst_cell_ratio(face: TrimmedFace, us, vs, tolerance: float, polys, cache=
     trimmed region (both diagonals in the band along the trim, as `refine_cells` checks them)."""
     dev, diag, diag_max = _cell_deviation(face.surface, us, vs, tolerance, cache)[:3]
     if polys is not None:
-        near, interior = _near_trim(us, vs, polys)
+        near, interior = _near_trim(us, vs, polys if cache is None else cache.polygon_index(polys))
         dev = np.where(near, dev, 0.0)
         diag = np.where(near & ~interior, diag_max, np.where(near, diag, 0.0))
     return float(dev.max(initial=0.0)) / tolerance, float(diag.max(initial=0.0)) / max_edge
@@ -291,7 +291,9 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
     diagonal is longer than max_edge or whose sides differ by more than `aspect` (None: no limit);
     returns the refined (us, vs)."""
     s = face.surface
-    polys = _loop_polys(face) if face.loops else None
+    polys = None
+    if face.loops:      # the trim polygons, their slab index built once (per face with a cache)
+        polys = PolygonIndex(_loop_polys(face)) if cache is None else cache.loop_index(face)
     # the twist of the cells: split along the better diagonal, refine rows/columns where it fails;
     # the same for a diagonal longer than max_edge (split across its longer side)
     for _ in range(6):
@@ -469,6 +471,22 @@ class _CellCache:
         self.p = np.zeros((0, 5, 3))
         self.d = np.zeros((0, 2))           # distances of the two diagonals' midpoints
         self.dev = np.zeros((0, 2))         # deviation of the main / anti split (NaN: not yet)
+        self._loops = None                  # (face, PolygonIndex of its `_loop_polys`)
+        self._index = None                  # (polygons, their PolygonIndex)
+
+    def loop_index(self, face):
+        """`PolygonIndex` of the face's `_loop_polys` (computed once: the face of this cache)."""
+        if self._loops is None or self._loops[0] is not face:
+            self._loops = (face, PolygonIndex(_loop_polys(face)))
+        return self._loops[1]
+
+    def polygon_index(self, polys):
+        """`PolygonIndex` of the polygons `polys` (the same list object asked again: built once)."""
+        if isinstance(polys, PolygonIndex):
+            return polys
+        if self._index is None or self._index[0] is not polys:
+            self._index = (polys, PolygonIndex(polys))
+        return self._index[1]
 
     def _interval_ids(self, axis, x):
         ids = self.ids[axis]

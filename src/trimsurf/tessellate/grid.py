@@ -19,7 +19,7 @@ import numpy as np
 import triangle as tr
 
 from ..errors import TrimLoopError
-from ..geom.predicates import points_in_polygons
+from ..geom.predicates import PolygonIndex, points_in_polygons
 from .pslg import clean_pslg
 
 __all__ = ["outcodes", "cohen_sutherland_cells", "DomainTriangulation", "triangulate_domain"]
@@ -187,6 +187,7 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
         raise TrimLoopError("a trim polygon has fewer than 3 points")
     pts = np.concatenate(polys)
     n_trim = len(pts)
+    index = PolygonIndex(polys)
     starts = np.cumsum([0] + [len(p) for p in polys])
     seg_a = np.concatenate([np.arange(a, b) for a, b in zip(starts[:-1], starts[1:])])
     seg_b = np.concatenate([np.r_[np.arange(a + 1, b), a] for a, b in zip(starts[:-1], starts[1:])])
@@ -207,7 +208,7 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
     free = ~crossed.ravel()
     inside = np.zeros(len(centre), dtype=bool)
     if free.any():
-        inside[free] = points_in_polygons(centre[free], polys)
+        inside[free] = points_in_polygons(centre[free], index)
     keep_cell = (free & inside).reshape(nu - 1, nv - 1)
     # grid nodes used: corners of crossed or kept cells
     node_used = np.zeros((nu, nv), dtype=bool)
@@ -341,7 +342,7 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
         ti = np.clip(np.searchsorted(us, cen[:, 0]) - 1, 0, nu - 2)
         tj = np.clip(np.searchsorted(vs, cen[:, 1]) - 1, 0, nv - 2)
         ok = crossed[ti, tj]
-        ok[ok] = points_in_polygons(cen[ok], polys)
+        ok[ok] = points_in_polygons(cen[ok], index)
         cdt_tris = tri[ok]
     flat = (grid_tris[:, 0] == grid_tris[:, 1]) | (grid_tris[:, 1] == grid_tris[:, 2]) | (grid_tris[:, 0] == grid_tris[:, 2])
     if flat.any():          # a cell narrower than SNAP lost a corner: its triangles go, and the quad

@@ -274,10 +274,10 @@ class _State:
         ia = np.flatnonzero(alive)
         nv1 = len(V) + 1
         he = {}
-        for k in ia.tolist():
-            t = T[k].tolist()
-            for c in range(3):
-                he[(t[c], t[(c + 1) % 3])] = k
+        for k, (a, b, c) in zip(ia.tolist(), T[ia].tolist()):
+            he[(a, b)] = k
+            he[(b, c)] = k
+            he[(c, a)] = k
         n = 0
         for k in np.asarray(bad).tolist():
             if not alive[k]:
