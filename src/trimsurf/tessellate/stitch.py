@@ -107,6 +107,41 @@ def _boundary(mesh: TriMesh):
     return he[b], b // 3           # directed boundary edges and their triangles
 
 
+class _EdgeIndex:
+    """The boundary edges' midpoints in k-d trees, one per class of edge lengths (within a factor of 4).
+
+    `pairs(points, radius, eps)` are the (point, edge) pairs with the edge's midpoint within `radius`
+    of the point that can be within `eps` of it (every such pair is found): per class the ball is
+    the class's longest half-length + eps, or `radius` when that is not smaller. Among the pairs
+    within `eps` these are exactly those of one tree queried with `radius` (a few long edges no longer
+    make every point a candidate of every edge near it), in the same order (point, then edge).
+    """
+
+    def __init__(self, a: np.ndarray, b: np.ndarray):
+        self.mid = 0.5 * (a + b)
+        length = np.linalg.norm(b - a, axis=1)
+        cls = np.floor(np.log2(np.maximum(length, 1e-300)) / 2.0).astype(np.int64)
+        order = np.argsort(cls, kind="stable")
+        cuts = np.flatnonzero(np.diff(cls[order])) + 1
+        self.groups = [(g, 0.5 * float(length[g].max()), cKDTree(self.mid[g])) for g in np.split(order, cuts)]
+
+    def pairs(self, points: np.ndarray, radius: float, eps: float) -> tuple[np.ndarray, np.ndarray]:
+        ptree = cKDTree(points)
+        pi, ei = [], []
+        for g, half, tree in self.groups:
+            r = (half + eps) * (1.0 + 1e-9) + 1e-300
+            r = radius if r >= radius * (1.0 - 1e-9) else r
+            hit = tree.sparse_distance_matrix(ptree, r, output_type="ndarray")
+            if len(hit):
+                pi.append(hit["j"].astype(np.int64))
+                ei.append(g[hit["i"]])
+        if not pi:
+            return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+        pi, ei = np.concatenate(pi), np.concatenate(ei)
+        order = np.lexsort((ei, pi))
+        return pi[order], ei[order]
+
+
 def _closest_edges(points, vfaces, edges_a, edges_b, edge_face, tree, radius, eps, *, same_face: bool,
                    point_vertex=None, bedges=None):
     """For each point, the closest boundary edge of another face (or of its own faces) within eps.
@@ -123,12 +158,9 @@ def _closest_edges(points, vfaces, edges_a, edges_b, edge_face, tree, radius, ep
     """
     if not len(points):
         return np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0)
-    lists = tree.query_ball_point(points, radius)
-    cnt = np.fromiter((len(x) for x in lists), dtype=np.int64, count=len(lists))
-    if not cnt.sum():
+    pi, ei = tree.pairs(points, radius, eps)
+    if not len(pi):
         return np.full(len(points), -1), np.full(len(points), np.inf), np.zeros(len(points))
-    pi = np.repeat(np.arange(len(points)), cnt)
-    ei = np.fromiter((j for x in lists for j in x), dtype=np.int64, count=int(cnt.sum()))
     own = (edge_face[ei][:, None] == vfaces[pi]).any(axis=1)
     keep = own if same_face else ~own
     if not same_face and point_vertex is not None:
@@ -196,7 +228,7 @@ def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, tolerance: float | N
     a, b = V[bedges[:, 0]], V[bedges[:, 1]]
     efac = fid[btri]
     r_max = float(np.linalg.norm(b - a, axis=1).max())
-    tree = cKDTree(0.5 * (a + b))
+    tree = _EdgeIndex(a, b)
     reach = eps if tolerance is None else max(eps, float(tolerance))
     radius = 0.5 * r_max + reach
     bverts = np.unique(bedges)
@@ -229,7 +261,9 @@ def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, tolerance: float | N
     cand = np.flatnonzero(inner & (e3 >= 0) & (d3 < dist))
     if len(cand):
         thin = np.zeros(len(cand), dtype=bool)
-        lists = tree.query_ball_point(vp[cand], radius)
+        c_pi, c_ei = tree.pairs(vp[cand], radius, eps)
+        c_at = np.searchsorted(c_pi, np.arange(len(cand) + 1))
+        lists = [c_ei[c_at[r]:c_at[r + 1]] for r in range(len(cand))]
         for r, (k, js) in enumerate(zip(cand.tolist(), lists)):
             j3 = int(e3[k])
             js = np.asarray(js, dtype=np.int64)
