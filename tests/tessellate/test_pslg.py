@@ -230,3 +230,30 @@ def test_fast_path_sees_what_the_rounds_change():
     # a crossing at a tiny angle whose float signs are uncertain
     w = np.array([[0, 0], [1, 1e-17], [0, 1e-17], [1, 0]], float)
     assert not _is_clean(w * 1e6, np.array([[0, 1], [2, 3]]), 1e-30)
+
+
+def test_crossed_cells_kernel_is_cohen_sutherland():
+    """The compiled crossed-cell marking of `triangulate_domain` marks exactly the cells of
+    `cohen_sutherland_cells`: random segments on a non-uniform grid, segments along grid lines,
+    through grid nodes, degenerate (a point) and outside the grid."""
+    from trimsurf.tessellate.grid import _crossed_cells, cohen_sutherland_cells
+
+    rng = np.random.default_rng(3)
+    us = np.r_[0.0, np.sort(rng.uniform(0, 1, 9)), 1.0]
+    vs = np.r_[0.0, np.sort(rng.uniform(0, 2, 6)), 2.0]
+    p0 = np.column_stack([rng.uniform(-0.1, 1.1, 400), rng.uniform(-0.1, 2.1, 400)])
+    p1 = p0 + 0.3 * rng.standard_normal((400, 2))
+    gu, gv = us[rng.integers(0, len(us), 60)], vs[rng.integers(0, len(vs), 60)]
+    p0 = np.r_[p0, np.column_stack([gu, gv]), np.column_stack([gu, vs[0] + 0 * gv])]
+    p1 = np.r_[p1, np.column_stack([gu, vs[rng.integers(0, len(vs), 60)]]), np.column_stack([gu, gv])]
+    p1[-5:] = p0[-5:]
+    hits = cohen_sutherland_cells(p0, p1, us, vs)
+    want = np.zeros((len(us) - 1, len(vs) - 1), bool)
+    want[hits[:, 1], hits[:, 2]] = True
+    got = _crossed_cells(p0, p1, us, vs)
+    assert want.sum() > 20 and np.array_equal(got, want)
+    for k in range(len(p0)):        # segment by segment too (a cell marked by one segment only)
+        h = cohen_sutherland_cells(p0[[k]], p1[[k]], us, vs)
+        w = np.zeros_like(want)
+        w[h[:, 1], h[:, 2]] = True
+        assert np.array_equal(_crossed_cells(p0[[k]], p1[[k]], us, vs), w)

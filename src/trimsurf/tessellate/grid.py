@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import triangle as tr
+from numba import njit
 
 from ..errors import TrimLoopError
 from ..geom.predicates import PolygonIndex, points_in_polygons
@@ -109,6 +110,72 @@ def cohen_sutherland_cells(p0: np.ndarray, p1: np.ndarray, us: np.ndarray, vs: n
     return np.column_stack([seg[hit], ci[hit], cj[hit]]).astype(np.int64)
 
 
+def _crossed_cells(p0: np.ndarray, p1: np.ndarray, us: np.ndarray, vs: np.ndarray) -> np.ndarray:
+    """(len(us) - 1, len(vs) - 1) bool: the cells `cohen_sutherland_cells` finds, compiled (the same
+    candidate cells and the same clipping arithmetic, per segment and cell)."""
+    lo = np.minimum(p0, p1)
+    hi = np.maximum(p0, p1)
+    i0 = np.clip(np.searchsorted(us, lo[:, 0], side="right") - 2, 0, len(us) - 2)
+    i1 = np.clip(np.searchsorted(us, hi[:, 0], side="left"), 0, len(us) - 2)
+    j0 = np.clip(np.searchsorted(vs, lo[:, 1], side="right") - 2, 0, len(vs) - 2)
+    j1 = np.clip(np.searchsorted(vs, hi[:, 1], side="left"), 0, len(vs) - 2)
+    crossed = np.zeros((len(us) - 1, len(vs) - 1), dtype=np.bool_)
+    _crossed_cells_kernel(np.ascontiguousarray(p0, dtype=np.float64), np.ascontiguousarray(p1, dtype=np.float64),
+                          np.ascontiguousarray(us), np.ascontiguousarray(vs), i0.astype(np.int64),
+                          i1.astype(np.int64), j0.astype(np.int64), j1.astype(np.int64), crossed)
+    return crossed
+
+
+@njit(cache=True, nogil=True)
+def _outcode(x, y, lx, ly, hx, hy):
+    c = 0
+    if x < lx:
+        c |= _LEFT
+    if x > hx:
+        c |= _RIGHT
+    if y < ly:
+        c |= _BOTTOM
+    if y > hy:
+        c |= _TOP
+    return c
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _crossed_cells_kernel(p0, p1, us, vs, i0, i1, j0, j1, crossed):
+    for s in range(p0.shape[0]):
+        for i in range(i0[s], i1[s] + 1):
+            for j in range(j0[s], j1[s] + 1):
+                if crossed[i, j]:
+                    continue
+                lx, ly, hx, hy = us[i], vs[j], us[i + 1], vs[j + 1]
+                ax, ay, bx, by = p0[s, 0], p0[s, 1], p1[s, 0], p1[s, 1]
+                ca = _outcode(ax, ay, lx, ly, hx, hy)
+                cb = _outcode(bx, by, lx, ly, hx, hy)
+                for _ in range(6):      # as `_clip_hits`: each round clips one end to one box side
+                    if (ca | cb) == 0:
+                        crossed[i, j] = True
+                        break
+                    if (ca & cb) != 0:
+                        break
+                    use_a = ca != 0
+                    out = ca if use_a else cb
+                    dx, dy = bx - ax, by - ay
+                    if out & (_TOP | _BOTTOM):
+                        ty = hy if out & _TOP else ly
+                        x = ax + dx * (ty - ay) / dy
+                        y = ty
+                    else:
+                        tx = hx if out & _RIGHT else lx
+                        x = tx
+                        y = ay + dy * (tx - ax) / dx
+                    if use_a:
+                        ax, ay = x, y
+                        ca = _outcode(ax, ay, lx, ly, hx, hy)
+                    else:
+                        bx, by = x, y
+                        cb = _outcode(bx, by, lx, ly, hx, hy)
+
+
 @dataclass(eq=False)
 class DomainTriangulation:
     """A triangulation of the trimmed region in (u, v).
@@ -192,9 +259,7 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
     seg_a = np.concatenate([np.arange(a, b) for a, b in zip(starts[:-1], starts[1:])])
     seg_b = np.concatenate([np.r_[np.arange(a + 1, b), a] for a, b in zip(starts[:-1], starts[1:])])
     # 1. Cohen-Sutherland: which cells each trim segment meets
-    hits = cohen_sutherland_cells(pts[seg_a], pts[seg_b], us, vs)
-    crossed = np.zeros((nu - 1, nv - 1), dtype=bool)
-    crossed[hits[:, 1], hits[:, 2]] = True
+    crossed = _crossed_cells(pts[seg_a], pts[seg_b], us, vs)
     if extra is not None and len(extra):
         # a cell with an extra point is triangulated like a crossed one (its sides stay edges)
         e = np.asarray(extra, dtype=np.float64).reshape(-1, 2)
