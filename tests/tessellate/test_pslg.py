@@ -257,3 +257,21 @@ def test_crossed_cells_kernel_is_cohen_sutherland():
         w = np.zeros_like(want)
         w[h[:, 1], h[:, 2]] = True
         assert np.array_equal(_crossed_cells(p0[[k]], p1[[k]], us, vs), w)
+
+
+def test_grid_helpers_equal_numpy():
+    """`_first_equal` is the representative np.unique(axis=0) gives (lowest index of equal rows,
+    -0.0 equal to 0.0), `_is_in` is np.isin on increasing values."""
+    from trimsurf.tessellate.grid import _first_equal, _is_in
+
+    rng = np.random.default_rng(5)
+    p = rng.integers(0, 4, (300, 2)).astype(float) * 0.25
+    p[rng.integers(0, 300, 20)] *= -1.0          # -0.0 rows among 0.0 ones
+    _, inv = np.unique(p, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    rep = np.full(inv.max() + 1, len(p))
+    np.minimum.at(rep, inv, np.arange(len(p)))
+    assert np.array_equal(_first_equal(p), rep[inv])
+    vals = np.unique(rng.integers(0, 10, 6).astype(float))
+    x = np.r_[rng.integers(-2, 12, 100).astype(float), np.nan, -0.0, 0.5]
+    assert np.array_equal(_is_in(x, vals), np.isin(x, vals))

@@ -110,6 +110,28 @@ def cohen_sutherland_cells(p0: np.ndarray, p1: np.ndarray, us: np.ndarray, vs: n
     return np.column_stack([seg[hit], ci[hit], cj[hit]]).astype(np.int64)
 
 
+def _is_in(x: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """np.isin(x, values) for increasing `values` (a binary search each)."""
+    if not len(values):
+        return np.zeros(len(x), dtype=bool)
+    pos = np.minimum(np.searchsorted(values, x), len(values) - 1)
+    return values[pos] == x
+
+
+def _first_equal(p: np.ndarray) -> np.ndarray:
+    """Per row of p (n, 2), the lowest index of a row equal to it (value-wise, as np.unique(axis=0))."""
+    n = len(p)
+    if not n:
+        return np.zeros(0, dtype=np.int64)
+    order = np.lexsort((p[:, 1], p[:, 0]))      # stable: equal rows in index order, the first is the lowest
+    q = p[order]
+    new = np.r_[True, (q[1:, 0] != q[:-1, 0]) | (q[1:, 1] != q[:-1, 1])]
+    head = order[np.flatnonzero(new)]
+    out = np.empty(n, dtype=np.int64)
+    out[order] = head[np.cumsum(new) - 1]
+    return out
+
+
 def _crossed_cells(p0: np.ndarray, p1: np.ndarray, us: np.ndarray, vs: np.ndarray) -> np.ndarray:
     """(len(us) - 1, len(vs) - 1) bool: the cells `cohen_sutherland_cells` finds, compiled (the same
     candidate cells and the same clipping arithmetic, per segment and cell)."""
@@ -265,7 +287,7 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
         e = np.asarray(extra, dtype=np.float64).reshape(-1, 2)
         ei = np.searchsorted(us, e[:, 0]) - 1
         ej = np.searchsorted(vs, e[:, 1]) - 1
-        ok = (ei >= 0) & (ei < nu - 1) & (ej >= 0) & (ej < nv - 1) & ~np.isin(e[:, 0], us) & ~np.isin(e[:, 1], vs)
+        ok = (ei >= 0) & (ei < nu - 1) & (ej >= 0) & (ej < nv - 1) & ~_is_in(e[:, 0], us) & ~_is_in(e[:, 1], vs)
         crossed[ei[ok], ej[ok]] = True
     # 2. untouched cells inside the trim: centre inside
     ci, cj = np.meshgrid(np.arange(nu - 1), np.arange(nv - 1), indexing="ij")
@@ -285,13 +307,8 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
     node_uv = np.column_stack([us[gi], vs[gj]])
     # merge grid nodes that coincide exactly with trim points
     all_uv = np.concatenate([pts, node_uv])
-    uniq, first, inv = np.unique(all_uv, axis=0, return_index=True, return_inverse=True)
-    inv = inv.ravel()
     # representative index: trim points keep their index; a node equal to a trim point maps to it
-    order = np.arange(len(all_uv))
-    rep = np.full(len(uniq), len(all_uv), dtype=np.int64)
-    np.minimum.at(rep, inv, order)
-    idx_of = rep[inv]                                     # index into all_uv of each point's representative
+    idx_of = _first_equal(all_uv)                         # index into all_uv of each point's representative
     # compact vertex list: trim points first (all kept), then nodes not merged
     is_node = np.arange(len(all_uv)) >= n_trim
     node_kept = is_node & (idx_of == np.arange(len(all_uv)))
@@ -324,7 +341,7 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
         for axis in (0, 1):
             line_vals, other_vals = (vs, us) if axis == 0 else (us, vs)
             # horizontal sides (axis 0): v = vs[j], u in [us[i], us[i+1]]
-            on = np.isin(uv[:, 1 - axis], line_vals)
+            on = _is_in(uv[:, 1 - axis], line_vals)
             cand = np.flatnonzero(on)
             if not len(cand):
                 continue
@@ -355,7 +372,7 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
             ej = np.searchsorted(vs, e[:, 1]) - 1
             ok = (ei >= 0) & (ei < nu - 1) & (ej >= 0) & (ej < nv - 1)
             ok[ok] &= crossed[ei[ok], ej[ok]]
-            ok[ok] &= ~np.isin(e[ok, 0], us) & ~np.isin(e[ok, 1], vs)
+            ok[ok] &= ~_is_in(e[ok, 0], us) & ~_is_in(e[ok, 1], vs)
             e = e[ok]
             if len(e):
                 used = np.r_[used, len(uv) + np.arange(len(e))]
