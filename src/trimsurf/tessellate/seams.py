@@ -64,11 +64,21 @@ def _seam_graph(mesh: TriMesh):
     return edges[seam]
 
 
+def _by_face(face_of: np.ndarray):
+    """(face, its rows in increasing order) per face id in increasing order (one sort, not a scan per face)."""
+    face_of = np.asarray(face_of)
+    if not len(face_of):
+        return []
+    order = np.argsort(face_of, kind="stable")
+    f = face_of[order]
+    cut = np.r_[0, np.flatnonzero(f[1:] != f[:-1]) + 1, len(f)]
+    return [(f[a], order[a:b]) for a, b in zip(cut[:-1].tolist(), cut[1:].tolist())]
+
+
 def _per_face_dev(surfaces, face_of, uv3, x3):
     """max |S(uv(b)) - x(b)| over the centroid and edge midpoints of each triangle: one evaluation per face."""
     out = np.empty(len(face_of))
-    for f in np.unique(face_of):
-        r = np.flatnonzero(face_of == f)
+    for f, r in _by_face(face_of):
         pts = np.einsum("bj,rjk->rbk", _BARY, uv3[r]).reshape(-1, 2)
         ref = np.einsum("bj,rjk->rbk", _BARY, x3[r]).reshape(-1, 3)
         out[r] = np.linalg.norm(surfaces[int(f)].evaluate(pts) - ref, axis=1).reshape(len(r), -1).max(axis=1)
@@ -83,8 +93,7 @@ def _against_normal(faces, face_of, uv3, tri_normals, bary=_ORIENT_BARY):
     evaluation per face.
     """
     bad = np.zeros(len(face_of), dtype=bool)
-    for f in np.unique(face_of):
-        r = np.flatnonzero(face_of == f)
+    for f, r in _by_face(face_of):
         pts = np.einsum("bj,rjk->rbk", bary, uv3[r]).reshape(-1, 2)
         with np.errstate(all="ignore"):
             ns = np.asarray(faces[int(f)].oriented_normals(pts), dtype=np.float64).reshape(len(r), -1, 3)
@@ -107,6 +116,10 @@ class _State:
         self.surfaces, self.faces = surfaces, faces
         self.alive = np.ones(len(self.T), dtype=bool)
         self.tolerance, self.max_edge = float(tolerance), max_edge
+        # `flipped` per triangle, recomputed only for triangles changed since (a triangle's test
+        # depends on its corners, its face and its corner (u, v) alone)
+        self._flip = np.zeros(len(self.T), dtype=bool)
+        self._dirty = np.ones(len(self.T), dtype=bool)
 
     def seam(self):
         """Seam edges (k, 2) of the alive triangles."""
@@ -255,6 +268,7 @@ class _State:
         ok = ~bad
         apply = ok[ci]
         T[mi[apply]] = newt[apply]
+        self._dirty[mi[apply]] = True
         self.dev[mi[apply]] = new_dev[apply]
         if new_uv is not None:
             self.cuv[mi[apply]] = new_uv[apply]
@@ -317,6 +331,7 @@ class _State:
                     for i in range(3):
                         he.pop((old[i], old[(i + 1) % 3]), None)
                 T[k], T[k2] = new[0], new[1]
+                self._dirty[[k, k2]] = True
                 cuv[k], cuv[k2] = nuv[0], nuv[1]
                 self.dev[k], self.dev[k2] = ndev[0], ndev[1]
                 for kk, r in ((k, new[0].tolist()), (k2, new[1].tolist())):
@@ -330,9 +345,12 @@ class _State:
         """Alive triangles whose normal points against their face's oriented normal at the (u, v) centroid
         or a corner (the centroid alone misses a sliver spanning a fillet, skewed: soapbox loose)."""
         idx = np.flatnonzero(self.alive)
-        bad = _against_normal(self.faces, self.fid[idx], self.cuv[idx], _normals(self.V, self.T[idx]),
-                              bary=_ORIENT_BARY)
-        return idx[bad]
+        d = idx[self._dirty[idx]]
+        if len(d):
+            self._flip[d] = _against_normal(self.faces, self.fid[d], self.cuv[d], _normals(self.V, self.T[d]),
+                                            bary=_ORIENT_BARY)
+            self._dirty[d] = False
+        return idx[self._flip[idx]]
 
 
 def reduce_seams(mesh: TriMesh, tolerance: float, *, tri_dev=None, max_edge: float = np.inf,
