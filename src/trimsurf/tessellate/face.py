@@ -426,8 +426,10 @@ def _cell_lengths(p: np.ndarray, main: np.ndarray) -> tuple[np.ndarray, ...]:
     return diag, diag_max, side_u, side_v
 
 
-def _prefer_main(surface, us, vs) -> bool:
-    """Whether the diagonal (i,j)-(i+1,j+1) fits the face's grid cells better in total."""
+def _diagonal_fits(surface, us, vs) -> np.ndarray:
+    """Per grid cell (ki, kj = meshgrid(..., indexing="ij"), raveled), the distance of its two diagonals'
+    midpoints from the surface, (n_cells, 2): (i,j)-(i+1,j+1) and (i+1,j)-(i,j+1). A cell's numbers are
+    those `_cell_split` computes for it (the same points, the same per-point kernels)."""
     ki, kj = np.meshgrid(np.arange(len(us) - 1), np.arange(len(vs) - 1), indexing="ij")
     u0, u1 = us[ki.ravel()], us[ki.ravel() + 1]
     v0, v1 = vs[kj.ravel()], vs[kj.ravel() + 1]
@@ -436,8 +438,26 @@ def _prefer_main(surface, us, vs) -> bool:
     p = surface.evaluate(uv.reshape(-1, 2)).reshape(-1, 5, 3)
     cuv = np.repeat(uv[:, 4], 2, axis=0)
     mids = np.stack([0.5 * (p[:, 0] + p[:, 2]), 0.5 * (p[:, 1] + p[:, 3])], axis=1).reshape(-1, 3)
-    d = surface_distance(surface, cuv, mids, steps=1).reshape(-1, 2).sum(axis=0)
+    return surface_distance(surface, cuv, mids, steps=1).reshape(-1, 2)
+
+
+def _prefer_main(surface, us, vs, fits: np.ndarray | None = None) -> bool:
+    """Whether the diagonal (i,j)-(i+1,j+1) fits the face's grid cells better in total (`fits`: the
+    cells' `_diagonal_fits` when known)."""
+    d = (_diagonal_fits(surface, us, vs) if fits is None else fits).sum(axis=0)
     return bool(d[0] <= d[1])
+
+
+def _split_from_fits(d: np.ndarray, tolerance: float | None, prefer_main: bool | None) -> np.ndarray:
+    """`_cell_split(..., full=False)` of cells whose `_diagonal_fits` are `d` (k, 2)."""
+    d_main, d_anti = d[:, 0], d[:, 1]
+    if tolerance is None:
+        return d_main <= d_anti
+    pref = bool(d_main.sum() <= d_anti.sum()) if prefer_main is None else bool(prefer_main)
+    d_pref, d_other = (d_main, d_anti) if pref else (d_anti, d_main)
+    switch = (((d_pref > 0.5 * tolerance) & (d_other < 0.8 * d_pref))
+              | ((d_pref > 0.9 * tolerance) & (d_other < 0.98 * d_pref)))
+    return np.where(switch, not pref, pref)
 
 
 def _cell_deviation(surface, us, vs, tolerance=None, cache=None):
@@ -710,10 +730,14 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
     s = face.surface
 
     tol = None if tolerance is None else float(tolerance)
-    prefer = None if tol is None else _prefer_main(s, us, vs)
+    # every cell's diagonal fits once: the preferred direction and each triangulation's cell splits
+    # (the extra-point rounds re-triangulate) read them
+    fits = _diagonal_fits(s, us, vs)
+    prefer = None if tol is None else _prefer_main(s, us, vs, fits)
+    n_v = len(vs) - 1
 
     def split(ki, kj):
-        return _cell_split(s, us, vs, ki, kj, tol, prefer, full=False)[0]
+        return _split_from_fits(fits[np.asarray(ki) * n_v + np.asarray(kj)], tol, prefer)
 
 
     trim_xyz = np.concatenate(xyzs)
