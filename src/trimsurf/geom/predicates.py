@@ -80,24 +80,7 @@ class PolygonIndex:
             return
         # edges bucketed into horizontal slabs (about one edge per slab and row): each point tests only
         # the edges of its slab, with the same crossing test as the brute-force count
-        ylo = np.minimum(a[:, 1], b[:, 1])
-        yhi = np.maximum(a[:, 1], b[:, 1])
-        y0, y1 = float(ylo.min()), float(yhi.max())
-        n_slab = int(min(max(1, len(a)), 1 << 16))
-        while True:
-            h = (y1 - y0) / n_slab if y1 > y0 else 1.0
-            first = np.clip(((ylo - y0) / h).astype(np.int64), 0, n_slab - 1)
-            last = np.clip(((yhi - y0) / h).astype(np.int64), 0, n_slab - 1)
-            cnt = last - first + 1
-            if n_slab == 1 or int(cnt.sum()) <= 8 * len(a) + (1 << 16):    # tall edges: fewer slabs
-                break
-            n_slab //= 4
-        edge = np.repeat(np.arange(len(a)), cnt)
-        slab = np.repeat(first, cnt) + (np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt))
-        order = np.argsort(slab, kind="stable")
-        self.y0, self.h, self.n_slab = y0, h, n_slab
-        self.start = np.ascontiguousarray(np.searchsorted(slab[order], np.arange(n_slab + 1)), dtype=np.int64)
-        self.edges = np.ascontiguousarray(edge[order], dtype=np.int64)
+        self.y0, self.h, self.n_slab, self.start, self.edges = _slab_index(self.a, self.b)
 
     def contains(self, points) -> np.ndarray:
         """`points_in_polygons` of these polygons, (n,) bool."""
@@ -293,3 +276,42 @@ def _segments_apart_kernel(a, b, closed, bound):
                     continue
                 return False
     return True
+
+
+@njit(cache=True, nogil=True)
+def _slab_index(a, b):
+    """`PolygonIndex`'s slabs: (y0, h, n_slab, start, edges), edges of slab k in edges[start[k]:start[k + 1]]
+    (every edge whose y range meets the slab, in increasing order)."""
+    m = a.shape[0]
+    ylo = np.empty(m)
+    yhi = np.empty(m)
+    for e in range(m):
+        ylo[e] = min(a[e, 1], b[e, 1])
+        yhi[e] = max(a[e, 1], b[e, 1])
+    y0, y1 = ylo.min(), yhi.max()
+    n_slab = min(max(1, m), 1 << 16)
+    first = np.empty(m, dtype=np.int64)
+    last = np.empty(m, dtype=np.int64)
+    while True:
+        h = (y1 - y0) / n_slab if y1 > y0 else 1.0
+        total = 0
+        for e in range(m):
+            first[e] = min(max(int((ylo[e] - y0) / h), 0), n_slab - 1)
+            last[e] = min(max(int((yhi[e] - y0) / h), 0), n_slab - 1)
+            total += last[e] - first[e] + 1
+        if n_slab == 1 or total <= 8 * m + (1 << 16):     # tall edges: fewer slabs
+            break
+        n_slab //= 4
+    start = np.zeros(n_slab + 1, dtype=np.int64)
+    for e in range(m):
+        for k in range(first[e], last[e] + 1):
+            start[k + 1] += 1
+    for k in range(n_slab):
+        start[k + 1] += start[k]
+    fill = start[:-1].copy()
+    edges = np.empty(start[-1], dtype=np.int64)
+    for e in range(m):
+        for k in range(first[e], last[e] + 1):
+            edges[fill[k]] = e
+            fill[k] += 1
+    return y0, h, n_slab, start, edges

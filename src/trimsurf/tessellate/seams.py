@@ -103,6 +103,53 @@ def _against_normal(faces, face_of, uv3, tri_normals, bary=_ORIENT_BARY):
     return bad
 
 
+def _close(x, y) -> bool:
+    """np.allclose(x, y, rtol=1e-5, atol=1e-8) of two finite (u, v) pairs, in scalars."""
+    return all(abs(p - q) <= 1e-8 + 1e-5 * abs(q) for p, q in zip(x, y))
+
+
+def _uv_area_1(p0, p1, p2) -> float:
+    """`_uv_area` of one triangle given as three (u, v) pairs (the same operations)."""
+    return (p1[0] - p0[0]) * (p2[1] - p0[1]) - (p2[0] - p0[0]) * (p1[1] - p0[1])
+
+
+def _sign(x: float) -> float:
+    return 1.0 if x > 0 else (-1.0 if x < 0 else 0.0)
+
+
+class _HalfEdges:
+    """Directed edge (a, b) -> triangle, as the dict {(a, b): k} over the alive triangles in order (the
+    last triangle wins a repeated edge) with pops and sets after: a sorted array of the edges
+    (built by numpy) under a dict of the changes."""
+
+    def __init__(self, T: np.ndarray, ia: np.ndarray, nv1: int):
+        t = T[ia]
+        keys = np.stack([t[:, 0] * nv1 + t[:, 1], t[:, 1] * nv1 + t[:, 2], t[:, 2] * nv1 + t[:, 0]], axis=1).ravel()
+        order = np.argsort(keys, kind="stable")
+        self.keys, self.tri = keys[order], ia[order // 3]
+        self.nv1 = nv1
+        self.changed: dict = {}         # key -> triangle, or None (popped)
+
+    def _key(self, e) -> int:
+        return e[0] * self.nv1 + e[1]
+
+    def get(self, e):
+        key = self._key(e)
+        if key in self.changed:
+            return self.changed[key]
+        pos = int(np.searchsorted(self.keys, key, side="right")) - 1
+        return int(self.tri[pos]) if pos >= 0 and self.keys[pos] == key else None
+
+    def __contains__(self, e) -> bool:
+        return self.get(e) is not None
+
+    def pop(self, e, default=None):
+        self.changed[self._key(e)] = None
+
+    def __setitem__(self, e, k):
+        self.changed[self._key(e)] = k
+
+
 class _State:
     """The mesh being reduced: triangles (with ``alive``), deviation bounds and corner (u, v)."""
 
@@ -286,12 +333,7 @@ class _State:
         """
         V, T, fid, cuv, alive = self.V, self.T, self.fid, self.cuv, self.alive
         ia = np.flatnonzero(alive)
-        nv1 = len(V) + 1
-        he = {}
-        for k, (a, b, c) in zip(ia.tolist(), T[ia].tolist()):
-            he[(a, b)] = k
-            he[(b, c)] = k
-            he[(c, a)] = k
+        he = _HalfEdges(T, ia, len(V) + 1)
         n = 0
         for k in np.asarray(bad).tolist():
             if not alive[k]:
@@ -306,16 +348,17 @@ class _State:
                 d = t2[(t2.index(b) + 2) % 3]
                 if d in (a, b, cc) or (cc, d) in he or (d, cc) in he:
                     continue
-                uv1 = {x: cuv[k, i] for i, x in enumerate(t)}
-                uv2 = {x: cuv[k2, i] for i, x in enumerate(t2)}
-                if not all(np.allclose(uv1[x], uv2[x], rtol=1e-5, atol=1e-8) for x in (a, b)):
+                uv1 = dict(zip(t, cuv[k].tolist()))
+                uv2 = dict(zip(t2, cuv[k2].tolist()))
+                if not all(_close(uv1[x], uv2[x]) for x in (a, b)):
                     continue        # a periodic seam between them
                 uvx = {**uv2, **uv1}
+                ref = _sign(_uv_area_1(*cuv[k2].tolist()))
+                if ref == 0 or _sign(_uv_area_1(uvx[cc], uvx[a], uvx[d])) != ref \
+                        or _sign(_uv_area_1(uvx[d], uvx[b], uvx[cc])) != ref:
+                    continue
                 new = np.array([[cc, a, d], [d, b, cc]], dtype=np.int64)
                 nuv = np.array([[uvx[x] for x in r] for r in new.tolist()])
-                ref = np.sign(_uv_area(cuv[[k2]]))[0]
-                if not np.all(np.sign(_uv_area(nuv)) == ref) or ref == 0:
-                    continue
                 nn = _normals(V, new)
                 if np.any(np.linalg.norm(nn, axis=1) <= 1e-12 * np.linalg.norm(_normals(V, T[[k2]]))):
                     continue
