@@ -275,3 +275,34 @@ def test_grid_helpers_equal_numpy():
     vals = np.unique(rng.integers(0, 10, 6).astype(float))
     x = np.r_[rng.integers(-2, 12, 100).astype(float), np.nan, -0.0, 0.5]
     assert np.array_equal(_is_in(x, vals), np.isin(x, vals))
+
+
+def test_unique_segments_is_numpy_unique():
+    from trimsurf.tessellate.pslg import _unique_segments
+
+    rng = np.random.default_rng(9)
+    seg = rng.integers(0, 30, (500, 2))
+    got = _unique_segments(seg)
+    assert got.dtype == np.int64 and np.array_equal(got, np.unique(np.sort(seg, axis=1), axis=0))
+    assert _unique_segments(seg[:0]).shape == (0, 2)
+
+
+def test_side_segments_kernel_equals_numpy():
+    """The compiled cell sides of `triangulate_domain` are the numpy reference's (as a set): grid nodes,
+    points on grid lines (repeated ones too), points off them, some cells crossed."""
+    from trimsurf.tessellate.grid import _side_segments, _side_segments_numpy
+
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        us = np.r_[0.0, np.sort(rng.uniform(0, 1, 5)), 1.0]
+        vs = np.r_[0.0, np.sort(rng.uniform(0, 1, 4)), 1.0]
+        gu, gv = np.meshgrid(us, vs, indexing="ij")
+        nodes = np.column_stack([gu.ravel(), gv.ravel()])
+        on_u = np.column_stack([us[rng.integers(0, len(us), 15)], rng.uniform(0, 1, 15)])
+        on_v = np.column_stack([rng.uniform(0, 1, 15), vs[rng.integers(0, len(vs), 15)]])
+        uv = np.concatenate([on_u, rng.uniform(0, 1, (10, 2)), nodes, on_v, on_v[:3]])
+        crossed = rng.uniform(size=(len(us) - 1, len(vs) - 1)) < 0.4
+        got = _side_segments(uv, us, vs, crossed)
+        want = _side_segments_numpy(uv, us, vs, crossed)
+        assert len(want) > 5
+        assert sorted(map(tuple, got.tolist())) == sorted(map(tuple, want.tolist()))

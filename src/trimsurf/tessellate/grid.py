@@ -110,6 +110,96 @@ def cohen_sutherland_cells(p0: np.ndarray, p1: np.ndarray, us: np.ndarray, vs: n
     return np.column_stack([seg[hit], ci[hit], cj[hit]]).astype(np.int64)
 
 
+def _side_segments_numpy(uv, us, vs, crossed):
+    """`_side_segments` in numpy (the reference of the compiled kernel, for the tests)."""
+    nu, nv = len(us), len(vs)
+    segs = [np.zeros((0, 2), dtype=np.int64)]
+    for axis in (0, 1):
+        line_vals, other_vals = (vs, us) if axis == 0 else (us, vs)
+        # horizontal sides (axis 0): v = vs[j], u in [us[i], us[i+1]]
+        on = _is_in(uv[:, 1 - axis], line_vals)
+        cand = np.flatnonzero(on)
+        if not len(cand):
+            continue
+        line_idx = np.searchsorted(line_vals, uv[cand, 1 - axis])
+        order = np.lexsort((uv[cand, axis], line_idx))
+        cand, line_idx = cand[order], line_idx[order]
+        a, b = cand[:-1], cand[1:]
+        same = line_idx[:-1] == line_idx[1:]
+        a, b, li = a[same], b[same], line_idx[:-1][same]
+        mid = 0.5 * (uv[a, axis] + uv[b, axis])
+        col = np.clip(np.searchsorted(other_vals, mid) - 1, 0, len(other_vals) - 2)
+        within = (uv[a, axis] >= other_vals[col]) & (uv[b, axis] <= other_vals[col + 1])
+        if axis == 0:   # side between cells (col, li-1) and (col, li)
+            c1 = np.where(li > 0, crossed[col, np.maximum(li - 1, 0)], False)
+            c2 = np.where(li < nv - 1, crossed[col, np.minimum(li, nv - 2)], False)
+        else:
+            c1 = np.where(li > 0, crossed[np.maximum(li - 1, 0), col], False)
+            c2 = np.where(li < nu - 1, crossed[np.minimum(li, nu - 2), col], False)
+        sel = within & (c1 | c2) & (uv[a, axis] < uv[b, axis])
+        segs.append(np.column_stack([a[sel], b[sel]]))
+
+    return np.concatenate(segs)
+
+
+def _side_segments(uv: np.ndarray, us: np.ndarray, vs: np.ndarray, crossed: np.ndarray) -> np.ndarray:
+    """The sides of the crossed cells as segments between consecutive vertices of `uv` lying exactly on a
+    grid line (k, 2) int64 (the order differs from `_side_segments_numpy`, the set is the same)."""
+    return _side_segments_kernel(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(us),
+                                 np.ascontiguousarray(vs), np.ascontiguousarray(crossed))
+
+
+@njit(cache=True, nogil=True)
+def _side_segments_kernel(uv, us, vs, crossed):
+    n = uv.shape[0]
+    nu, nv = us.shape[0], vs.shape[0]
+    out = np.empty((2 * n, 2), dtype=np.int64)
+    cnt = 0
+    cand = np.empty(n, dtype=np.int64)
+    line = np.empty(n, dtype=np.int64)
+    for axis in range(2):
+        line_vals = vs if axis == 0 else us
+        other_vals = us if axis == 0 else vs
+        m = 0
+        for i in range(n):
+            x = uv[i, 1 - axis]
+            pos = np.searchsorted(line_vals, x)
+            if pos < line_vals.shape[0] and line_vals[pos] == x:
+                cand[m] = i
+                line[m] = pos
+                m += 1
+        if m < 2:
+            continue
+        key = np.empty(m)
+        for t in range(m):
+            key[t] = uv[cand[t], axis]
+        o1 = np.argsort(key, kind="mergesort")          # (line, value along it), ties in index order
+        li1 = line[:m][o1]
+        order = o1[np.argsort(li1, kind="mergesort")]
+        for t in range(m - 1):
+            ta, tb = order[t], order[t + 1]
+            if line[ta] != line[tb]:
+                continue
+            a, b = cand[ta], cand[tb]
+            li = line[ta]
+            ua, ub = uv[a, axis], uv[b, axis]
+            mid = 0.5 * (ua + ub)
+            col = min(max(np.searchsorted(other_vals, mid) - 1, 0), other_vals.shape[0] - 2)
+            if not (ua >= other_vals[col] and ub <= other_vals[col + 1] and ua < ub):
+                continue
+            if axis == 0:   # side between cells (col, li-1) and (col, li)
+                c1 = crossed[col, max(li - 1, 0)] if li > 0 else False
+                c2 = crossed[col, min(li, nv - 2)] if li < nv - 1 else False
+            else:
+                c1 = crossed[max(li - 1, 0), col] if li > 0 else False
+                c2 = crossed[min(li, nu - 2), col] if li < nu - 1 else False
+            if c1 or c2:
+                out[cnt, 0] = a
+                out[cnt, 1] = b
+                cnt += 1
+    return out[:cnt]
+
+
 def _is_in(x: np.ndarray, values: np.ndarray) -> np.ndarray:
     """np.isin(x, values) for increasing `values` (a binary search each)."""
     if not len(values):
@@ -338,30 +428,7 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
     if crossed.any():
         segs = [np.column_stack([vmap[seg_a], vmap[seg_b]])]
         # cell sides of crossed cells, split at every vertex lying exactly on them
-        for axis in (0, 1):
-            line_vals, other_vals = (vs, us) if axis == 0 else (us, vs)
-            # horizontal sides (axis 0): v = vs[j], u in [us[i], us[i+1]]
-            on = _is_in(uv[:, 1 - axis], line_vals)
-            cand = np.flatnonzero(on)
-            if not len(cand):
-                continue
-            line_idx = np.searchsorted(line_vals, uv[cand, 1 - axis])
-            order = np.lexsort((uv[cand, axis], line_idx))
-            cand, line_idx = cand[order], line_idx[order]
-            a, b = cand[:-1], cand[1:]
-            same = line_idx[:-1] == line_idx[1:]
-            a, b, li = a[same], b[same], line_idx[:-1][same]
-            mid = 0.5 * (uv[a, axis] + uv[b, axis])
-            col = np.clip(np.searchsorted(other_vals, mid) - 1, 0, len(other_vals) - 2)
-            within = (uv[a, axis] >= other_vals[col]) & (uv[b, axis] <= other_vals[col + 1])
-            if axis == 0:   # side between cells (col, li-1) and (col, li)
-                c1 = np.where(li > 0, crossed[col, np.maximum(li - 1, 0)], False)
-                c2 = np.where(li < nv - 1, crossed[col, np.minimum(li, nv - 2)], False)
-            else:
-                c1 = np.where(li > 0, crossed[np.maximum(li - 1, 0), col], False)
-                c2 = np.where(li < nu - 1, crossed[np.minimum(li, nu - 2), col], False)
-            sel = within & (c1 | c2) & (uv[a, axis] < uv[b, axis])
-            segs.append(np.column_stack([a[sel], b[sel]]))
+        segs.append(_side_segments(uv, us, vs, crossed))
         seg = np.concatenate(segs)
         seg = seg[seg[:, 0] != seg[:, 1]]
         # Triangle on the vertices these segments use (plus the extra interior points)

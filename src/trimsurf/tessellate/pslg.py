@@ -59,9 +59,15 @@ def _merge(q: np.ndarray, seg: np.ndarray, eps: float):
 
 
 def _unique_segments(seg: np.ndarray) -> np.ndarray:
+    """np.unique(np.sort(seg, axis=1), axis=0) of non-negative indices, by one int64 key per segment."""
     if not len(seg):
         return seg.reshape(0, 2)
-    return np.unique(np.sort(seg, axis=1), axis=0)
+    lo, hi = np.minimum(seg[:, 0], seg[:, 1]), np.maximum(seg[:, 0], seg[:, 1])
+    n = int(hi.max()) + 1
+    if lo.min() < 0 or n > (1 << 31):
+        return np.unique(np.sort(seg, axis=1), axis=0)
+    key = np.unique(lo.astype(np.int64) * n + hi)
+    return np.column_stack([key // n, key % n]).astype(seg.dtype, copy=False)
 
 
 def _vertex_segment_pairs(q: np.ndarray, seg: np.ndarray, vertices: np.ndarray, eps: float):
