@@ -250,3 +250,25 @@ def test_pole_of_a_surface_of_revolution_is_not_a_g1_defect(shared_data):
 
     face = read_shell(shared_data / "cad" / "occtpr946__bug32596_abc_0_13.step").faces[11]
     assert g1_defects(face) < 1e-3
+
+
+def test_g1_defects_takes_the_worst_of_several_lines_inside_the_trim():
+    """Three patches in a row, bent by 10 and 25 degrees at u = 1 and u = 2 (the lines are checked in one
+    batch): the larger jump counts, and only while its line is inside the trim."""
+    from trimsurf.tessellate.repair import g1_defects
+
+    net = np.zeros((3, 1, 2, 2, 3))
+    a1, a2 = np.radians(10.0), np.radians(10.0 + 25.0)
+    for j in range(2):
+        p1 = np.array([1.0, j, 0.0])
+        p2 = p1 + [np.cos(a1), 0, np.sin(a1)]
+        net[0, 0, :, j] = [[0, j, 0], p1]
+        net[1, 0, :, j] = [p1, p2]
+        net[2, 0, :, j] = [p2, p2 + [np.cos(a2), 0, np.sin(a2)]]
+    pu, pv, ku, kv, cp, _ = bezier_grid_to_nurbs(net, [0, 1, 2, 3], [0, 1])
+    s = NurbsSurface(pu, pv, ku, kv, cp)
+    assert abs(g1_defects(TrimmedFace(s)) - 25.0) < 1e-3
+    left = TrimmedFace(s, (_loop((0.1, 0.1), (1.5, 0.1), (1.5, 0.9), (0.1, 0.9)),))     # only u = 1 inside
+    assert abs(g1_defects(left) - 10.0) < 1e-3
+    none = TrimmedFace(s, (_loop((0.1, 0.1), (0.9, 0.1), (0.9, 0.9), (0.1, 0.9)),))     # no line inside
+    assert g1_defects(none) == 0.0

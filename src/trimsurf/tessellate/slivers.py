@@ -46,7 +46,7 @@ def _min_angles_deg(P: np.ndarray) -> np.ndarray:
         cb = np.clip((a * a + c * c - b * b) / (2 * a * c), -1, 1)
         cc = np.clip((a * a + b * b - c * c) / (2 * a * b), -1, 1)
     ang = np.degrees(np.arccos(np.stack([ca, cb, cc], axis=1)))
-    return np.nan_to_num(ang, nan=0.0).min(axis=1)
+    return np.where(np.isnan(ang), 0.0, ang).min(axis=1)       # nan_to_num (arccos gives no inf)
 
 
 def _uv_area(uv: np.ndarray, T: np.ndarray) -> np.ndarray:
