@@ -144,59 +144,50 @@ def _side_segments_numpy(uv, us, vs, crossed):
 
 def _side_segments(uv: np.ndarray, us: np.ndarray, vs: np.ndarray, crossed: np.ndarray) -> np.ndarray:
     """The sides of the crossed cells as segments between consecutive vertices of `uv` lying exactly on a
-    grid line (k, 2) int64 (the order differs from `_side_segments_numpy`, the set is the same)."""
-    return _side_segments_kernel(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(us),
-                                 np.ascontiguousarray(vs), np.ascontiguousarray(crossed))
+    grid line (k, 2) int64 (the order differs from `_side_segments_numpy`, the set is the same): the
+    vertices on each line sorted by numpy, the pairs tested by a compiled loop."""
+    parts = []
+    for axis in (0, 1):
+        line_vals = vs if axis == 0 else us
+        cand = np.flatnonzero(_is_in(uv[:, 1 - axis], line_vals))
+        if len(cand) < 2:
+            continue
+        line_idx = np.searchsorted(line_vals, uv[cand, 1 - axis])
+        order = np.lexsort((uv[cand, axis], line_idx))
+        parts.append(_side_pairs_kernel(np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(us),
+                                        np.ascontiguousarray(vs), np.ascontiguousarray(crossed), axis,
+                                        np.ascontiguousarray(cand[order]), np.ascontiguousarray(line_idx[order])))
+    return np.concatenate(parts) if parts else np.zeros((0, 2), dtype=np.int64)
 
 
 @njit(cache=True, nogil=True)
-def _side_segments_kernel(uv, us, vs, crossed):
-    n = uv.shape[0]
+def _side_pairs_kernel(uv, us, vs, crossed, axis, cand, line):
+    """Of the vertices `cand` sorted along their grid lines `line`, the consecutive pairs that are a side
+    (or a piece of one) of a crossed cell."""
     nu, nv = us.shape[0], vs.shape[0]
-    out = np.empty((2 * n, 2), dtype=np.int64)
+    other_vals = us if axis == 0 else vs
+    out = np.empty((max(cand.shape[0] - 1, 0), 2), dtype=np.int64)
     cnt = 0
-    cand = np.empty(n, dtype=np.int64)
-    line = np.empty(n, dtype=np.int64)
-    for axis in range(2):
-        line_vals = vs if axis == 0 else us
-        other_vals = us if axis == 0 else vs
-        m = 0
-        for i in range(n):
-            x = uv[i, 1 - axis]
-            pos = np.searchsorted(line_vals, x)
-            if pos < line_vals.shape[0] and line_vals[pos] == x:
-                cand[m] = i
-                line[m] = pos
-                m += 1
-        if m < 2:
+    for t in range(cand.shape[0] - 1):
+        if line[t] != line[t + 1]:
             continue
-        key = np.empty(m)
-        for t in range(m):
-            key[t] = uv[cand[t], axis]
-        o1 = np.argsort(key, kind="mergesort")          # (line, value along it), ties in index order
-        li1 = line[:m][o1]
-        order = o1[np.argsort(li1, kind="mergesort")]
-        for t in range(m - 1):
-            ta, tb = order[t], order[t + 1]
-            if line[ta] != line[tb]:
-                continue
-            a, b = cand[ta], cand[tb]
-            li = line[ta]
-            ua, ub = uv[a, axis], uv[b, axis]
-            mid = 0.5 * (ua + ub)
-            col = min(max(np.searchsorted(other_vals, mid) - 1, 0), other_vals.shape[0] - 2)
-            if not (ua >= other_vals[col] and ub <= other_vals[col + 1] and ua < ub):
-                continue
-            if axis == 0:   # side between cells (col, li-1) and (col, li)
-                c1 = crossed[col, max(li - 1, 0)] if li > 0 else False
-                c2 = crossed[col, min(li, nv - 2)] if li < nv - 1 else False
-            else:
-                c1 = crossed[max(li - 1, 0), col] if li > 0 else False
-                c2 = crossed[min(li, nu - 2), col] if li < nu - 1 else False
-            if c1 or c2:
-                out[cnt, 0] = a
-                out[cnt, 1] = b
-                cnt += 1
+        a, b = cand[t], cand[t + 1]
+        li = line[t]
+        ua, ub = uv[a, axis], uv[b, axis]
+        mid = 0.5 * (ua + ub)
+        col = min(max(np.searchsorted(other_vals, mid) - 1, 0), other_vals.shape[0] - 2)
+        if not (ua >= other_vals[col] and ub <= other_vals[col + 1] and ua < ub):
+            continue
+        if axis == 0:   # side between cells (col, li-1) and (col, li)
+            c1 = crossed[col, max(li - 1, 0)] if li > 0 else False
+            c2 = crossed[col, min(li, nv - 2)] if li < nv - 1 else False
+        else:
+            c1 = crossed[max(li - 1, 0), col] if li > 0 else False
+            c2 = crossed[min(li, nu - 2), col] if li < nu - 1 else False
+        if c1 or c2:
+            out[cnt, 0] = a
+            out[cnt, 1] = b
+            cnt += 1
     return out[:cnt]
 
 
