@@ -118,3 +118,24 @@ def test_triangle_deviations_cache_equals_direct(t20):
     again = known.deviation(uv, xyz, np.r_[tris[::2], tris[:5, ::-1]])    # repeats and reversed rows
     assert np.array_equal(first, triangle_deviation(s, uv, xyz, tris))
     assert np.array_equal(again, triangle_deviation(s, uv, xyz, np.r_[tris[::2], tris[:5, ::-1]]))
+
+
+def test_triangle_deviation_shared_edge_midpoints_are_the_full_sampling():
+    """`triangle_deviation` measures the midpoint of an edge shared by two triangles once: the result is
+    the max over all seven samples of each triangle, bit for bit (defaults on the B-spline box: a grid
+    with trims, every inner edge shared)."""
+    from trimsurf.samples import build_sample
+    from trimsurf.tessellate import tessellate_shell
+    from trimsurf.tessellate.face import _BARY, surface_distance, triangle_deviation
+
+    shell = build_sample("bspline_box")
+    res = tessellate_shell(shell, measure=False)
+    n = 0
+    for fm, face in zip(res.face_meshes, shell.faces):
+        t = fm.triangles
+        tuv = np.einsum("bk,mkd->mbd", _BARY, fm.uv[t])
+        tx = np.einsum("bk,mkd->mbd", _BARY, fm.vertices[t])
+        full = surface_distance(face.surface, tuv.reshape(-1, 2), tx.reshape(-1, 3)).reshape(len(t), -1).max(axis=1)
+        assert np.array_equal(triangle_deviation(face.surface, fm.uv, fm.vertices, t), full)
+        n += len(t)
+    assert n > 1000
