@@ -167,6 +167,20 @@ class _State:
         # depends on its corners, its face and its corner (u, v) alone)
         self._flip = np.zeros(len(self.T), dtype=bool)
         self._dirty = np.ones(len(self.T), dtype=bool)
+        self.fid_list = self.fid.tolist()
+        self._rows = None                   # T as lists (`rows`), kept up to date by _check and flip_edges
+
+    def rows(self) -> list:
+        """The triangles as a list of [a, b, c] (T.tolist(), converted once, changed rows updated)."""
+        if self._rows is None:
+            self._rows = self.T.tolist()
+        return self._rows
+
+    def _set_rows(self, idx) -> None:
+        if self._rows is not None:
+            idx = np.asarray(idx, dtype=np.int64)
+            for k, r in zip(idx.tolist(), self.T[idx].tolist()):
+                self._rows[k] = r
 
     def seam(self):
         """Seam edges (k, 2) of the alive triangles."""
@@ -199,8 +213,8 @@ class _State:
         vstart = np.searchsorted(flat[order], np.arange(nv + 1))
         vtri = ia[order // 3].tolist()
         vstart = vstart.tolist()
-        Tl = T.tolist()
-        fl = fid.tolist()
+        Tl = self.rows()
+        fl = self.fid_list
         # the cheap tests of every candidate at once: v on the seam between two neighbours, u one of
         # them, v within chord_tol of the new seam chord (u, w)
         c = np.asarray([x for x in cands if x not in skip], dtype=np.int64).reshape(-1, 2)
@@ -316,6 +330,7 @@ class _State:
         apply = ok[ci]
         T[mi[apply]] = newt[apply]
         self._dirty[mi[apply]] = True
+        self._set_rows(mi[apply])
         self.dev[mi[apply]] = new_dev[apply]
         if new_uv is not None:
             self.cuv[mi[apply]] = new_uv[apply]
@@ -375,6 +390,7 @@ class _State:
                         he.pop((old[i], old[(i + 1) % 3]), None)
                 T[k], T[k2] = new[0], new[1]
                 self._dirty[[k, k2]] = True
+                self._set_rows([k, k2])
                 cuv[k], cuv[k2] = nuv[0], nuv[1]
                 self.dev[k], self.dev[k2] = ndev[0], ndev[1]
                 for kk, r in ((k, new[0].tolist()), (k2, new[1].tolist())):
