@@ -77,12 +77,12 @@ def _by_face(face_of: np.ndarray):
 
 def _per_face_dev(surfaces, face_of, uv3, x3):
     """max |S(uv(b)) - x(b)| over the centroid and edge midpoints of each triangle: one evaluation per face."""
-    out = np.empty(len(face_of))
+    pts = np.einsum("bj,rjk->rbk", _BARY, uv3)
+    ref = np.einsum("bj,rjk->rbk", _BARY, x3)
+    s = np.empty(ref.shape)
     for f, r in _by_face(face_of):
-        pts = np.einsum("bj,rjk->rbk", _BARY, uv3[r]).reshape(-1, 2)
-        ref = np.einsum("bj,rjk->rbk", _BARY, x3[r]).reshape(-1, 3)
-        out[r] = np.linalg.norm(surfaces[int(f)].evaluate(pts) - ref, axis=1).reshape(len(r), -1).max(axis=1)
-    return out
+        s[r] = surfaces[int(f)].evaluate(pts[r].reshape(-1, 2)).reshape(len(r), -1, 3)
+    return np.linalg.norm(s - ref, axis=2).max(axis=1) if len(face_of) else np.empty(0)
 
 
 def _against_normal(faces, face_of, uv3, tri_normals, bary=_ORIENT_BARY):
@@ -92,15 +92,18 @@ def _against_normal(faces, face_of, uv3, tri_normals, bary=_ORIENT_BARY):
     points where the surface normal is undefined (a pole) are skipped. One
     evaluation per face.
     """
-    bad = np.zeros(len(face_of), dtype=bool)
-    for f, r in _by_face(face_of):
-        pts = np.einsum("bj,rjk->rbk", bary, uv3[r]).reshape(-1, 2)
-        with np.errstate(all="ignore"):
-            ns = np.asarray(faces[int(f)].oriented_normals(pts), dtype=np.float64).reshape(len(r), -1, 3)
-            dot = np.einsum("rbk,rk->rb", ns, tri_normals[r])
-            valid = np.isfinite(dot) & (np.linalg.norm(ns, axis=2) > 0.5)
-        bad[r] = np.any(valid & ~(dot > 0), axis=1)
-    return bad
+    if not len(face_of):
+        return np.zeros(0, dtype=bool)
+    # the sample points and the tests of all triangles at once; the normals per face (its surface)
+    pts = np.einsum("bj,rjk->rbk", bary, uv3)
+    ns = np.empty(pts.shape[:2] + (3,))
+    with np.errstate(all="ignore"):
+        for f, r in _by_face(face_of):
+            ns[r] = np.asarray(faces[int(f)].oriented_normals(pts[r].reshape(-1, 2)),
+                               dtype=np.float64).reshape(len(r), -1, 3)
+        dot = np.einsum("rbk,rk->rb", ns, tri_normals)
+        valid = np.isfinite(dot) & (np.linalg.norm(ns, axis=2) > 0.5)
+    return np.any(valid & ~(dot > 0), axis=1)
 
 
 def _close(x, y) -> bool:
