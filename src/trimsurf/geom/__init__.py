@@ -10,36 +10,41 @@ from .nurbs import (basis_functions, curve_derivatives, curve_points, find_spans
 __all__ = ["find_spans", "basis_functions", "curve_points", "curve_derivatives", "surface_points",
            "surface_derivatives", "unit_normals", "first_fundamental_form"]
 
-from .predicates import (orient2d, points_in_polygons, polygon_signed_area, polyline_self_intersections,
-                         segment_intersections)
+# The other submodules load on first use (module ``__getattr__``): the reader server needs only the
+# B-spline evaluation above, and `predicates` pulls in scipy.spatial (~0.2-0.4 s); ``from trimsurf.geom
+# import X`` works as before.
+_LAZY = {
+    "predicates": ("orient2d", "points_in_polygons", "polygon_signed_area", "polyline_self_intersections",
+                   "segment_intersections"),
+    "bezier": ("bernstein", "bernstein_derivatives", "elevate_bezier", "bezier_curve_points",
+               "bezier_curve_derivatives", "bezier_patch_points", "bezier_patch_derivatives",
+               "monomial_to_bezier", "bezier_to_monomial"),
+    "knots": ("InsertionResult", "ElevationResult", "BezierSegments", "BezierPatches", "CurveData", "SurfaceData",
+              "insert_knot", "refine_knots", "elevate_degree", "bezier_extract", "bezier_extract_surface",
+              "bezier_curve_to_nurbs", "bezier_grid_to_nurbs"),
+    "triangular": ("triangle_indices", "bezier_triangle_points", "bezier_triangle_derivatives",
+                   "elevate_bezier_triangle"),
+    "projection": ("Projection", "CurveProjection", "project_to_surface", "project_to_curve"),
+    "whitney": ("WhitneyExtension", "whitney_extension", "lipschitz_constant"),
+}
+_HOME = {name: module for module, names in _LAZY.items() for name in names}
 
-__all__ += ["orient2d", "points_in_polygons", "polygon_signed_area", "polyline_self_intersections",
-            "segment_intersections"]
+for _names in _LAZY.values():
+    __all__ += list(_names)
+del _names
 
-from .bezier import (bernstein, bernstein_derivatives, bezier_curve_derivatives, bezier_curve_points,
-                     bezier_patch_derivatives, bezier_patch_points, bezier_to_monomial, elevate_bezier,
-                     monomial_to_bezier)
 
-__all__ += ["bernstein", "bernstein_derivatives", "elevate_bezier", "bezier_curve_points",
-            "bezier_curve_derivatives", "bezier_patch_points", "bezier_patch_derivatives",
-            "monomial_to_bezier", "bezier_to_monomial"]
+def __getattr__(name: str):
+    from importlib import import_module
+    if name in _HOME:
+        value = getattr(import_module(f".{_HOME[name]}", __name__), name)
+    elif name in _LAZY:
+        value = import_module(f".{name}", __name__)
+    else:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    globals()[name] = value
+    return value
 
-from .knots import (BezierPatches, BezierSegments, CurveData, ElevationResult, InsertionResult, SurfaceData,
-                    bezier_curve_to_nurbs, bezier_extract, bezier_extract_surface, bezier_grid_to_nurbs,
-                    elevate_degree, insert_knot, refine_knots)
 
-__all__ += ["InsertionResult", "ElevationResult", "BezierSegments", "BezierPatches", "CurveData", "SurfaceData",
-            "insert_knot", "refine_knots", "elevate_degree", "bezier_extract", "bezier_extract_surface",
-            "bezier_curve_to_nurbs", "bezier_grid_to_nurbs"]
-
-from .triangular import (bezier_triangle_derivatives, bezier_triangle_points, elevate_bezier_triangle,
-                         triangle_indices)
-
-__all__ += ["triangle_indices", "bezier_triangle_points", "bezier_triangle_derivatives",
-            "elevate_bezier_triangle"]
-
-from .projection import CurveProjection, Projection, project_to_curve, project_to_surface
-from .whitney import WhitneyExtension, lipschitz_constant, whitney_extension
-
-__all__ += ["Projection", "CurveProjection", "project_to_surface", "project_to_curve",
-            "WhitneyExtension", "whitney_extension", "lipschitz_constant"]
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_HOME) | set(_LAZY))

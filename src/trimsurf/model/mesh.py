@@ -5,9 +5,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import cached_property
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-from scipy import sparse
-from scipy.sparse import csgraph
+
+if TYPE_CHECKING:  # scipy loads on first use: the reader server (which builds no TriMesh) skips ~0.2 s
+    from scipy import sparse
 
 from ..errors import DegenerateError, MeshError, NonManifoldError
 from ._arrays import as_float_array, as_index_array
@@ -184,6 +187,8 @@ class TriMesh:
         b2 = np.where(start_same, c_end[h2], c_start[h2])
         rows = np.r_[a1, a2]
         cols = np.r_[b1, b2]
+        from scipy import sparse
+        from scipy.sparse import csgraph
         g = sparse.coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(3 * m, 3 * m))
         _, label = csgraph.connected_components(g, directed=False)
         n_labels = int(label.max()) + 1
@@ -226,6 +231,8 @@ class TriMesh:
         _, inv, _ = self._edge_index
         m = self.n_triangles
         tri_of_he = np.repeat(np.arange(m), 3)
+        from scipy import sparse
+        from scipy.sparse import csgraph
         g = sparse.coo_matrix((np.ones(3 * m), (tri_of_he, inv)), shape=(m, inv.max() + 1 if m else 0)).tocsr()
         adj = g @ g.T
         _, labels = csgraph.connected_components(adj, directed=False)
@@ -294,6 +301,7 @@ class TriMesh:
         e = self.edges()
         w = np.linalg.norm(self.vertices[e[:, 0]] - self.vertices[e[:, 1]], axis=1)
         n = self.n_vertices
+        from scipy import sparse
         a = sparse.coo_matrix((np.r_[w, w], (np.r_[e[:, 0], e[:, 1]], np.r_[e[:, 1], e[:, 0]])), shape=(n, n))
         return a.tocsr()
 
