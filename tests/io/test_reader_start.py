@@ -138,3 +138,36 @@ def test_an_early_server_whose_read_never_comes_is_stopped_with_the_command(gap_
     assert _servers_marked(marker) == []
     # and the command did not wait for the server's start to end it
     assert took < 30.0
+
+
+def test_the_reader_server_imports_no_scipy_and_no_version_lookup():
+    """What the server imports before forking (`_worker.serve`) leaves scipy's spatial and sparse parts out
+    (0.13 s CPU of its start), and the package's version is looked up on first use only. (Loading the
+    compiled kernels in the warm-up makes numba import scipy.linalg, and with it scipy.sparse.)"""
+    code = ("import sys, numpy, OCP.BRepBuilderAPI, OCP.STEPControl, OCP.IGESControl\n"
+            "from trimsurf.io import _brep, _iges, _step\n"
+            "from trimsurf.io._occ import _isolate, _worker\n"
+            "import trimsurf\n"
+            "print(sorted(m for m in ('scipy.spatial', 'scipy.sparse') if m in sys.modules))\n"
+            "_worker._warm_up()\n"
+            "print('scipy.spatial' in sys.modules, '__version__' in vars(trimsurf))\n")
+    out = subprocess.run([sys.executable, "-c", code], env=_env(), capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["[]", "False", "False"]
+
+
+def test_geom_names_load_on_first_use():
+    """``from trimsurf.geom import X`` works for every public name, lazily loaded or not."""
+    code = ("import sys, trimsurf.geom as g\n"
+            "assert 'trimsurf.geom.predicates' not in sys.modules\n"
+            "assert all(getattr(g, name) is not None for name in g.__all__)\n"
+            "from trimsurf.geom import orient2d, Projection, bezier_extract, whitney_extension\n"
+            "from trimsurf.geom import predicates\n"
+            "assert predicates.orient2d is orient2d and set(g.__all__) <= set(dir(g))\n"
+            "try:\n    g.no_such_name\nexcept AttributeError:\n    print('ok')\n")
+    out = subprocess.run([sys.executable, "-c", code], env=_env(), capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "ok"
+    import trimsurf
+
+    assert isinstance(trimsurf.__version__, str) and trimsurf.__version__
