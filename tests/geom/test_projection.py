@@ -475,3 +475,25 @@ def test_compiled_second_derivatives_are_the_general_kernels_numbers(pu, pv, see
         assert_array_equal(out[2][:, 0, 1], skl[1, 1])
         assert_array_equal(out[2][:, 1, 0], skl[1, 1])
         assert_array_equal(out[2][:, 1, 1], skl[0, 2])
+
+
+def test_nearest_seed_from_the_k_query_is_the_k1_query_ties_included():
+    # `_solve` takes the nearest seed from the retry's k-nearest query; where two seeds are equally near
+    # (duplicated seeds, as on a closed surface's seam, and points on a symmetry plane) it must still be
+    # the k = 1 query's choice, index for index
+    from scipy.spatial import cKDTree
+
+    from trimsurf.geom.projection import _nearest_seeds
+
+    rng = np.random.default_rng(5)
+    g = np.stack(np.meshgrid(np.arange(6.0), np.arange(5.0), np.arange(2.0), indexing="ij"), -1).reshape(-1, 3)
+    seeds = np.r_[g, g[:20]]                      # 20 seeds twice
+    tree = cKDTree(seeds)
+    pts = np.r_[rng.uniform(-1, 6, (3000, 3)), seeds[:20] + 0.01, g[:40] + [0.5, 0, 0], g[:40] + [0, 0.5, 0.5]]
+    d1, i1 = tree.query(pts, k=1)
+    d, i, dk, ik = _nearest_seeds(tree, pts, 8)
+    ties = dk[:, 1] == dk[:, 0]
+    assert ties.sum() >= 100                      # the tie rows are exercised
+    assert np.array_equal(i, i1) and np.array_equal(d, d1)
+    dq, iq = tree.query(pts, k=8)
+    assert np.array_equal(dk, dq) and np.array_equal(ik, iq)

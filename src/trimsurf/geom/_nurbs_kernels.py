@@ -501,8 +501,9 @@ def _eval_d2(pu, pv, ku, kv, pw, rational, u, v, ndu_u, ndu_v, a_u, a_v, l_u, r_
     dim = dimw - 1 if rational else dimw
     su = _span(pu, ku, nu_ctrl, u)
     sv = _span(pv, kv, nv_ctrl, v)
-    _ders_basis(su, u, pu, ku, 2, ndu_u, a_u, l_u, r_u, bu)
-    _ders_basis(sv, v, pv, kv, 2, ndu_v, a_v, l_v, r_v, bv)
+    nd = np.int64(2)  # not the literal 2: that would compile `_ders_basis` once more (cold cache)
+    _ders_basis(su, u, pu, ku, nd, ndu_u, a_u, l_u, r_u, bu)
+    _ders_basis(sv, v, pv, kv, nd, ndu_v, a_v, l_v, r_v, bv)
     for l in range(3):
         for r in range(pu + 1):
             for d in range(dimw):
@@ -572,11 +573,12 @@ def _box(brk, x):
 @njit(cache=True, nogil=True)
 def project_newton_kernel(pu, pv, ku, kv, pw, rational, pts, x, S0, D10, D20, lo, hi, brk_u, brk_v, tol, max_iter,
                           crossed0, crossed_up0, barrier, floor, max_halvings, obj_slack, noise,
-                          foot, conv, onb):
+                          foot, conv, onb, eval_start):
     """`projection._newton` for surfaces (d = 2), point by point: the same box-constrained Newton
     iteration (crease crossing, crease minima, saddle-free step, backtracking, Gauss-Newton after a
     failed line search, final polish). x (m, 2) is updated in place; foot, conv, onb are written.
-    Returns the largest number of iterations any point ran."""
+    The start state is S0, D10, D20 (m, ...) or, with ``eval_start``, `_eval_d2` at x (S0, D10, D20 then
+    unused). Returns the largest number of iterations any point ran."""
     ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, o = _d2_work(pu, pv, pw.shape[2])
     S = np.empty(3)
     D1 = np.empty((2, 3))
@@ -606,12 +608,16 @@ def project_newton_kernel(pu, pv, ku, kv, pw, rational, pts, x, S0, D10, D20, lo
     tiny_f = np.finfo(np.float64).tiny
     it_max = 0
     for i in range(pts.shape[0]):
-        for d in range(3):
-            S[d] = S0[i, d]
-            for a in range(2):
-                D1[a, d] = D10[i, a, d]
-                for b in range(2):
-                    D2[a, b, d] = D20[i, a, b, d]
+        if eval_start:
+            _eval_d2(pu, pv, ku, kv, pw, rational, x[i, 0], x[i, 1], ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
+                     bu, bv, tmp, skl, o, S, D1, D2)
+        else:
+            for d in range(3):
+                S[d] = S0[i, d]
+                for a in range(2):
+                    D1[a, d] = D10[i, a, d]
+                    for b in range(2):
+                        D2[a, b, d] = D20[i, a, b, d]
         for a in range(2):
             crossed[a] = crossed0[i, a]
             crossed_up[a] = crossed_up0[i, a]

@@ -44,7 +44,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..errors import GeometryError
-from ._nurbs_kernels import project_newton_kernel, surface_derivatives_kernel, surface_eval_d2_kernel
+from ._nurbs_kernels import project_newton_kernel, surface_derivatives_kernel
 from .nurbs import _homogeneous, curve_derivatives, read_only, surface_derivatives
 
 __all__ = ["Projection", "CurveProjection", "project_to_surface", "project_to_curve"]
@@ -358,6 +358,24 @@ def _workers(n_queries: int) -> int:
     return -1 if n_queries >= 20_000 else 1
 
 
+def _nearest_seeds(tree: cKDTree, pts: np.ndarray, k: int):
+    """Nearest seed (distance, index) of every point, and (k > 1) its k nearest (distances, indices).
+
+    The k nearest are asked once; their first column is the nearest seed wherever it is unique. A point
+    with an exact tie (e.g. at the coincident seeds of a closed surface's seam) asks ``k=1`` again, so
+    the nearest seed is the k = 1 query's, tie-breaking included.
+    """
+    if k == 1:
+        seed_dist, first = tree.query(pts, k=1, workers=_workers(len(pts)))
+        return seed_dist, first, None, None
+    sd_all, near_all = tree.query(pts, k=k, workers=_workers(len(pts)))
+    seed_dist, first = sd_all[:, 0].copy(), near_all[:, 0].copy()
+    tie = np.flatnonzero(sd_all[:, 1] == sd_all[:, 0])
+    if tie.size:
+        seed_dist[tie], first[tie] = tree.query(pts[tie], k=1)
+    return seed_dist, first, sd_all, near_all
+
+
 def _solve(pts, seeds: _Seeds, evaluate, newton, retry: bool, tol: float, breaks: list, start=None,
            first_derivatives=None):
     """Newton from `start` (warm) or the nearest seed, then (if `retry`) restarts that may do better.
@@ -366,15 +384,18 @@ def _solve(pts, seeds: _Seeds, evaluate, newton, retry: bool, tol: float, breaks
     sample (a run from that sample could not), is redone from the nearest seed. With
     `retry`, points farther than ``tol`` from the surface restart across the creases
     next to their foot (`_crease_starts`) and once from a far seed sample that may
-    hold a closer point (`_retry_seeds`); the closer result is kept. `first_derivatives` (optional):
+    hold a closer point (`_retry_seeds`); the closer result is kept. ``newton(p, x0, state, barrier)``
+    starts from ``state`` = (S, D1, D2) at x0, or with None evaluates them at x0 itself.
+    `first_derivatives` (optional):
     D1 alone at parameters, the same numbers as ``evaluate(x)[1]``, for the kink test of the creases.
     """
-    seed_dist, first = seeds.tree.query(pts, k=1, workers=_workers(len(pts)))
+    k = min(_N_CANDIDATES, seeds.params.shape[0]) if retry else 1
+    seed_dist, first, sd_all, near_all = _nearest_seeds(seeds.tree, pts, k)
     used = first.copy()
     if start is None:
         result = newton(pts, seeds.params[first], tuple(d[first] for d in seeds.ders))
     else:
-        result = newton(pts, start, evaluate(start))
+        result = newton(pts, start, None)
         redo = np.flatnonzero(~result.converged | (result.distance > seed_dist))
         used[:] = -1
         if redo.size:
@@ -394,14 +415,12 @@ def _solve(pts, seeds: _Seeds, evaluate, newton, retry: bool, tol: float, breaks
         if not kink.any():
             continue
         rows, x0, barrier = rows[kink], x0[kink], (barrier[0][kink], barrier[1][kink])
-        sub = newton(pts[rows], x0, evaluate(x0), barrier)
+        sub = newton(pts[rows], x0, None, barrier)
         result = _merge(result, sub, rows)
-    k = min(_N_CANDIDATES, seeds.params.shape[0])
     ask = np.flatnonzero(result.distance > tol)  # within tol of the surface nothing closer by tol exists
     if k == 1 or not ask.size:
         return result
-    sd, near = seeds.tree.query(pts[ask], k=k, workers=_workers(ask.size))
-    sd, near = sd.reshape(ask.size, k), near.reshape(ask.size, k)
+    sd, near = sd_all[ask], near_all[ask]
     idx, s = _retry_seeds(seeds, near, sd, result.params[ask], result.distance[ask], tol, used[ask])
     if idx.size:
         sub = newton(pts[ask[idx]], seeds.params[s], tuple(d[s] for d in seeds.ders))
@@ -631,14 +650,17 @@ def _newton_compiled(pts, x, state, surf, lo, hi, breaks, tol, max_iter, barrier
         crossed, crossed_up = np.full((n, 2), np.nan), np.zeros((n, 2), dtype=bool)
     else:
         crossed, crossed_up = np.ascontiguousarray(barrier[0], dtype=np.float64), np.ascontiguousarray(barrier[1])
-    S, D1, D2 = (np.ascontiguousarray(a, dtype=np.float64) for a in state)
+    if state is None:  # the kernel evaluates the start itself
+        S, D1, D2 = np.empty((0, 3)), np.empty((0, 2, 3)), np.empty((0, 2, 2, 3))
+    else:
+        S, D1, D2 = (np.ascontiguousarray(a, dtype=np.float64) for a in state)
     x = np.ascontiguousarray(x, dtype=np.float64)
     it = project_newton_kernel(int(pu), int(pv), read_only(ku), read_only(kv), pw, bool(rational),
                                np.ascontiguousarray(pts, dtype=np.float64), x, S, D1, D2,
                                np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64),
                                read_only(breaks[0]), read_only(breaks[1]), float(tol), int(max_iter),
                                crossed, crossed_up, barrier is not None, _FLOOR, _MAX_HALVINGS, _OBJ_SLACK,
-                               _NOISE * tol, foot, conv, onb)
+                               _NOISE * tol, foot, conv, onb, state is None)
     distance = np.linalg.norm(pts - foot, axis=1)
     return _Raw(x, foot, distance, conv, onb, int(it))
 
@@ -778,14 +800,10 @@ def project_to_surface(points, degree_u: int, degree_v: int, knots_u, knots_v, c
         pw = _homogeneous(cp, w)
         surf = (pu, pv, read_only(ku), read_only(kv), pw, w is not None)
 
-        def evaluate(uv):
-            uv = np.ascontiguousarray(uv, dtype=np.float64).reshape(-1, 2)
-            S, D1, D2 = np.empty((len(uv), 3)), np.empty((len(uv), 2, 3)), np.empty((len(uv), 2, 2, 3))
-            surface_eval_d2_kernel(*surf, uv, S, D1, D2)
-            return S, D1, D2
-    else:
-        def evaluate(uv):
-            return _surface_eval(args, uv)
+    def evaluate(uv):
+        # compiled: only the seed samples, once per surface (the Newton kernel evaluates its starts itself,
+        # `_eval_d2`: the same numbers as this)
+        return _surface_eval(args, uv)
 
     key = (pu, pv, ku.tobytes(), kv.tobytes(), cp.shape, cp.tobytes(), None if w is None else w.tobytes(),
            tuple(a.tobytes() for a in axes))
@@ -802,6 +820,8 @@ def project_to_surface(points, degree_u: int, degree_v: int, knots_u, knots_v, c
             return _newton_compiled(p, x0.copy(), state, surf, lo, hi, breaks, tol, max_iter, barrier)
     else:
         def newton(p, x0, state, barrier=None):
+            if state is None:
+                state = evaluate(x0)
             return _newton(p, x0.copy(), state, evaluate, lo, hi, breaks, tol, max_iter, barrier)
 
     if compiled:
@@ -909,6 +929,8 @@ def project_to_curve(points, degree: int, knots, control_points, weights=None, *
     breaks = [_breakpoints(kn, p)]
 
     def newton(pp, x0, state, barrier=None):
+        if state is None:
+            state = evaluate(x0)
         return _newton(pp, x0.copy(), state, evaluate, lo_, hi_, breaks, tol, max_iter, barrier)
 
     raw = _solve(pts, seeds, evaluate, newton, bool(retry), tol, breaks, start)
