@@ -608,10 +608,10 @@ def project_newton_kernel(pu, pv, ku, kv, pw, rational, pts, x, S0, D10, D20, lo
     tiny_f = np.finfo(np.float64).tiny
     it_max = 0
     for i in range(pts.shape[0]):
-        if eval_start:
-            _eval_d2(pu, pv, ku, kv, pw, rational, x[i, 0], x[i, 1], ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
-                     bu, bv, tmp, skl, o, S, D1, D2)
-        else:
+        # the state at x is evaluated at the loop's top (the start, after a crease crossing): one call site
+        # of `_eval_d2` for both (each site is compiled into this kernel again)
+        at_x = eval_start
+        if not eval_start:
             for d in range(3):
                 S[d] = S0[i, d]
                 for a in range(2):
@@ -629,7 +629,13 @@ def project_newton_kernel(pu, pv, ku, kv, pw, rational, pts, x, S0, D10, D20, lo
         onb[i] = False
         finished = False
         it = 0
-        while it < max_iter:
+        while True:
+            if at_x:
+                _eval_d2(pu, pv, ku, kv, pw, rational, x[i, 0], x[i, 1], ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v,
+                         r_v, bu, bv, tmp, skl, o, S, D1, D2)
+                at_x = False
+            if it >= max_iter:
+                break
             it += 1
             for d in range(3):
                 r[d] = S[d] - pts[i, d]
@@ -669,8 +675,7 @@ def project_newton_kernel(pu, pv, ku, kv, pw, rational, pts, x, S0, D10, D20, lo
                 crossed_x[0] = x[i, 0]
                 crossed_x[1] = x[i, 1]
                 gn = False
-                _eval_d2(pu, pv, ku, kv, pw, rational, x[i, 0], x[i, 1], ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
-                         bu, bv, tmp, skl, o, S, D1, D2)
+                at_x = True
                 continue
             done = True
             for a in range(2):
