@@ -44,7 +44,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..errors import GeometryError
-from ._nurbs_kernels import project_newton_kernel, surface_derivatives_kernel
+from ._nurbs_kernels import project_newton_kernel, surface_derivatives_kernel, surface_eval_d2_kernel
 from .nurbs import _homogeneous, curve_derivatives, read_only, surface_derivatives
 
 __all__ = ["Projection", "CurveProjection", "project_to_surface", "project_to_curve"]
@@ -800,10 +800,16 @@ def project_to_surface(points, degree_u: int, degree_v: int, knots_u, knots_v, c
         pw = _homogeneous(cp, w)
         surf = (pu, pv, read_only(ku), read_only(kv), pw, w is not None)
 
-    def evaluate(uv):
-        # compiled: only the seed samples, once per surface (the Newton kernel evaluates its starts itself,
-        # `_eval_d2`: the same numbers as this)
-        return _surface_eval(args, uv)
+        def evaluate(uv):
+            # only the seed samples, once per surface (the Newton kernel evaluates its starts itself); the
+            # same numbers as `_surface_eval`, 2-2.5x faster (on featuretype 4% of the measurement)
+            uv = np.ascontiguousarray(uv, dtype=np.float64).reshape(-1, 2)
+            S, D1, D2 = np.empty((len(uv), 3)), np.empty((len(uv), 2, 3)), np.empty((len(uv), 2, 2, 3))
+            surface_eval_d2_kernel(*surf, uv, S, D1, D2)
+            return S, D1, D2
+    else:
+        def evaluate(uv):
+            return _surface_eval(args, uv)
 
     key = (pu, pv, ku.tobytes(), kv.tobytes(), cp.shape, cp.tobytes(), None if w is None else w.tobytes(),
            tuple(a.tobytes() for a in axes))
