@@ -459,16 +459,15 @@ def test_compiled_newton_on_the_pole_roof_and_waves(wavy):
 def test_compiled_second_derivatives_are_the_general_kernels_numbers(pu, pv, seed):
     # the Newton kernel's evaluator repeats `surface_derivatives` (nd = 2) operation for operation: bit-identical,
     # rational and polynomial, at knots, domain corners and outside (clamped)
-    from trimsurf.geom._nurbs_kernels import surface_eval_d2_kernel
     from trimsurf.geom.nurbs import _homogeneous, read_only
+    from trimsurf.geom.projection import _surface_eval_compiled
     surf, uv = random_bspline(pu, pv, seed)
     knots_u = surf[2][pu:-pu]
     uv = np.concatenate([uv, [[0, -1], [4, 1], [0, 1], [-1, 2]], np.c_[knots_u, np.zeros(len(knots_u))]])
     for w in (surf[5], None):
         skl = surface_derivatives(*surf[:5], w, uv, n_derivs=2)
-        out = [np.empty((len(uv), 3)), np.empty((len(uv), 2, 3)), np.empty((len(uv), 2, 2, 3))]
-        surface_eval_d2_kernel(pu, pv, read_only(surf[2]), read_only(surf[3]), _homogeneous(surf[4], w), w is not None,
-                               uv, *out)
+        out = _surface_eval_compiled((pu, pv, read_only(surf[2]), read_only(surf[3]), _homogeneous(surf[4], w),
+                                      w is not None), uv)
         assert_array_equal(out[0], skl[0, 0])
         assert_array_equal(out[1], np.stack([skl[1, 0], skl[0, 1]], axis=1))
         assert_array_equal(out[2][:, 0, 0], skl[2, 0])

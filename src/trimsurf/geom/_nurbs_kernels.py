@@ -578,7 +578,9 @@ def project_newton_kernel(pu, pv, ku, kv, pw, rational, pts, x, S0, D10, D20, lo
     iteration (crease crossing, crease minima, saddle-free step, backtracking, Gauss-Newton after a
     failed line search, final polish). x (m, 2) is updated in place; foot, conv, onb are written.
     The start state is S0, D10, D20 (m, ...) or, with ``eval_start``, `_eval_d2` at x (S0, D10, D20 then
-    unused). Returns the largest number of iterations any point ran."""
+    unused). ``max_iter < 0`` with ``eval_start``: no iteration, S0, D10, D20 (and foot) receive the state at
+    x (the seed samples' evaluation, without a kernel of its own to compile). Returns the largest number
+    of iterations any point ran."""
     ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, o = _d2_work(pu, pv, pw.shape[2])
     S = np.empty(3)
     D1 = np.empty((2, 3))
@@ -765,16 +767,12 @@ def project_newton_kernel(pu, pv, ku, kv, pw, rational, pts, x, S0, D10, D20, lo
         if not finished:
             for d in range(3):
                 foot[i, d] = S[d]
+        if max_iter < 0:
+            for d in range(3):
+                S0[i, d] = S[d]
+                for a in range(2):
+                    D10[i, a, d] = D1[a, d]
+                    for b in range(2):
+                        D20[i, a, b, d] = D2[a, b, d]
         it_max = max(it_max, it)
     return it_max
-
-
-@njit(cache=True, nogil=True)
-def surface_eval_d2_kernel(pu, pv, ku, kv, pw, rational, uv, S, D1, D2):
-    """S (n, 3), D1 (n, 2, 3), D2 (n, 2, 2, 3) at uv (n, 2) clamped to the domain: the values of
-    `surface_derivatives_kernel` with nd = 2, in `projection._surface_eval`'s layout."""
-    ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, o = _d2_work(pu, pv, pw.shape[2])
-    for i in range(uv.shape[0]):
-        _eval_d2(pu, pv, ku, kv, pw, rational, uv[i, 0], uv[i, 1], ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu,
-                 bv, tmp, skl, o, S[i], D1[i], D2[i])
-
