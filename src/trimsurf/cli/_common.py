@@ -125,6 +125,22 @@ class _RichProgress:
         self._progress.update(self._task, advance=n, **kw)
 
 
+def kernels_cold() -> bool:
+    """Whether most compiled kernels of trimsurf loaded so far have no numba cache on disk yet: the first
+    run after an install compiles them (tens of seconds), later runs load them. (A kernel only ever
+    inlined into others has no cache of its own, hence "most".) False when unsure."""
+    n = missing = 0
+    for name, module in list(sys.modules.items()):
+        if not name.startswith("trimsurf.") or module is None:
+            continue
+        for obj in list(vars(module).values()):
+            index = getattr(getattr(getattr(obj, "_cache", None), "_cache_file", None), "_index_path", None)
+            if isinstance(index, str) and getattr(obj, "__module__", None) == name:
+                n += 1
+                missing += not Path(index).exists()
+    return n > 0 and 2 * missing > n
+
+
 @contextlib.contextmanager
 def progress(total: int, description: str) -> Iterator[_NoProgress | _RichProgress]:
     """A progress bar on stderr when stderr is a terminal; silent otherwise.
@@ -134,6 +150,9 @@ def progress(total: int, description: str) -> Iterator[_NoProgress | _RichProgre
     if not sys.stderr.isatty():
         yield _NoProgress()
         return
+    if kernels_cold():
+        print_warning("first run: compiling trimsurf's numerical kernels (once per install and version; "
+                      "about a minute on 2 cores)")
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
