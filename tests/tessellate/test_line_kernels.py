@@ -89,37 +89,3 @@ def test_chunk_values_and_iso_insertion_equal_numpy_path(t20):
                 assert got[2].sum() >= 2
                 n += 1
     assert n > 20
-
-
-def test_chunk_reduction_equals_numpy_path_on_shared_edges(shared_data, monkeypatch):
-    # the chunks a real shell makes (shared edges: two uses, seams), captured from tessellate_shell
-    from trimsurf.tessellate import shell as shell_mod, tessellate_shell, trims
-
-    shell = read_shell(shared_data / "cad" / "occt__screw.step")
-    d = shell.diagonal()
-    captured = []
-    real = trims.discretize_chunk
-
-    def capture(uses, **kw):
-        captured.append((uses, kw))
-        return real(uses, **kw)
-
-    monkeypatch.setattr(shell_mod, "discretize_chunk", capture)
-    tessellate_shell(shell, tolerance=1e-3 * d, max_edge=3e-2 * d, measure=False)
-    n_shared = n_changed = 0
-    for uses, kw in captured:
-        if kw.get("degenerate"):
-            continue
-        fam = trims._ChunkLines(uses)
-        tol = kw["tolerance"] * (trims.SHARED_CHORD if len(uses) > 1 else 1.0)
-        s = domain.adaptive_values(fam, 0.0, 1.0, tolerance=tol, max_edge=kw["max_edge"])
-        s, uvs, iso = _insert_iso_values(fam, uses, s)
-        if len(s) < 3:
-            continue
-        got = trims._reduce_chunk(fam, uses, s, [u.copy() for u in uvs], iso.copy(), tol, kw["max_edge"])
-        ref = trims._reduce_numpy(fam, uses, s, [u.copy() for u in uvs], iso.copy(), tol, kw["max_edge"])
-        assert np.array_equal(got[0], ref[0]) and np.array_equal(got[2], ref[2])
-        assert all(np.array_equal(g, r) for g, r in zip(got[1], ref[1]))
-        n_shared += len(uses) > 1
-        n_changed += len(got[0]) != len(s)
-    assert n_shared > 20 and n_changed > 10       # the reduction and the even spacing did work

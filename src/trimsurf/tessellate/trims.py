@@ -293,8 +293,14 @@ def discretize_chunk(uses: list, *, tolerance: float, max_edge: float, strategy:
         # trim keeps both as they were: its chords at the full tolerance, measured on the samples only,
         # reached 1.02 x tolerance on the hood sample's box sides, and loose mode's stitching matches
         # the two faces' own points (even spacing left 3 boundary edges off the bearing's free edges).
-        # (compiled: `_line_kernels.chunk_reduce_kernel`; `_reduce_numpy` is the same with numpy)
-        s_all, uvs, iso = _reduce_chunk(evaluate, uses, s_all, uvs, iso, chord_tol, max_edge)
+        # (numpy: a compiled version, `chunk_reduce_kernel` of 1ca5597, was 8% faster on the 34 runs of
+        # /work/wt/same_output.py but cost ~6 s CPU of numba compilation on a cold cache)
+        shared = len(uses) >= 2
+        must = _crossing_points(uses, uvs) if shared else iso.copy()
+        must[[0, -1]] = True
+        s_all, uvs, iso = _reduce(evaluate, s_all, uvs, must, chord_tol, max_edge, uses, flags=iso)
+        if shared:
+            s_all, uvs, iso = _even_spacing(evaluate, s_all, uvs, iso, chord_tol, max_edge, uses)
     xyz = np.mean([u.surface.evaluate(uv) for u, uv in zip(uses, uvs)], axis=0)
     if degenerate:
         xyz[:] = xyz.mean(axis=0)
@@ -427,29 +433,6 @@ def _grids(uses: list):
         grids[j, 0, :len(u.us)], grids[j, 1, :len(u.vs)] = u.us, u.vs
         gl[j] = len(u.us), len(u.vs)
     return grids, gl, np.array([float(u.param_tol) for u in uses])
-
-
-def _reduce_chunk(evaluate, uses: list, s, uvs, iso, tolerance, max_edge):
-    """The polygon reduction of a chunk (compiled); returns (s, uvs list, iso)."""
-    from ._line_kernels import chunk_reduce_kernel
-
-    grids, gl, ptol = _grids(uses)
-    s, uv, iso = chunk_reduce_kernel(*evaluate.family(), grids, gl, ptol, np.ascontiguousarray(s, dtype=np.float64),
-                                     np.ascontiguousarray(np.stack(uvs), dtype=np.float64),
-                                     np.ascontiguousarray(iso, dtype=np.bool_), float(tolerance), float(max_edge),
-                                     len(uses) >= 2)
-    return s, list(uv), iso
-
-
-def _reduce_numpy(evaluate, uses: list, s, uvs, iso, tolerance, max_edge):
-    """`_reduce_chunk` with numpy (the reference the compiled kernel is tested against)."""
-    shared = len(uses) >= 2
-    must = _crossing_points(uses, uvs) if shared else iso.copy()
-    must[[0, -1]] = True
-    s, uvs, iso = _reduce(evaluate, s, uvs, must, tolerance, max_edge, uses, flags=iso)
-    if shared:
-        s, uvs, iso = _even_spacing(evaluate, s, uvs, iso, tolerance, max_edge, uses)
-    return s, uvs, iso
 
 
 def _insert_iso_values(evaluate, uses: list, s: np.ndarray):
