@@ -41,7 +41,7 @@ DUMMY_CI = np.zeros((1, 18), dtype=np.int64)
 DUMMY_CF = np.zeros((1, 6))
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _linspace01(m):
     """np.linspace(0.0, 1.0, m)."""
     t = np.empty(m)
@@ -56,7 +56,7 @@ def _linspace01(m):
 # use; these plain loops give the same results on sorted, NaN-free input
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _ss_left(a, v):
     """np.searchsorted(a, v) (side="left")."""
     lo, hi = 0, a.shape[0]
@@ -69,7 +69,7 @@ def _ss_left(a, v):
     return lo
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _ss_right(a, v):
     """np.searchsorted(a, v, side="right")."""
     lo, hi = 0, a.shape[0]
@@ -82,7 +82,7 @@ def _ss_right(a, v):
     return lo
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _stable_order(x):
     """np.argsort(x, kind="stable") (insertion sort: the inputs are nearly sorted)."""
     n = x.shape[0]
@@ -98,7 +98,7 @@ def _stable_order(x):
     return order
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _unique(x):
     """np.unique(x)."""
     n = x.shape[0]
@@ -115,7 +115,7 @@ def _unique(x):
     return out[:k].copy()
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _nonzero(mask):
     """np.flatnonzero(mask)."""
     n = 0
@@ -130,7 +130,7 @@ def _nonzero(mask):
     return out
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _take(x, idx):
     out = np.empty(idx.shape[0], dtype=x.dtype)
     for i in range(idx.shape[0]):
@@ -138,7 +138,7 @@ def _take(x, idx):
     return out
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _raster_in(dil, rgeo, u, v):
     nr = dil.shape[0]
     i = int(np.rint((u - rgeo[0]) / rgeo[2]))
@@ -578,7 +578,7 @@ def _use_uv(ci, cf, ck, cpw, j, s, out):
         out[i, 1] = min(max(uv[1], cf[j, 4]), cf[j, 5])
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _snap1(v, grid, tol):
     """`trims._snap` of one value: (snapped, hit)."""
     n = grid.shape[0]
@@ -591,7 +591,7 @@ def _snap1(v, grid, tol):
     return v, False
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _sgn(x):
     if x > 0:
         return 1.0
@@ -651,7 +651,7 @@ def _refine_crossing(ci, cf, ck, cpw, j, axis, ptol, s, value, lo, hi):
     return s
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _grid(G, gl, j, axis):
     return G[j, axis, :gl[j, axis]]
 
