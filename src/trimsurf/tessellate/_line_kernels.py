@@ -384,7 +384,7 @@ def _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
     return _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _place(cum, x, a, b, n):
     """np.unique(v) of v = np.interp(np.linspace(0, cum[-1], n + 1), cum, x), v[0] = a, v[-1] = b."""
     total = cum[cum.shape[0] - 1]
