@@ -202,6 +202,19 @@ def _sign_certain(ax, ay, bx, by, cx, cy, bound):
 
 
 @njit(cache=True, nogil=True)
+def _may_cross(ax, ay, bx, by, cx, cy, dx, dy, bound):
+    """Whether segments ab and cd may meet: their boxes overlap and no sign certain in floating point
+    (`_sign_certain`) puts c and d, or a and b, strictly on one side of the other's line."""
+    if max(min(ax, bx), min(cx, dx)) > min(max(ax, bx), max(cx, dx)):
+        return False
+    if max(min(ay, by), min(cy, dy)) > min(max(ay, by), max(cy, dy)):
+        return False
+    if _sign_certain(cx, cy, dx, dy, ax, ay, bound) * _sign_certain(cx, cy, dx, dy, bx, by, bound) > 0:
+        return False
+    return _sign_certain(ax, ay, bx, by, cx, cy, bound) * _sign_certain(ax, ay, bx, by, dx, dy, bound) <= 0
+
+
+@njit(cache=True, nogil=True)
 def _segments_apart_kernel(a, b, closed, bound):
     """True when no two non-adjacent segments (a[i], b[i]) of a polyline can meet: every pair whose
     closed boxes overlap is apart by certain floating-point orientations (Shewchuk's bound). False
@@ -261,20 +274,8 @@ def _segments_apart_kernel(a, b, closed, bound):
                 lo, hi = min(i, j), max(i, j)
                 if hi - lo == 1 or (closed and lo == 0 and hi == n - 1):
                     continue
-                cx, cy, dx, dy = a[j, 0], a[j, 1], b[j, 0], b[j, 1]
-                if max(min(ax, bx), min(cx, dx)) > min(max(ax, bx), max(cx, dx)):
-                    continue
-                if max(min(ay, by), min(cy, dy)) > min(max(ay, by), max(cy, dy)):
-                    continue
-                s1 = _sign_certain(cx, cy, dx, dy, ax, ay, bound)
-                s2 = _sign_certain(cx, cy, dx, dy, bx, by, bound)
-                if s1 * s2 > 0:
-                    continue
-                s3 = _sign_certain(ax, ay, bx, by, cx, cy, bound)
-                s4 = _sign_certain(ax, ay, bx, by, dx, dy, bound)
-                if s3 * s4 > 0:
-                    continue
-                return False
+                if _may_cross(ax, ay, bx, by, a[j, 0], a[j, 1], b[j, 0], b[j, 1], bound):
+                    return False
     return True
 
 

@@ -25,7 +25,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from ..errors import TrimLoopError
-from ..geom.predicates import _CCW_BOUND, orient2d
+from ..geom.predicates import _CCW_BOUND, _may_cross, orient2d
 
 __all__ = ["clean_pslg", "crossing_segments"]
 
@@ -284,16 +284,6 @@ def _bucket_range(lo, hi, x0, h, g):
 
 
 @njit(cache=True, nogil=True)
-def _certain_sign(ax, ay, bx, by, cx, cy, bound):
-    left = (ax - cx) * (by - cy)
-    right = (ay - cy) * (bx - cx)
-    det = left - right
-    if abs(det) <= bound * (abs(left) + abs(right)):
-        return 0
-    return 1 if det > 0 else -1
-
-
-@njit(cache=True, nogil=True)
 def _is_clean_kernel(q, seg, eps, bound):
     n, m = q.shape[0], seg.shape[0]
     r = 2.0 * eps
@@ -395,18 +385,6 @@ def _is_clean_kernel(q, seg, eps, bound):
                 cc, d = seg[l, 0], seg[l, 1]
                 if cc == a or cc == b or d == a or d == b:
                     continue
-                cx, cy, dx, dy = q[cc, 0], q[cc, 1], q[d, 0], q[d, 1]
-                if max(min(ax, bx), min(cx, dx)) > min(max(ax, bx), max(cx, dx)):
-                    continue
-                if max(min(ay, by), min(cy, dy)) > min(max(ay, by), max(cy, dy)):
-                    continue
-                s1 = _certain_sign(ax, ay, bx, by, cx, cy, bound)
-                s2 = _certain_sign(ax, ay, bx, by, dx, dy, bound)
-                if s1 * s2 > 0:
-                    continue
-                s3 = _certain_sign(cx, cy, dx, dy, ax, ay, bound)
-                s4 = _certain_sign(cx, cy, dx, dy, bx, by, bound)
-                if s3 * s4 > 0:
-                    continue
-                return False
+                if _may_cross(ax, ay, bx, by, q[cc, 0], q[cc, 1], q[d, 0], q[d, 1], bound):
+                    return False
     return True
