@@ -205,6 +205,20 @@ def grid_closest_kernel(q, a, b, c, lo_box, hi_box, origin, h, dims, start, item
 
 
 @njit(cache=True, nogil=True)
+def hint_closest_kernel(q, a, b, c, tri, best_d, best_t, best_p, best_w):
+    """best_* of every query q[n] on its hinted triangle tri[n] (`_tri_closest`, the numbers
+    `grid_closest_kernel` computes for that pair): an upper bound it starts from."""
+    out = np.empty(6)
+    for n in range(q.shape[0]):
+        t = tri[n]
+        best_d[n] = _tri_closest(q[n, 0], q[n, 1], q[n, 2], a[t], b[t], c[t], out)
+        best_t[n] = t
+        for x in range(3):
+            best_p[n, x] = out[x]
+            best_w[n, x] = out[3 + x]
+
+
+@njit(cache=True, nogil=True)
 def segments_distance_kernel(p, a, b, out):
     """out[i] = distance from p[i] (2D) to the nearest segment a[j]-b[j] (`sampling.distance_outside_face`'s
     numpy expression per pair: t clipped to [0, 1], den floored at the smallest normal double)."""

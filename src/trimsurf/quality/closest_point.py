@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import InputError, MeshError
 from ..model import TriMesh
-from ._kernels import grid_build_kernel, grid_closest_kernel
+from ._kernels import grid_build_kernel, grid_closest_kernel, hint_closest_kernel
 from ._results import ResultMixin
 
 __all__ = ["point_triangle_closest", "point_segment_closest", "closest_points_on_mesh", "ClosestPoints"]
@@ -253,7 +253,11 @@ def closest_points_on_mesh(points, mesh: TriMesh) -> ClosestPoints:
     return _closest(q, loc)
 
 
-def _closest(q: np.ndarray, loc: _TriangleLocator) -> ClosestPoints:
+def _closest(q: np.ndarray, loc: _TriangleLocator, hint: np.ndarray | None = None) -> ClosestPoints:
+    """Exact closest points of `q` on `loc`'s triangles. `hint` (n,) int: a triangle near each query (e.g.
+    the one whose footprint it samples); the search starts from its distance as the bound to beat, which
+    prunes the cells and triangles farther than that. The distances are the same (the exact minimum over
+    the triangles); where two triangles are equally near, the one reported may differ."""
     n = len(q)
     best_d = np.full(n, np.inf)
     best_t = np.zeros(n, dtype=np.int64)
@@ -262,6 +266,9 @@ def _closest(q: np.ndarray, loc: _TriangleLocator) -> ClosestPoints:
     if n == 0:
         return ClosestPoints(best_d, best_t, best_p, best_w)
     q = np.ascontiguousarray(q, dtype=np.float64)
+    if hint is not None:
+        hint_closest_kernel(q, loc.a, loc.b, loc.c, np.ascontiguousarray(hint, dtype=np.int64), best_d, best_t,
+                            best_p, best_w)
     lo, hi, origin, h, dims, start, items = loc.grid
     grid_closest_kernel(q, loc.a, loc.b, loc.c, lo, hi, origin, h, dims, start, items, best_d, best_t, best_p,
                         best_w)

@@ -759,7 +759,7 @@ def _sample_surface_side(st, ok, tri, w, mx2, where2, n2):
     if st.loc is None or not np.all(np.isfinite(q)):
         near = closest_points_on_mesh(q, st.mesh).distance
     else:
-        near = _closest(q, st.loc).distance
+        near = _closest(q, st.loc, hint=rows2).distance     # the footprint's own triangle bounds the search
     d2 = np.where(inside, near, 0.0)
     d2 = _drop_outside(st.face, uv, d2, cache=st.fine)
     per = d2.reshape(len(tri2), nw).max(axis=1)
