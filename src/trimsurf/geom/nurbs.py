@@ -25,6 +25,9 @@ __all__ = ["find_spans", "basis_functions", "curve_derivatives", "curve_points",
            "surface_points", "unit_normals", "first_fundamental_form"]
 
 _CHUNK = 1 << 15  # points per evaluation chunk: bounds the (n, p+1, q+1, 4) gather to a few MB
+# the clip ufunc itself: np.clip's Python wrappers cost more than the clip of the few parameters a
+# p-curve sample has (thousands of calls per shell); same ufunc, same values
+_clip = getattr(getattr(getattr(np, "_core", None), "umath", None), "clip", np.clip)
 
 
 def _as_params(t, name: str, cols: int | None) -> np.ndarray:
@@ -60,7 +63,7 @@ def find_spans(degree: int, knots: np.ndarray, t: np.ndarray) -> np.ndarray:
     knots = np.asarray(knots, dtype=np.float64)
     n_ctrl = knots.shape[0] - degree - 1
     spans = np.searchsorted(knots, t, side="right") - 1
-    np.clip(spans, degree, n_ctrl - 1, out=spans)
+    _clip(spans, degree, n_ctrl - 1, out=spans)
     # at the domain end, step back over empty spans (repeated end knots)
     end = knots[n_ctrl]
     at_end = t >= end
@@ -127,7 +130,7 @@ def _homogeneous(control_points: np.ndarray, weights: np.ndarray | None) -> np.n
 
 
 def _clamp(t: np.ndarray, knots: np.ndarray, degree: int) -> np.ndarray:
-    return np.clip(t, knots[degree], knots[-degree - 1])
+    return _clip(t, knots[degree], knots[-degree - 1])
 
 
 def curve_derivatives(degree: int, knots, control_points, weights, t, *, n_derivs: int = 0) -> np.ndarray:

@@ -228,6 +228,8 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
 
     us, vs = place(tolerance)
     cache = _CellCache(s)
+    if polys is not None:       # refine_cells and _worst_cell_ratio index the same trim polygons
+        cache.seed(face, polys)
     if strategy == "uniform":
         return refine_cells(face, us, vs, tolerance=tolerance, max_edge=max_edge, cache=cache)
     # iso-lines within the tolerance still leave cells whose triangles deviate more (curvature in both
@@ -499,6 +501,12 @@ class _CellCache:
         if self._loops is None or self._loops[0] is not face:
             self._loops = (face, PolygonIndex(_loop_polys(face)))
         return self._loops[1]
+
+    def seed(self, face, polys):
+        """Take `polys` (the face's `_loop_polys`) as both the loop index and the polygon index."""
+        index = PolygonIndex(polys)
+        self._loops = (face, index)
+        self._index = (polys, index)
 
     def polygon_index(self, polys):
         """`PolygonIndex` of the polygons `polys` (the same list object asked again: built once)."""

@@ -220,11 +220,12 @@ def repair_face(face: TrimmedFace, *, tolerance: float, g1_angle_deg: float = 1.
     loops, filled, status = [], [], "ok"
     for li, loop in enumerate(face.loops):
         segs = list(loop.segments)
+        # each segment's start and end in one evaluation (the same points as .start / .end)
+        ends = [sg.curve.evaluate([sg.t0, sg.t1]) for sg in segs]
         out: list[PCurve] = []
         for si, seg in enumerate(segs):
             out.append(seg)
-            nxt = segs[(si + 1) % len(segs)]
-            a, b = seg.end, nxt.start
+            a, b = ends[si][1], ends[(si + 1) % len(segs)][0]
             gap_uv = float(np.linalg.norm(b - a))
             if gap_uv <= 1e-9 * max(u1 - u0, v1 - v0):
                 continue
