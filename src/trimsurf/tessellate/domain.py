@@ -34,6 +34,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import InputError
+from ..geom.nurbs import _clip
 
 __all__ = ["adaptive_values", "interval_criteria", "STRATEGIES"]
 
@@ -47,6 +48,25 @@ _MAX_ROUNDS = 12    # checking / bisection rounds
 #: them: the checks cost about 170 bytes per value and line, so a tolerance or grid size far too small
 #: for the face could take gigabytes (a backstop: the CLI refuses from an estimate first)
 MAX_VALUES = 20000
+
+
+def unique_values(x: np.ndarray) -> np.ndarray:
+    """np.unique of a float array (its sort path, the same array) without the wrappers' cost, which
+    dominates on the few values of a line placement (thousands of calls per shell).
+
+    >>> unique_values(np.array([2.0, 0.5, 2.0, 1.0]))
+    array([0.5, 1. , 2. ])
+    """
+    x = np.sort(x, axis=None)
+    keep = np.empty(x.shape, dtype=bool)
+    keep[:1] = True
+    np.not_equal(x[1:], x[:-1], out=keep[1:])
+    return x[keep]
+
+
+def _clipped_values(a: float, init: np.ndarray, b: float) -> np.ndarray:
+    """np.unique(np.clip(np.r_[a, init, b], a, b)) (the same array)."""
+    return unique_values(_clip(np.concatenate(([a], init, [b])).astype(np.float64, copy=False), a, b))
 
 
 def interval_criteria(evaluate: LineFamily, x: np.ndarray, *, n_sub: int = _N_SUB,
@@ -161,7 +181,7 @@ def _bisection(evaluate: LineFamily, a: float, b: float, tolerance: float, max_e
 def _equidistributed(evaluate: LineFamily, a: float, b: float, tolerance: float, max_edge: float,
                      init: np.ndarray, weights_fn=None, max_values: int = MAX_VALUES) -> np.ndarray:
     # fine sampling: split intervals until each is well below both criteria
-    x = np.unique(np.clip(np.r_[a, init, b], a, b))
+    x = _clipped_values(a, init, b)
     w = None if weights_fn is None else weights_fn(x)
     length, dev = interval_criteria(evaluate, x, n_sub=3, weights=w)
     for _ in range(8):
@@ -297,7 +317,7 @@ def adaptive_values(evaluate: LineFamily, a: float, b: float, *, tolerance: floa
         # a compiled family: the whole placement in one compiled call (the same numbers)
         from ._line_kernels import equidistributed_kernel
 
-        x0 = np.unique(np.clip(np.r_[a, init, b], a, b))
+        x0 = _clipped_values(a, init, b)
         x, needed = equidistributed_kernel(*evaluate.family(), x0, a, b, float(tolerance), float(max_edge),
                                            float(max_values))
         if needed >= 0:

@@ -9,7 +9,7 @@ import numpy as np
 from ..errors import InputError, TrimLoopError
 from ..geom.predicates import PolygonIndex, points_in_polygons
 from ..model import TriMesh, TrimmedFace
-from .domain import MAX_VALUES, adaptive_values
+from .domain import MAX_VALUES, adaptive_values, unique_values
 from .grid import triangulate_domain
 from .repair import remove_polygon_loops, repair_face
 from .slivers import collapse_boundary_slivers
@@ -130,7 +130,7 @@ class IsoLines:
         if self.raster is None:
             return np.ones((len(x) - 1, len(self.lines)), dtype=bool)
         axis, other = self.axis, self.lines
-        xm = np.r_[x, 0.5 * (x[:-1] + x[1:])]
+        xm = np.concatenate((x, 0.5 * (x[:-1] + x[1:])))
         uv = np.empty((len(xm), len(other), 2))
         uv[..., axis] = xm[:, None]
         uv[..., 1 - axis] = other[None, :]
@@ -169,7 +169,7 @@ class IsoLines:
 
 
 def _knots_in(knots: np.ndarray, a: float, b: float) -> np.ndarray:
-    k = np.unique(knots)
+    k = unique_values(knots)
     return k[(k > a) & (k < b)]
 
 
@@ -200,7 +200,7 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
     for axis in (0, 1):
         o = 1 - axis
         knots_o = s.knots_v if axis == 0 else s.knots_u
-        lines[axis] = np.unique(np.r_[np.linspace(lo[o], hi[o], n_lines), _knots_in(knots_o, lo[o], hi[o])])
+        lines[axis] = unique_values(np.concatenate((np.linspace(lo[o], hi[o], n_lines), _knots_in(knots_o, lo[o], hi[o]))))
 
     def place(line_tol: float, edge: float = max_edge):
         out = []
@@ -212,7 +212,7 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
 
             evaluate = IsoLines(s, axis, other, raster)
             weights_fn = None if raster is None else evaluate.weights
-            init = np.unique(np.r_[np.linspace(lo[axis], hi[axis], 17), _knots_in(knots, lo[axis], hi[axis])])
+            init = unique_values(np.concatenate((np.linspace(lo[axis], hi[axis], 17), _knots_in(knots, lo[axis], hi[axis]))))
             # grid size max_edge / sqrt(2): the cell diagonals (triangle edges) stay within max_edge
             try:
                 out.append(adaptive_values(evaluate, lo[axis], hi[axis], tolerance=line_tol,
@@ -547,8 +547,8 @@ class _CellCache:
             self.p = np.concatenate([self.p, p])
             self.d = np.concatenate([self.d, d])
             self.dev = np.concatenate([self.dev, np.full((len(new), 2), np.nan)])
-            codes = np.r_[self.codes, code[new]]
-            allrows = np.r_[self.rows, rows[new]]
+            codes = np.concatenate((self.codes, code[new]))
+            allrows = np.concatenate((self.rows, rows[new]))
             order = np.argsort(codes, kind="stable")
             self.codes, self.rows = codes[order], allrows[order]
         return rows

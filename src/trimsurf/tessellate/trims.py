@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..model import NurbsSurface, PCurve
-from .domain import adaptive_values, interval_criteria
+from .domain import adaptive_values, interval_criteria, unique_values
 
 __all__ = ["ChunkUse", "Chunk", "discretize_chunk", "iso_crossings", "SHARED_CHORD"]
 
@@ -221,6 +221,10 @@ def _evaluator(uses: list):
     return _ChunkLines(uses)
 
 
+_S9, _S33 = np.linspace(0.0, 1.0, 9), np.linspace(0.0, 1.0, 33)     # the start samples of every chunk
+_S9.flags.writeable = _S33.flags.writeable = False
+
+
 def discretize_chunk(uses: list, *, tolerance: float, max_edge: float, strategy: str = "equidistributed",
                      reduce: bool = True, degenerate: bool | None = None) -> Chunk:
     """Sample a boundary curve to the 3D criteria on every use, insert every use's iso-values, reduce.
@@ -247,9 +251,9 @@ def discretize_chunk(uses: list, *, tolerance: float, max_edge: float, strategy:
     chord_tol = tolerance if len(uses) < 2 else SHARED_CHORD * tolerance
     knots = uses[0].pcurve.curve.knots
     lo, hi = sorted((uses[0].pcurve.t0, uses[0].pcurve.t1))
-    kn = (np.unique(knots[(knots > lo) & (knots < hi)]) - lo) / (hi - lo)
-    init = np.unique(np.r_[np.linspace(0.0, 1.0, 9), kn])
-    probe = evaluate(np.linspace(0.0, 1.0, 33))
+    kn = (unique_values(knots[(knots > lo) & (knots < hi)]) - lo) / (hi - lo)
+    init = unique_values(np.concatenate((_S9, kn)))
+    probe = evaluate(_S33)
     extent = float(np.linalg.norm(probe - probe[:1], axis=-1).max())
     if degenerate is None:
         degenerate = extent <= 1e-3 * tolerance
