@@ -51,7 +51,20 @@ class PCurve:
 
     def parameters(self, n: int) -> np.ndarray:
         """n equally spaced parameters from t0 to t1 (in loop direction)."""
-        return np.linspace(self.t0, self.t1, int(n))
+        n = int(n)
+        if n < 2:
+            return np.linspace(self.t0, self.t1, n)
+        # np.linspace's arithmetic (arange * step + start, the end exact) without its wrappers
+        step = (self.t1 - self.t0) / (n - 1)
+        y = np.arange(n, dtype=np.float64)
+        if step == 0.0:             # as np.linspace for a subnormal step
+            y /= n - 1
+            y *= self.t1 - self.t0
+        else:
+            y *= step
+        y += self.t0
+        y[-1] = self.t1
+        return y
 
     def evaluate(self, t) -> np.ndarray:
         """Points p(t) in (u, v), shape (n, 2)."""

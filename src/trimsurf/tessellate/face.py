@@ -417,14 +417,19 @@ def _cell_split(surface, us, vs, ki, kj, tolerance: float | None = None, prefer_
     return (main, dev) + _cell_lengths(p, main)
 
 
+_LEN_A, _LEN_B = np.array([0, 1, 0, 3, 0, 1]), np.array([2, 3, 1, 2, 3, 2])   # corners of the 2 diagonals, 4 sides
+
+
 def _cell_lengths(p: np.ndarray, main: np.ndarray) -> tuple[np.ndarray, ...]:
     """Of cells with corners `p` (k, 4, 3): the split's diagonal, the longer diagonal, the longer u and v sides."""
-    d02 = np.linalg.norm(p[:, 2] - p[:, 0], axis=1)
-    d13 = np.linalg.norm(p[:, 3] - p[:, 1], axis=1)
+    # the six lengths in one pass, as np.linalg.norm(..., axis=1) computes each: sqrt of the summed squares
+    q = p[:, _LEN_B] - p[:, _LEN_A]
+    n = np.sqrt(np.add.reduce(q * q, axis=2))
+    d02, d13 = n[:, 0], n[:, 1]
     diag = np.where(main, d02, d13)
     diag_max = np.maximum(d02, d13)
-    side_u = np.maximum(np.linalg.norm(p[:, 1] - p[:, 0], axis=1), np.linalg.norm(p[:, 2] - p[:, 3], axis=1))
-    side_v = np.maximum(np.linalg.norm(p[:, 3] - p[:, 0], axis=1), np.linalg.norm(p[:, 2] - p[:, 1], axis=1))
+    side_u = np.maximum(n[:, 2], n[:, 3])
+    side_v = np.maximum(n[:, 4], n[:, 5])
     return diag, diag_max, side_u, side_v
 
 
