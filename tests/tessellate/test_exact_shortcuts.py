@@ -34,3 +34,15 @@ def test_unique_values_and_clipped_values_are_np_unique_bit_for_bit():
         want = np.unique(np.clip(np.r_[a, x, b], a, b))
         assert np.array_equal(_bits(_clipped_values(a, x, b)), _bits(want))
         assert np.array_equal(_bits(_clip(x, a, b)), _bits(np.clip(x, a, b)))
+
+
+def test_loop_polylines_are_each_polyline_bit_for_bit():
+    from trimsurf.model import Loop
+
+    w = np.sqrt(0.5)
+    quarter = NurbsCurve(2, [0, 0, 0, 1, 1, 1], np.array([[1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]),
+                         np.array([1.0, w, 1.0]))
+    back = NurbsCurve(1, [0, 0, 1, 1], np.array([[0.0, 1.0], [1.0, 0.0]]))
+    loop = Loop((PCurve(quarter, 0.1, 0.93), PCurve(back, 0.0, 1.0)))
+    for got, n in zip(loop.polylines(32, 6, 7), (32, 6, 7)):
+        assert np.array_equal(_bits(got), _bits(loop.polyline(n)))

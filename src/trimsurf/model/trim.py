@@ -109,6 +109,18 @@ class Loop:
         parts = [s.evaluate(s.parameters(n_per_segment))[:-1] for s in self.segments]
         return np.concatenate(parts, axis=0)
 
+    def polylines(self, *n_per_segment: int) -> tuple[np.ndarray, ...]:
+        """`polyline(n)` for each n, every segment evaluated once for all of them (the same points)."""
+        parts: list[list[np.ndarray]] = [[] for _ in n_per_segment]
+        for s in self.segments:
+            ts = [s.parameters(n) for n in n_per_segment]
+            p = s.evaluate(np.concatenate(ts))
+            o = 0
+            for part, t in zip(parts, ts):
+                part.append(p[o:o + len(t) - 1])
+                o += len(t)
+        return tuple(np.concatenate(part, axis=0) for part in parts)
+
     def signed_area(self, n_per_segment: int = 32) -> float:
         """Signed area of the sampled loop in (u, v): > 0 counter-clockwise."""
         p = self.polyline(n_per_segment)

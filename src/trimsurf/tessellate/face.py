@@ -58,12 +58,13 @@ def _loop_polys(face: TrimmedFace, n: int = 6) -> list:
     return [loop.polyline(n) for loop in face.loops]
 
 
-def grid_box(face: TrimmedFace) -> tuple[np.ndarray, np.ndarray]:
-    """The (u, v) box the grid covers: the outer loop's box within the surface domain."""
+def grid_box(face: TrimmedFace, polys: list | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The (u, v) box the grid covers: the outer loop's box within the surface domain (`polys`: the
+    loops' `polyline(32)` when the caller has them)."""
     (u0, u1), (v0, v1) = face.surface.domain
     lo, hi = np.array([u0, v0]), np.array([u1, v1])
     if face.loops:
-        p = np.concatenate([loop.polyline(32) for loop in face.loops])
+        p = np.concatenate(polys if polys is not None else [loop.polyline(32) for loop in face.loops])
         lo = np.maximum(lo, p.min(axis=0))
         hi = np.minimum(hi, p.max(axis=0))
         if not np.all(hi > lo):
@@ -193,8 +194,11 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
     us, vs : increasing float64 arrays, from the grid box's lower to upper corner.
     """
     s = face.surface
-    lo, hi = grid_box(face)
-    polys = _loop_polys(face) if face.loops else None
+    # the loops sampled for the grid box (32 per segment) and as trim polygons (`_loop_polys`, 6) at once
+    box_polys, polys = None, None
+    if face.loops:
+        box_polys, polys = (list(q) for q in zip(*(loop.polylines(32, 6) for loop in face.loops)))
+    lo, hi = grid_box(face, box_polys)
     raster = None if polys is None else _inside_raster(polys, lo, hi)
     lines = {}
     for axis in (0, 1):
