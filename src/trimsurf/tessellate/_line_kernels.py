@@ -53,7 +53,8 @@ def _linspace01(m):
 
 
 # numba's np.searchsorted / np.unique / np.argsort / boolean indexing cost seconds of compile time per
-# use; these plain loops give the same results on sorted, NaN-free input
+# use; these plain loops give the same results on sorted, NaN-free input. Slice assignment (a[:n] = b[:n])
+# too: its shape-mismatch error path compiles numba's str/repr machinery (~1.2 s CPU cold), so copies are loops
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
@@ -721,7 +722,8 @@ def chunk_iso_kernel(ci, cf, ck, cpw, G, gl, ptol, s):
                     if abs(s_all[k] - sc[q]) > 1e-13:
                         if n_ex == ex.shape[0]:
                             ex2 = np.empty(2 * n_ex + 8)
-                            ex2[:n_ex] = ex[:n_ex]
+                            for e in range(n_ex):
+                                ex2[e] = ex[e]
                             ex = ex2
                         ex[n_ex] = sc[q]
                         n_ex += 1
@@ -729,15 +731,18 @@ def chunk_iso_kernel(ci, cf, ck, cpw, G, gl, ptol, s):
                             cap *= 2
                             a1, a2 = np.empty(cap), np.empty(cap)
                             a3, a4 = np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64)
-                            a1[:nf], a2[:nf], a3[:nf], a4[:nf] = f_sc[:nf], f_val[:nf], f_ui[:nf], f_ax[:nf]
+                            for e in range(nf):
+                                a1[e], a2[e], a3[e], a4[e] = f_sc[e], f_val[e], f_ui[e], f_ax[e]
                             f_sc, f_val, f_ui, f_ax = a1, a2, a3, a4
                         f_sc[nf], f_val[nf], f_ui[nf], f_ax[nf] = sc[q], val[q], ui, axis
                         nf += 1
         if n_ex == 0:
             break
         merged = np.empty(k_all + n_ex)
-        merged[:k_all] = s_all
-        merged[k_all:] = ex[:n_ex]
+        for e in range(k_all):
+            merged[e] = s_all[e]
+        for e in range(n_ex):
+            merged[k_all + e] = ex[e]
         s_all = _unique(merged)
     # drop near-duplicate parameters
     k_all = s_all.shape[0]
