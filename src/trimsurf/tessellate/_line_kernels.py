@@ -421,20 +421,8 @@ def _place(cum, x, a, b, n):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _ok(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
-        ci, cf, ck, cpw, cku, ckv, cpw4, v, tolerance, max_edge, m9, yes):
-    n = v.shape[0] - 1
-    ln = np.empty(n)
-    dv = np.empty(n)
-    return _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
-                     ci, cf, ck, cpw, cku, ckv, cpw4, v[:-1], v[1:], m9, ln, dv, max_edge, tolerance, yes)
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _split(x, length, dev, bad, nbad, kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
-                                      ci, cf, ck, cpw, cku, ckv, cpw4, m, no):
-    """x with the midpoints of the bad intervals inserted, and the criteria of the new intervals
-    (those of the kept intervals copied)."""
+def _halves(x, bad, nbad):
+    """The two halves (sa, sb) of every bad interval of x."""
     n = x.shape[0] - 1
     sa = np.empty(2 * nbad)
     sb = np.empty(2 * nbad)
@@ -445,10 +433,14 @@ def _split(x, length, dev, bad, nbad, kind, iso_i, iso_f, lines_c, lines_raw, di
             sa[k], sb[k] = x[i], mid
             sa[k + 1], sb[k + 1] = mid, x[i + 1]
             k += 2
-    sl = np.empty(2 * nbad)
-    sd = np.empty(2 * nbad)
-    _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
-              ci, cf, ck, cpw, cku, ckv, cpw4, sa, sb, m, sl, sd, np.inf, np.inf, no)
+    return sa, sb
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _merge(x, length, dev, bad, nbad, sb, sl, sd):
+    """x with the midpoints of the bad intervals inserted, and the criteria of the new intervals
+    (sl, sd of the halves; those of the kept intervals copied)."""
+    n = x.shape[0] - 1
     nx = np.empty(n + 1 + nbad)
     nl = np.empty(n + nbad)
     nd = np.empty(n + nbad)
@@ -476,84 +468,124 @@ def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku
     fine sampling's start x0 (np.unique(np.clip(np.r_[a, init, b], a, b))).
 
     Returns (values, needed): needed < 0 if the values meet both criteria (or the rounds ran out, as
-    the numpy path), else the count of intervals that exceeds max_values (the caller refuses)."""
+    the numpy path), else the count of intervals that exceeds max_values (the caller refuses).
+
+    One loop around ONE call of the criteria (a request: intervals, m, outputs, limits, stop; then a
+    state says what to do with the answer): numba re-optimises and re-emits a called function's body in
+    every caller, and IR-inlines an inline="always" one at every call site, so the big criteria bodies
+    are inlined here once and compiled only once. States: 0 the fine sampling's criteria, 1 a
+    fine bisection round's, 2 the check of n0 - 1 placed values, 3 the check of nn placed values,
+    4 the placed values' criteria, 5 a bisection round's (adaptive_values')."""
+    m5, m9, no, yes = _rt()
+    inf = np.inf
     x = x0
     n = x.shape[0] - 1
     length = np.empty(n)
     dev = np.empty(n)
-    m5, m9, no, yes = _rt()
-    _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
-              ci, cf, ck, cpw, cku, ckv, cpw4, x[:-1], x[1:], m5, length, dev, np.inf, np.inf, no)
-    for _ in range(8):
-        n = x.shape[0] - 1
-        bad = np.empty(n, dtype=np.bool_)
-        nbad = 0
-        for i in range(n):
-            bad[i] = (length[i] > 0.25 * max_edge) or (dev[i] > 0.0625 * tolerance)
-            nbad += bad[i]
-        if nbad == 0 or x.shape[0] > 20000:
-            break
-        x, length, dev = _split(x, length, dev, bad, nbad, kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv,
-                                pw, ci, cf, ck, cpw, cku, ckv, cpw4, m5, no)
-    n = x.shape[0] - 1
-    cum = np.empty(n + 1)
-    cum[0] = 0.0
-    for i in range(n):
-        p = length[i] / max_edge
-        q = np.sqrt(dev[i] / tolerance)
-        nd = p if p >= q else q
-        if np.isnan(p) or np.isnan(q):
-            nd = np.nan
-        cum[i + 1] = cum[i] + nd
-    total = cum[n]
-    checked = False
+    ra, rb, rm, rl, rd, rml, rmd, rst = x[:-1], x[1:], m5, length, dev, inf, inf, no
+    state = 0
+    rounds = 0
+    bad = np.empty(0, dtype=np.bool_)
+    nbad = 0
+    sb = np.empty(0)
+    cum = np.empty(0)
+    n0 = 0
+    nn = 0
     v = np.empty(2)
-    v[0], v[1] = a, b
-    if total > 0:
-        if not total <= max_values:
-            return v, total
-        n0 = max(1, int(np.ceil(total - 1e-9)))
-        done = False
-        if n0 > 1 and total - (n0 - 1) < 0.1:
-            v = _place(cum, x, a, b, n0 - 1)
-            if _ok(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
-                   ci, cf, ck, cpw, cku, ckv, cpw4, v, tolerance, max_edge, m9, yes):
-                done = True
-                checked = True
-        if not done:
-            nn = n0
-            while nn <= 1.5 * n0 + 2:
-                v = _place(cum, x, a, b, nn)
-                if _ok(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
-                       ci, cf, ck, cpw, cku, ckv, cpw4, v, tolerance, max_edge, m9, yes):
-                    checked = True
-                    break
+    while True:
+        ok = _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
+                       ci, cf, ck, cpw, cku, ckv, cpw4, ra, rb, rm, rl, rd, rml, rmd, rst)
+        if state == 1 or state == 5:
+            x, length, dev = _merge(x, length, dev, bad, nbad, sb, rl, rd)
+            if state == 5 and x.shape[0] - 1 > max_values:
+                return x, float(x.shape[0] - 1)
+        phase2 = False
+        if state == 0 or state == 1:
+            more = False
+            if rounds < 8:
+                n = x.shape[0] - 1
+                bad = np.empty(n, dtype=np.bool_)
+                nbad = 0
+                for i in range(n):
+                    bad[i] = (length[i] > 0.25 * max_edge) or (dev[i] > 0.0625 * tolerance)
+                    nbad += bad[i]
+                more = not (nbad == 0 or x.shape[0] > 20000)
+            if more:
+                rounds += 1
+                sa, sb = _halves(x, bad, nbad)
+                ra, rb, rm, rl, rd, rml, rmd, rst = sa, sb, m5, np.empty(2 * nbad), np.empty(2 * nbad), inf, inf, no
+                state = 1
+                continue
+            n = x.shape[0] - 1
+            cum = np.empty(n + 1)
+            cum[0] = 0.0
+            for i in range(n):
+                p = length[i] / max_edge
+                q = np.sqrt(dev[i] / tolerance)
+                nd = p if p >= q else q
+                if np.isnan(p) or np.isnan(q):
+                    nd = np.nan
+                cum[i + 1] = cum[i] + nd
+            total = cum[n]
+            v = np.empty(2)
+            v[0], v[1] = a, b
+            if total > 0:
+                if not total <= max_values:
+                    return v, total
+                n0 = max(1, int(np.ceil(total - 1e-9)))
+                if n0 > 1 and total - (n0 - 1) < 0.1:
+                    v = _place(cum, x, a, b, n0 - 1)
+                    state = 2
+                else:
+                    nn = n0
+                    v = _place(cum, x, a, b, nn)     # nn <= 1.5 * n0 + 2 holds for nn = n0 >= 1
+                    state = 3
+                ra, rb, rm, rl, rd, rml, rmd, rst = (v[:-1], v[1:], m9, np.empty(v.shape[0] - 1),
+                                                     np.empty(v.shape[0] - 1), max_edge, tolerance, yes)
+                continue
+            phase2 = True
+        elif state == 2 or state == 3:
+            if ok:
+                return v, -1.0
+            if state == 3:
                 nn += max(1, int(0.04 * nn))
-            if not checked:
-                v = _place(cum, x, a, b, n0)
-    if checked:
-        return v, -1.0
-    # every interval against both criteria; bisect where one fails (adaptive_values' rounds)
-    x = v
-    n = x.shape[0] - 1
-    length = np.empty(n)
-    dev = np.empty(n)
-    _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
-              ci, cf, ck, cpw, cku, ckv, cpw4, x[:-1], x[1:], m9, length, dev, np.inf, np.inf, no)
-    for _ in range(12):
-        n = x.shape[0] - 1
-        bad = np.empty(n, dtype=np.bool_)
-        nbad = 0
-        for i in range(n):
-            bad[i] = (length[i] > max_edge) or (dev[i] > tolerance)
-            nbad += bad[i]
-        if nbad == 0:
-            break
-        x, length, dev = _split(x, length, dev, bad, nbad, kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv,
-                                pw, ci, cf, ck, cpw, cku, ckv, cpw4, m9, no)
-        if x.shape[0] - 1 > max_values:
-            return x, float(x.shape[0] - 1)
-    return x, -1.0
+            else:
+                nn = n0
+            if nn <= 1.5 * n0 + 2:
+                v = _place(cum, x, a, b, nn)
+                ra, rb, rm, rl, rd, rml, rmd, rst = (v[:-1], v[1:], m9, np.empty(v.shape[0] - 1),
+                                                     np.empty(v.shape[0] - 1), max_edge, tolerance, yes)
+                state = 3
+                continue
+            v = _place(cum, x, a, b, n0)
+            phase2 = True
+        if phase2:
+            # every interval against both criteria; bisect where one fails (adaptive_values' rounds)
+            x = v
+            n = x.shape[0] - 1
+            length = np.empty(n)
+            dev = np.empty(n)
+            ra, rb, rm, rl, rd, rml, rmd, rst = x[:-1], x[1:], m9, length, dev, inf, inf, no
+            state = 4
+            rounds = 0
+            continue
+        # state 4 or 5
+        if state == 4:
+            length, dev = rl, rd
+        if rounds < 12:
+            n = x.shape[0] - 1
+            bad = np.empty(n, dtype=np.bool_)
+            nbad = 0
+            for i in range(n):
+                bad[i] = (length[i] > max_edge) or (dev[i] > tolerance)
+                nbad += bad[i]
+            if nbad != 0:
+                rounds += 1
+                sa, sb = _halves(x, bad, nbad)
+                ra, rb, rm, rl, rd, rml, rmd, rst = sa, sb, m9, np.empty(2 * nbad), np.empty(2 * nbad), inf, inf, no
+                state = 5
+                continue
+        return x, -1.0
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
