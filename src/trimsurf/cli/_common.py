@@ -152,7 +152,7 @@ def progress(total: int, description: str) -> Iterator[_NoProgress | _RichProgre
         return
     if kernels_cold():
         print_warning("first run: compiling trimsurf's numerical kernels (once per install and version; "
-                      "about a minute on 2 cores)")
+                      "a first tessellation with its report: ~25 s of CPU)")
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
