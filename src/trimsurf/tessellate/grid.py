@@ -73,6 +73,18 @@ def _clip_hits(p0, p1, lo, hi) -> np.ndarray:
     return hit
 
 
+def _candidate_cells(p0: np.ndarray, p1: np.ndarray, us: np.ndarray, vs: np.ndarray):
+    """Per segment p0 p1, the candidate cells i0..i1 x j0..j1 (closed ranges, within the grid) around
+    the segment's box: what `cohen_sutherland_cells` and `_crossed_cells` clip against."""
+    lo = np.minimum(p0, p1)
+    hi = np.maximum(p0, p1)
+    i0 = np.clip(np.searchsorted(us, lo[:, 0], side="right") - 2, 0, len(us) - 2)
+    i1 = np.clip(np.searchsorted(us, hi[:, 0], side="left"), 0, len(us) - 2)
+    j0 = np.clip(np.searchsorted(vs, lo[:, 1], side="right") - 2, 0, len(vs) - 2)
+    j1 = np.clip(np.searchsorted(vs, hi[:, 1], side="left"), 0, len(vs) - 2)
+    return i0, i1, j0, j1
+
+
 def cohen_sutherland_cells(p0: np.ndarray, p1: np.ndarray, us: np.ndarray, vs: np.ndarray) -> np.ndarray:
     """Cells (i, j) of the grid us x vs that each segment p0 p1 meets (closed cells).
 
@@ -92,12 +104,7 @@ def cohen_sutherland_cells(p0: np.ndarray, p1: np.ndarray, us: np.ndarray, vs: n
     >>> cohen_sutherland_cells(np.array([[0.5, 0.5]]), np.array([[1.5, 0.5]]), g, g).tolist()
     [[0, 0, 0], [0, 1, 0]]
     """
-    lo = np.minimum(p0, p1)
-    hi = np.maximum(p0, p1)
-    i0 = np.clip(np.searchsorted(us, lo[:, 0], side="right") - 2, 0, len(us) - 2)
-    i1 = np.clip(np.searchsorted(us, hi[:, 0], side="left"), 0, len(us) - 2)
-    j0 = np.clip(np.searchsorted(vs, lo[:, 1], side="right") - 2, 0, len(vs) - 2)
-    j1 = np.clip(np.searchsorted(vs, hi[:, 1], side="left"), 0, len(vs) - 2)
+    i0, i1, j0, j1 = _candidate_cells(p0, p1, us, vs)
     ni, nj = i1 - i0 + 1, j1 - j0 + 1
     cnt = ni * nj
     seg = np.repeat(np.arange(len(p0)), cnt)
@@ -216,12 +223,7 @@ def _first_equal(p: np.ndarray) -> np.ndarray:
 def _crossed_cells(p0: np.ndarray, p1: np.ndarray, us: np.ndarray, vs: np.ndarray) -> np.ndarray:
     """(len(us) - 1, len(vs) - 1) bool: the cells `cohen_sutherland_cells` finds, compiled (the same
     candidate cells and the same clipping arithmetic, per segment and cell)."""
-    lo = np.minimum(p0, p1)
-    hi = np.maximum(p0, p1)
-    i0 = np.clip(np.searchsorted(us, lo[:, 0], side="right") - 2, 0, len(us) - 2)
-    i1 = np.clip(np.searchsorted(us, hi[:, 0], side="left"), 0, len(us) - 2)
-    j0 = np.clip(np.searchsorted(vs, lo[:, 1], side="right") - 2, 0, len(vs) - 2)
-    j1 = np.clip(np.searchsorted(vs, hi[:, 1], side="left"), 0, len(vs) - 2)
+    i0, i1, j0, j1 = _candidate_cells(p0, p1, us, vs)
     crossed = np.zeros((len(us) - 1, len(vs) - 1), dtype=np.bool_)
     _crossed_cells_kernel(np.ascontiguousarray(p0, dtype=np.float64), np.ascontiguousarray(p1, dtype=np.float64),
                           np.ascontiguousarray(us), np.ascontiguousarray(vs), i0.astype(np.int64),
