@@ -396,6 +396,17 @@ class _FaceState:
     fine: list = field(default_factory=list)    # the fine trim polygons of `_drop_outside`, once computed
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross(a, b)`` of (n, 3) rows, the same operations (a1 b2 - a2 b1, ...) without its axis handling."""
+    out = np.empty(a.shape)
+    a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
+    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
+    np.subtract(a1 * b2, a2 * b1, out=out[:, 0])
+    np.subtract(a2 * b0, a0 * b2, out=out[:, 1])
+    np.subtract(a0 * b1, a1 * b0, out=out[:, 2])
+    return out
+
+
 def _second_forms(surface, uv) -> tuple[np.ndarray, np.ndarray]:
     """The shape operator as a 3D quadratic form W (n, 3, 3) (``e.W.e`` = normal curvature x |e|^2 for a
     tangent vector e) and the largest absolute principal curvature (n,), at (u, v) points (n, 2); NaN
@@ -404,7 +415,7 @@ def _second_forms(surface, uv) -> tuple[np.ndarray, np.ndarray]:
     d = surface.derivatives(uv, 2)
     su, sv, suu, suv, svv = d[1, 0], d[0, 1], d[2, 0], d[1, 1], d[0, 2]
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        n = np.cross(su, sv)
+        n = _cross(su, sv)
         n = n / np.linalg.norm(n, axis=1, keepdims=True)
         e, f, g = (np.einsum("ij,ij->i", a, b) for a, b in ((su, su), (su, sv), (sv, sv)))
         l_, m_, n_ = (np.einsum("ij,ij->i", a, n) for a in (suu, suv, svv))
@@ -729,7 +740,7 @@ def _sample_more(devs, states, info, i, cand, tol_rel, surface_only=False, prev=
             good = np.all(np.isfinite(uv0), axis=1)
             if not good.all():
                 uv0 = None
-            d = project_to_face(pts, st.face, tol_rel=tol_rel, uv0=uv0).distance
+            d = _project_once(pts, uv0, w, len(tri), st.face, tol_rel)
             per = d.reshape(len(tri), nw).max(axis=1)
             st.tri_max[tri] = np.maximum(st.tri_max[tri], per)
             j = int(np.argmax(d))
@@ -739,6 +750,34 @@ def _sample_more(devs, states, info, i, cand, tol_rel, surface_only=False, prev=
     devs[i] = replace(dev, max_mesh_to_target=mx, where_mesh_to_target=where, max_target_to_mesh=mx2,
                       where_target_to_mesh=where2, n_mesh_samples=n1, n_target_samples=n2,
                       max_two_sided=float(np.nanmax([mx, mx2])))
+
+
+def _project_once(pts: np.ndarray, uv0: np.ndarray | None, w: np.ndarray, n_tri: int, face, tol_rel: float):
+    """``project_to_face(pts, face, uv0=uv0).distance`` with each distinct (point, start) projected once.
+
+    `pts` are the nodes `w` (nw, 3) of `n_tri` triangles, triangle by triangle. A node on an edge (a zero
+    weight) of two triangles sampled at the same density is the same point with the same start (the
+    same two corners, the same integer / k weights: the same sums bit for bit), and the projection is
+    a function of each point and its start alone (`geom.projection`: point by point), so its repeat
+    takes the first one's distance: the values are those of projecting every node."""
+    on_edge = np.tile(np.any(w == 0.0, axis=1), n_tri)
+    idx = np.flatnonzero(on_edge)
+    if len(idx) < 2:
+        return project_to_face(pts, face, tol_rel=tol_rel, uv0=uv0).distance
+    key = pts[idx] if uv0 is None else np.concatenate([pts[idx], uv0[idx]], axis=1)
+    key = np.ascontiguousarray(key).view(np.dtype((np.void, key.dtype.itemsize * key.shape[1]))).ravel()
+    _, first, inv = np.unique(key, return_index=True, return_inverse=True)
+    if len(first) == len(idx):
+        return project_to_face(pts, face, tol_rel=tol_rel, uv0=uv0).distance
+    keep = np.ones(len(pts), dtype=bool)
+    keep[idx] = False
+    keep[idx[first]] = True
+    rows = np.flatnonzero(keep)
+    d_keep = project_to_face(pts[rows], face, tol_rel=tol_rel, uv0=None if uv0 is None else uv0[rows]).distance
+    d = np.empty(len(pts))
+    d[rows] = d_keep
+    d[idx] = d[idx[first]][inv.ravel()]
+    return d
 
 
 def _sample_surface_side(st, ok, tri, w, mx2, where2, n2):
