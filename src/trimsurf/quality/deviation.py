@@ -103,15 +103,16 @@ def _check_mesh(mesh, name: str) -> None:
         raise MeshError(f"{name}: mesh has no triangles")
 
 
-def project_to_face(points, face, *, tol_rel: float = 1e-10, uv0=None):
+def project_to_face(points, face, *, tol_rel: float = 1e-10, uv0=None, skip_below=None):
     """Project points (n, 3) onto the surface of a face (or a NurbsSurface); returns `geom.projection.Projection`.
 
-    ``uv0`` (n, 2), optional: warm-start parameters (see `geom.projection.project_to_surface`).
+    ``uv0`` (n, 2), optional: warm-start parameters; ``skip_below`` (n,), optional, with ``uv0``: see
+    `geom.projection.project_to_surface`.
     """
     s = as_face(face).surface
     return project_to_surface(np.asarray(points, dtype=np.float64).reshape(-1, 3), s.degree_u, s.degree_v,
                               s.knots_u, s.knots_v, s.control_points, s.weights, tol_rel=tol_rel, uv0=uv0,
-                              compiled=True)
+                              compiled=True, skip_below=skip_below)
 
 
 def surface_deviation(mesh: TriMesh, target, *, density: int = 4, n_domain: int = 64, two_sided: bool = True,
@@ -740,7 +741,10 @@ def _sample_more(devs, states, info, i, cand, tol_rel, surface_only=False, prev=
             good = np.all(np.isfinite(uv0), axis=1)
             if not good.all():
                 uv0 = None
-            d = _project_once(pts, uv0, w, len(tri), st.face, tol_rel)
+            # a node below both its triangle's largest value so far and the face's largest mesh sample
+            # changes neither: the projection may stop at its warm-started run (`skip_below`)
+            below = np.repeat(np.minimum(st.tri_max[tri], mx), nw) if np.isfinite(mx) else None
+            d = _project_once(pts, uv0, w, len(tri), st.face, tol_rel, below)
             per = d.reshape(len(tri), nw).max(axis=1)
             st.tri_max[tri] = np.maximum(st.tri_max[tri], per)
             j = int(np.argmax(d))
@@ -752,31 +756,47 @@ def _sample_more(devs, states, info, i, cand, tol_rel, surface_only=False, prev=
                       max_two_sided=float(np.nanmax([mx, mx2])))
 
 
-def _project_once(pts: np.ndarray, uv0: np.ndarray | None, w: np.ndarray, n_tri: int, face, tol_rel: float):
-    """``project_to_face(pts, face, uv0=uv0).distance`` with each distinct (point, start) projected once.
+def _project_once(pts: np.ndarray, uv0: np.ndarray | None, w: np.ndarray, n_tri: int, face, tol_rel: float,
+                  below: np.ndarray | None = None):
+    """``project_to_face(pts, face, uv0=uv0, skip_below=below).distance`` with each distinct (point, start)
+    projected once (its threshold the smallest of its repeats').
 
     `pts` are the nodes `w` (nw, 3) of `n_tri` triangles, triangle by triangle. A node on an edge (a zero
     weight) of two triangles sampled at the same density is the same point with the same start (the
     same two corners, the same integer / k weights: the same sums bit for bit), and the projection is
     a function of each point and its start alone (`geom.projection`: point by point), so its repeat
-    takes the first one's distance: the values are those of projecting every node."""
+    takes the first one's distance: the values are those of projecting every node. With `below`, a
+    node's value may be its warm-started run's instead of the full search's where both stay below its
+    threshold (`project_to_surface`'s ``skip_below``): every maximum that reaches a threshold is the
+    same."""
+    if uv0 is None:
+        below = None
     on_edge = np.tile(np.any(w == 0.0, axis=1), n_tri)
     idx = np.flatnonzero(on_edge)
     if len(idx) < 2:
-        return project_to_face(pts, face, tol_rel=tol_rel, uv0=uv0).distance
+        return project_to_face(pts, face, tol_rel=tol_rel, uv0=uv0, skip_below=below).distance
     key = pts[idx] if uv0 is None else np.concatenate([pts[idx], uv0[idx]], axis=1)
     key = np.ascontiguousarray(key).view(np.dtype((np.void, key.dtype.itemsize * key.shape[1]))).ravel()
     _, first, inv = np.unique(key, return_index=True, return_inverse=True)
+    inv = inv.ravel()
     if len(first) == len(idx):
-        return project_to_face(pts, face, tol_rel=tol_rel, uv0=uv0).distance
+        return project_to_face(pts, face, tol_rel=tol_rel, uv0=uv0, skip_below=below).distance
     keep = np.ones(len(pts), dtype=bool)
     keep[idx] = False
     keep[idx[first]] = True
     rows = np.flatnonzero(keep)
-    d_keep = project_to_face(pts[rows], face, tol_rel=tol_rel, uv0=None if uv0 is None else uv0[rows]).distance
+    b_keep = None
+    if below is not None:
+        b = below.copy()
+        lowest = np.full(len(first), np.inf)
+        np.minimum.at(lowest, inv, below[idx])
+        b[idx[first]] = lowest
+        b_keep = b[rows]
+    d_keep = project_to_face(pts[rows], face, tol_rel=tol_rel, uv0=None if uv0 is None else uv0[rows],
+                             skip_below=b_keep).distance
     d = np.empty(len(pts))
     d[rows] = d_keep
-    d[idx] = d[idx[first]][inv.ravel()]
+    d[idx] = d[idx[first]][inv]
     return d
 
 
