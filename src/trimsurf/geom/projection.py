@@ -837,16 +837,40 @@ def project_to_surface(points, degree_u: int, degree_v: int, knots_u, knots_v, c
     name = "project_to_surface"
     pu, pv = _degree(degree_u, name), _degree(degree_v, name)
     cp = np.asarray(control_points, dtype=np.float64)
-    if cp.ndim != 3 or cp.shape[2] != 3:
-        raise GeometryError(f"{name}: control_points must have shape (nu, nv, 3); got {cp.shape}")
-    if not np.all(np.isfinite(cp)):
-        raise GeometryError(f"{name}: control_points contain NaN or infinite values")
-    ku = _knot_vector(knots_u, pu, cp.shape[0], f"{name} (u)")
-    kv = _knot_vector(knots_v, pv, cp.shape[1], f"{name} (v)")
-    w = _weights(weights, cp.shape[:2], name)
+    # the surface's checked arrays, seed parameters and creases, by its exact definition (a measurement
+    # projects onto each face several times), kept in `_SEED_CACHE`
+    ku_in, kv_in = np.asarray(knots_u, dtype=np.float64), np.asarray(knots_v, dtype=np.float64)
+    w_in = None if weights is None else np.asarray(weights, dtype=np.float64)
+    grid_key = seed_grid if isinstance(seed_grid, (int, np.integer)) and not isinstance(seed_grid, bool) \
+        else None
+    prep_key = None
+    if grid_key is not None or seed_grid is None:
+        prep_key = ("prepared", pu, pv, ku_in.shape, ku_in.tobytes(), kv_in.shape, kv_in.tobytes(), cp.shape, cp.tobytes(),
+                    None if w_in is None else (w_in.shape, w_in.tobytes()), None if grid_key is None else int(grid_key))
+    prep = _SEED_CACHE.get(prep_key) if prep_key is not None else None
+    if prep is None:
+        if cp.ndim != 3 or cp.shape[2] != 3:
+            raise GeometryError(f"{name}: control_points must have shape (nu, nv, 3); got {cp.shape}")
+        if not np.all(np.isfinite(cp)):
+            raise GeometryError(f"{name}: control_points contain NaN or infinite values")
+        ku = _knot_vector(knots_u, pu, cp.shape[0], f"{name} (u)")
+        kv = _knot_vector(knots_v, pv, cp.shape[1], f"{name} (v)")
+        w = _weights(weights, cp.shape[:2], name)
+        axes = _seed_values(seed_grid, (ku, kv), (pu, pv), name)
+        breaks = [_breakpoints(ku, pu), _breakpoints(kv, pv)]
+        ku, kv, w = ku.copy(), kv.copy(), None if w is None else w.copy()    # not the caller's arrays
+        prep = (ku, kv, w, _diagonal(cp), tuple(axes), breaks,
+                (pu, pv, ku.tobytes(), kv.tobytes(), cp.shape, cp.tobytes(), None if w is None else w.tobytes(),
+                 tuple(a.tobytes() for a in axes)))
+        if prep_key is not None:
+            if len(_SEED_CACHE) >= _SEED_CACHE_SIZE:
+                _SEED_CACHE.pop(next(iter(_SEED_CACHE)))
+            _SEED_CACHE[prep_key] = prep
+    ku, kv, w, diag, axes, breaks, key = prep
+    axes = list(axes)
     pts = _points(points, 3, name)
     tol_rel, max_iter = _options(tol_rel, max_iter, name)
-    tol = tol_rel * _diagonal(cp)
+    tol = tol_rel * diag
     args = (pu, pv, ku, kv, cp, w)
     lo = np.array([ku[pu], kv[pv]])
     hi = np.array([ku[-pu - 1], kv[-pv - 1]])
@@ -856,9 +880,6 @@ def project_to_surface(points, degree_u: int, degree_v: int, knots_u, knots_v, c
     if n == 0:
         z = np.zeros(0, dtype=bool)
         return Projection(np.zeros((0, 2)), np.zeros((0, 3)), np.zeros(0), z, z.copy(), 0)
-
-    axes = _seed_values(seed_grid, (ku, kv), (pu, pv), name)
-    breaks = [_breakpoints(ku, pu), _breakpoints(kv, pv)]
 
     if compiled:
         pw = _homogeneous(cp, w)
@@ -871,8 +892,6 @@ def project_to_surface(points, degree_u: int, degree_v: int, knots_u, knots_v, c
         def evaluate(uv):
             return _surface_eval(args, uv)
 
-    key = (pu, pv, ku.tobytes(), kv.tobytes(), cp.shape, cp.tobytes(), None if w is None else w.tobytes(),
-           tuple(a.tobytes() for a in axes))
     seeds = _SEED_CACHE.pop(key, None)
     if seeds is None:
         seeds = _build_seeds(axes, evaluate, tol / tol_rel)
@@ -911,8 +930,11 @@ def project_to_surface(points, degree_u: int, degree_v: int, knots_u, knots_v, c
 #: weights, seed parameters as bytes), least recently used dropped first: measuring a mesh projects onto
 #: each face several times (a first pass over all faces, then the refinement rounds), so the cache must
 #: hold a whole shell's faces (16 rebuilt every face's seeds on t20's 21 faces: 42 builds, 0.39 s)
+#: The same dict holds, under keys starting with "prepared", each surface's checked knots, weights,
+#: control-net diagonal, seed parameters, creases and seed key, by its exact input bytes (so a shell's
+#: faces take two entries each).
 _SEED_CACHE: dict = {}
-_SEED_CACHE_SIZE = 512
+_SEED_CACHE_SIZE = 1024
 
 
 # --------------------------------------------------------------------------- curves
