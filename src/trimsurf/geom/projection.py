@@ -845,8 +845,9 @@ def project_to_surface(points, degree_u: int, degree_v: int, knots_u, knots_v, c
         else None
     prep_key = None
     if grid_key is not None or seed_grid is None:
-        prep_key = ("prepared", pu, pv, ku_in.shape, ku_in.tobytes(), kv_in.shape, kv_in.tobytes(), cp.shape, cp.tobytes(),
-                    None if w_in is None else (w_in.shape, w_in.tobytes()), None if grid_key is None else int(grid_key))
+        prep_key = ("prepared", pu, pv, ku_in.shape, ku_in.tobytes(), kv_in.shape, kv_in.tobytes(), cp.shape,
+                    cp.tobytes(), None if w_in is None else (w_in.shape, w_in.tobytes()),
+                    None if grid_key is None else int(grid_key))
     prep = _SEED_CACHE.get(prep_key) if prep_key is not None else None
     if prep is None:
         if cp.ndim != 3 or cp.shape[2] != 3:
