@@ -12,7 +12,7 @@ from ..model import Shell, TriMesh
 from .face import (FaceMesh, _rectangle_face, check_parameters, face_domain_values, loose_chunks,
                    mesh_face_from_chunks)
 from .repair import repair_face
-from .trims import Chunk, ChunkUse, discretize_chunk
+from .trims import Chunk, ChunkUse, discretize_chunks
 
 __all__ = ["TessellationResult", "FaceStatus", "tessellate_shell", "default_parameters"]
 
@@ -188,19 +188,20 @@ def _conforming_chunks(shell: Shell, faces: list, grids: dict, *, tolerance: flo
                 if (fi, li, si) not in shared:
                     own.append((fi, li, si, ChunkUse(fi, li, si, seg, faces[fi].surface, us, vs, _ptol(faces[fi]))))
 
-    def discretize(k):
-        if k < len(edge_uses):
-            ei, uses = edge_uses[k]
-            degenerate = True if shell.edges[ei].is_degenerate else None
-        else:
-            uses, degenerate = [own[k - len(edge_uses)][3]], None
-        ch = discretize_chunk(uses, tolerance=tolerance, max_edge=max_edge, strategy=strategy, reduce=reduce,
-                              degenerate=degenerate)
-        return ch.s, ch.uv, ch.xyz, ch.is_iso, ch.degenerate
+    # every chunk in one compiled call (`trims.discretize_chunks`); with jobs, one call per contiguous part
+    all_uses = [u for _, u in edge_uses] + [[o[3]] for o in own]
+    all_deg = [True if shell.edges[ei].is_degenerate else None for ei, _ in edge_uses] + [None] * len(own)
+    n_parts = max(1, min(jobs, len(all_uses) // 16))
+    cuts = np.linspace(0, len(all_uses), n_parts + 1).astype(np.int64)
 
-    out = parallel_map(discretize, range(len(edge_uses) + len(own)), jobs)
-    chunks = [Chunk(s_, list(uses), uv, xyz, iso, deg)
-              for (s_, uv, xyz, iso, deg), uses in zip(out, [u for _, u in edge_uses] + [[o[3]] for o in own])]
+    def discretize(k):
+        a, b = int(cuts[k]), int(cuts[k + 1])
+        return [(ch.s, ch.uv, ch.xyz, ch.is_iso, ch.degenerate)
+                for ch in discretize_chunks(all_uses[a:b], tolerance=tolerance, max_edge=max_edge, strategy=strategy,
+                                            reduce=reduce, degenerate=all_deg[a:b])]
+
+    out = [r for part in parallel_map(discretize, range(n_parts), jobs) for r in part]
+    chunks = [Chunk(s_, list(uses), uv, xyz, iso, deg) for (s_, uv, xyz, iso, deg), uses in zip(out, all_uses)]
     for (ei, uses), chunk in zip(edge_uses, chunks):
         edge = shell.edges[ei]
         k = len(chunk.s)

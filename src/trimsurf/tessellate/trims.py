@@ -18,7 +18,7 @@ import numpy as np
 from ..model import NurbsSurface, PCurve
 from .domain import adaptive_values, interval_criteria, unique_values
 
-__all__ = ["ChunkUse", "Chunk", "discretize_chunk", "iso_crossings", "SHARED_CHORD"]
+__all__ = ["ChunkUse", "Chunk", "discretize_chunk", "discretize_chunks", "iso_crossings", "SHARED_CHORD"]
 
 #: chord tolerance of a shared edge, times the tolerance: the seam reduction (`seams.reduce_seams`)
 #: collapses a vertex lying within 0.25 x tolerance of its neighbours' chord, so the joint chord may
@@ -228,6 +228,125 @@ _S9.flags.writeable = _S33.flags.writeable = False
 def discretize_chunk(uses: list, *, tolerance: float, max_edge: float, strategy: str = "equidistributed",
                      reduce: bool = True, degenerate: bool | None = None) -> Chunk:
     """Sample a boundary curve to the 3D criteria on every use, insert every use's iso-values, reduce.
+
+    `discretize_chunks` for one chunk (see there; the parameters and result are this one's).
+    """
+    return discretize_chunks([uses], tolerance=tolerance, max_edge=max_edge, strategy=strategy, reduce=reduce,
+                             degenerate=[degenerate])[0]
+
+
+def _batch_arrays(chunks: list) -> tuple:
+    """The uses of all chunks as one chunk family (`_line_kernels.family` kind 1: ci, cf and the flat
+    read-only arrays ck, cpw, cku, ckv, cpw4; a surface stored once whatever its number of uses) and
+    their grids (gi, gf) and parameter tolerances, for `_chunk_kernels.discretize_chunks_kernel`."""
+    from ..geom.nurbs import _homogeneous, read_only
+
+    uses = [u for ch in chunks for u in ch]
+    n = len(uses)
+    ci = np.empty((n, 18), dtype=np.int64)
+    cf = np.empty((n, 6))
+    gi = np.empty((n, 4), dtype=np.int64)
+    ptol = np.empty(n)
+    ck, cpw, sk_u, sk_v, spw, gf = [], [], [], [], [], []
+    o_ck = o_cw = o_ku = o_kv = o_pw = o_g = 0
+    surf: dict = {}
+    grid: dict = {}
+    for j, u in enumerate(uses):
+        c, f = u.pcurve.curve, u.surface
+        t0, t1 = u.pcurve.t0, u.pcurve.t1
+        lo, hi = (t0, t1) if t0 <= t1 else (t1, t0)
+        kc = read_only(c.knots)
+        cw = _homogeneous(c.control_points, c.weights)
+        ck.append(kc)
+        cpw.append(cw.ravel())
+        sd = surf.get(id(f))
+        if sd is None:
+            ku, kv = read_only(f.knots_u), read_only(f.knots_v)
+            pw = _homogeneous(f.control_points, f.weights)
+            sd = surf[id(f)] = (f, o_ku, len(ku), o_kv, len(kv), o_pw, *pw.shape)
+            sk_u.append(ku)
+            sk_v.append(kv)
+            spw.append(pw.ravel())
+            o_ku += len(ku)
+            o_kv += len(kv)
+            o_pw += pw.size
+        gd = grid.get((id(u.us), id(u.vs)))
+        if gd is None:
+            gd = grid[(id(u.us), id(u.vs))] = (u.us, u.vs, o_g, len(u.us), o_g + len(u.us), len(u.vs))
+            gf.append(u.us)
+            gf.append(u.vs)
+            o_g += len(u.us) + len(u.vs)
+        ci[j] = (c.degree, c.weights is not None, f.degree_u, f.degree_v, f.weights is not None, o_ck, len(kc),
+                 o_cw, *cw.shape, *sd[1:])
+        cf[j] = (lo, hi, u.us[0], u.us[-1], u.vs[0], u.vs[-1])
+        gi[j] = gd[2:]
+        ptol[j] = u.param_tol
+        o_ck += len(kc)
+        o_cw += cw.size
+    flat = [read_only(np.concatenate(x)) for x in (ck, cpw, sk_u, sk_v, spw)]
+    c_off = np.zeros(len(chunks) + 1, dtype=np.int64)
+    np.cumsum([len(ch) for ch in chunks], out=c_off[1:])
+    return ci, cf, *flat, gi, read_only(np.concatenate(gf)), ptol, c_off
+
+
+_S9W, _S33W = np.linspace(0.0, 1.0, 9), np.linspace(0.0, 1.0, 33)     # the kernel's (writable) copies
+
+
+def discretize_chunks(chunks: list, *, tolerance: float, max_edge: float, strategy: str = "equidistributed",
+                      reduce: bool = True, degenerate: list | None = None) -> list:
+    """`discretize_chunk` of several chunks (the uses of each), in one compiled call
+    (`_chunk_kernels.discretize_chunks_kernel`, the numbers of `_discretize_chunk_numpy`).
+
+    Parameters
+    ----------
+    chunks : list of list of ChunkUse
+    tolerance, max_edge, strategy, reduce
+        As `discretize_chunk`; a strategy other than "equidistributed" runs the numpy path.
+    degenerate : list of (bool or None), or None
+        Per chunk, as `discretize_chunk`'s (None: all None).
+
+    Returns
+    -------
+    list of Chunk
+    """
+    if degenerate is None:
+        degenerate = [None] * len(chunks)
+    if strategy != "equidistributed" or not chunks:
+        return [_discretize_chunk_numpy(uses, tolerance=tolerance, max_edge=max_edge, strategy=strategy,
+                                        reduce=reduce, degenerate=deg) for uses, deg in zip(chunks, degenerate)]
+    from ._chunk_kernels import discretize_chunks_kernel
+    from ._line_kernels import DUMMY_1D as D1, DUMMY_3D as D3, DUMMY_BOOL as DB
+    from .domain import MAX_VALUES
+
+    ci, cf, ck, cpw, cku, ckv, cpw4, gi, gf, ptol, c_off = _batch_arrays(chunks)
+    forced = np.array([-1 if d is None else int(bool(d)) for d in degenerate], dtype=np.int64)
+    n_pts, s, uv, xyz, iso, degen, status = discretize_chunks_kernel(
+        1, np.zeros(5, dtype=np.int64), np.zeros(2), D1, D1, DB, np.zeros(4), D1, D1, D3,
+        ci, cf, ck, cpw, cku, ckv, cpw4, gi, gf, ptol, c_off, forced, _S9W, _S33W,
+        float(tolerance), float(SHARED_CHORD), float(max_edge), float(MAX_VALUES),
+        np.array([bool(reduce), 5, 9, 0], dtype=np.int64))
+    out = []
+    o = ouv = 0
+    for c, uses in enumerate(chunks):
+        if status[c]:           # more intervals than MAX_VALUES: the numpy path refuses (InputError)
+            out.append(_discretize_chunk_numpy(uses, tolerance=tolerance, max_edge=max_edge, strategy=strategy,
+                                               reduce=reduce, degenerate=degenerate[c]))
+            continue
+        k = int(n_pts[c])
+        cx = xyz[o:o + k]
+        if degen[c]:
+            cx[:] = cx.mean(axis=0)
+        out.append(Chunk(s[o:o + k], list(uses), [uv[ouv + j * k:ouv + (j + 1) * k] for j in range(len(uses))],
+                         cx, iso[o:o + k], bool(degen[c])))
+        o += k
+        ouv += len(uses) * k
+    return out
+
+
+def _discretize_chunk_numpy(uses: list, *, tolerance: float, max_edge: float, strategy: str = "equidistributed",
+                            reduce: bool = True, degenerate: bool | None = None) -> Chunk:
+    """`discretize_chunk` with numpy and the per-step kernels (the reference of the compiled
+    `discretize_chunks`, and its path for the strategies other than "equidistributed").
 
     Parameters
     ----------

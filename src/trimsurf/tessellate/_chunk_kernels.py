@@ -1,0 +1,500 @@
+"""Compiled edge discretization (numba, nogil): `trims.discretize_chunk` for every chunk of a shell in one
+call (`discretize_chunks_kernel`).
+
+Each chunk goes through the steps of the numpy path with the same operations in the same order, so the
+output is the numpy path's bit for bit (`trims._discretize_chunk_numpy` is the reference the tests compare
+against): the start values (p-curve knots and 9 uniform values), the 33-point probe of the 3D extent,
+the placement (`_line_kernels.equidistributed_kernel`), the iso-values (`_line_kernels.chunk_iso_kernel`),
+the merge of nearly coincident points, the polygon reduction (`_reduce`), the even spacing between the
+grid-line crossings of a shared edge (`_even_spacing`) and the shared 3D points (mean over the uses).
+
+Inputs (see `trims._ChunkBatch`): the uses of all chunks in one chunk family (`ci`, `cf` rows, flat
+read-only arrays `ck`, `cpw`, `cku`, `ckv`, `cpw4`, a surface stored once however many uses it has),
+per use its grid (`gi` = (offset of us, len, offset of vs, len) into `gf`) and parameter tolerance,
+per chunk the range of its uses (`c_off`) and whether it is degenerate (`forced`: 1 yes, 0 no, -1 decide
+from the probe). numba's searchsorted,
+argsort, boolean indexing and slice assignment cost seconds of compile time each: plain loops and the
+helpers of `_line_kernels` instead.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..geom._nurbs_kernels import _point_scratch, _surface_point01
+from ._line_kernels import (_chunk_criteria, _nonzero, _snap1, _ss_left, _ss_right, _stable_order, _unique,
+                            _use_arrays, _use_uv, chunk_iso_kernel, equidistributed_kernel)
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _on_grid(v, G, gl, j, axis):
+    """np.isin(v, grid) for use j's sorted grid on axis."""
+    n = gl[j, axis]
+    lo, hi = 0, n
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if G[j, axis, mid] < v:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo < n and G[j, axis, lo] == v
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _cell_ok(G, gl, uv_a0, uv_a1, uv_b0, uv_b1, j):
+    """`trims._in_one_cell` for one pair of points of use j."""
+    for axis in range(2):
+        x = uv_a0 if axis == 0 else uv_a1
+        y = uv_b0 if axis == 0 else uv_b1
+        lo, hi = min(x, y), max(x, y)
+        g = G[j, axis, :gl[j, axis]]
+        if not _ss_right(g, lo) >= _ss_left(g, hi):
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _crossing_points(G, gl, uvs, k):
+    """`trims._crossing_points`: points on a grid line of some use that the polygon does not run along
+    on both sides."""
+    must = np.zeros(k, dtype=np.bool_)
+    for j in range(uvs.shape[0]):
+        for axis in range(2):
+            for i in range(k):
+                c = uvs[j, i, axis]
+                along = 0 < i < k - 1 and uvs[j, i - 1, axis] == c and uvs[j, i + 1, axis] == c
+                if not along and _on_grid(c, G, gl, j, axis):
+                    must[i] = True
+    return must
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _select(s, uvs, flags, keep):
+    """(s[keep], uvs[:, keep], flags[keep])."""
+    idx = _nonzero(keep)
+    n = idx.shape[0]
+    L = uvs.shape[0]
+    s2 = np.empty(n)
+    uv2 = np.empty((L, n, 2))
+    f2 = np.empty(n, dtype=np.bool_)
+    for q in range(n):
+        i = idx[q]
+        s2[q] = s[i]
+        f2[q] = flags[i]
+        for j in range(L):
+            uv2[j, q, 0] = uvs[j, i, 0]
+            uv2[j, q, 1] = uvs[j, i, 1]
+    return s2, uv2, f2
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _crit(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, max_len, max_dev, stop):
+    """`interval_criteria` of the chunk family over [a_i, b_i] (one call site of `_chunk_criteria`)."""
+    length = np.empty(a.shape[0])
+    dev = np.empty(a.shape[0])
+    ok = _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop)
+    return ok, length, dev
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _reduce(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, s, uvs, must, flags, tolerance, max_edge, m9):
+    """`trims._reduce`: points that are no `must` point removed while the chord of their neighbours meets
+    both criteria and stays in one closed grid cell of every use (rounds of parity 0, 1, 0, 1)."""
+    k_all = s.shape[0]
+    L = uvs.shape[0]
+    keep = np.ones(k_all, dtype=np.bool_)
+    no = m9 < 0
+    for rnd in range(4):
+        parity = rnd % 2
+        idx = _nonzero(keep)
+        ni = idx.shape[0]
+        if ni < 3:
+            break
+        cand = np.empty(ni, dtype=np.int64)
+        nc = 0
+        for c in range(1, ni - 1):
+            if c % 2 == parity and not must[idx[c]]:
+                cand[nc] = c
+                nc += 1
+        if nc == 0:
+            continue
+        a = np.empty(nc)
+        b = np.empty(nc)
+        for q in range(nc):
+            a[q] = s[idx[cand[q] - 1]]
+            b[q] = s[idx[cand[q] + 1]]
+        _, ln, dv = _crit(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m9, np.inf, np.inf, no)
+        for q in range(nc):
+            if not (ln[q] <= max_edge and dv[q] <= tolerance):
+                continue
+            i0, i1 = idx[cand[q] - 1], idx[cand[q] + 1]
+            same = True
+            for j in range(L):
+                if not _cell_ok(G, gl, uvs[j, i0, 0], uvs[j, i0, 1], uvs[j, i1, 0], uvs[j, i1, 1], j):
+                    same = False
+                    break
+            if same:
+                keep[idx[cand[q]]] = False
+    return _select(s, uvs, flags, keep)
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _even_spacing(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tolerance, max_edge, m9):
+    """`trims._even_spacing`: between consecutive grid-line crossings, the fewest equally spaced points
+    (in s) that meet both criteria with every chord in one grid cell of every use, where they are no
+    more than the reduction kept there."""
+    L, k_all = uvs.shape[0], uvs.shape[1]
+    must = _crossing_points(G, gl, uvs, k_all)
+    must[0] = True
+    must[k_all - 1] = True
+    mi = _nonzero(must)
+    nm = mi.shape[0] - 1
+    cnt = 0
+    for q in range(nm):
+        if mi[q + 1] - mi[q] - 1 > 0:
+            cnt += 1
+    if cnt == 0:
+        return s, uvs, iso
+    cand = np.empty(cnt, dtype=np.int64)
+    c = 0
+    for q in range(nm):
+        if mi[q + 1] - mi[q] - 1 > 0:
+            cand[c] = q
+            c += 1
+    a = np.empty(cnt)
+    b = np.empty(cnt)
+    m = np.empty(cnt, dtype=np.int64)
+    m_max = 0
+    for q in range(cnt):
+        a[q], b[q] = s[mi[cand[q]]], s[mi[cand[q] + 1]]
+        m[q] = mi[cand[q] + 1] - mi[cand[q]] - 1
+        m_max = max(m_max, m[q])
+    best = np.zeros(cnt, dtype=np.int64)
+    uvq = np.empty((L, 2))
+    uvp = np.empty((L, 2))
+    one = np.empty((1, 2))
+    pt = np.empty(1)
+    yes = m9 > 0
+    for n in range(1, m_max + 2):
+        any_sel = False
+        for q in range(cnt):
+            if best[q] != 0 or not n <= m[q] + 1:
+                continue
+            any_sel = True
+            d = b[q] - a[q]
+            gs = np.empty(n + 1)
+            for jj in range(n + 1):
+                gs[jj] = a[q] + d * (jj / n)
+            la = np.empty(n)
+            lb = np.empty(n)
+            for jj in range(n):
+                la[jj], lb[jj] = gs[jj], gs[jj + 1]
+            ok, _, _ = _crit(ci, cf, ck, cpw, cku, ckv, cpw4, la, lb, m9, max_edge, tolerance, yes)
+            if not ok:
+                continue
+            # (u, v) of the sequence: end, interior points (snapped), end; every chord in one cell
+            cell = True
+            for jj in range(n + 1):
+                for j in range(L):
+                    if jj == 0:
+                        uvq[j, 0], uvq[j, 1] = uvs[j, mi[cand[q]], 0], uvs[j, mi[cand[q]], 1]
+                    elif jj == n:
+                        uvq[j, 0], uvq[j, 1] = uvs[j, mi[cand[q] + 1], 0], uvs[j, mi[cand[q] + 1], 1]
+                    else:
+                        pt[0] = gs[jj]
+                        _use_uv(ci, cf, ck, cpw, j, pt, one)
+                        uvq[j, 0] = _snap1(one[0, 0], G[j, 0, :gl[j, 0]], ptol[j])[0]
+                        uvq[j, 1] = _snap1(one[0, 1], G[j, 1, :gl[j, 1]], ptol[j])[0]
+                    if jj > 0 and not _cell_ok(G, gl, uvp[j, 0], uvp[j, 1], uvq[j, 0], uvq[j, 1], j):
+                        cell = False
+                if not cell:
+                    break
+                for j in range(L):
+                    uvp[j, 0], uvp[j, 1] = uvq[j, 0], uvq[j, 1]
+            if cell:
+                best[q] = n
+        if not any_sel:
+            break
+    n_done = 0
+    n_new = 0
+    drop = np.zeros(k_all, dtype=np.bool_)
+    for q in range(cnt):
+        if best[q] > 0:
+            n_done += 1
+            for i in range(mi[cand[q]] + 1, mi[cand[q] + 1]):
+                drop[i] = True
+            n_new += best[q] - 1
+    if n_done == 0:
+        return s, uvs, iso
+    new_s = np.empty(n_new)
+    c = 0
+    for q in range(cnt):
+        nb = best[q]
+        if nb > 1:
+            for jj in range(1, nb):
+                new_s[c] = a[q] + ((b[q] - a[q]) * jj) / nb
+                c += 1
+    n_kept = k_all
+    for i in range(k_all):
+        n_kept -= drop[i]
+    n_out = n_kept + n_new
+    s_cat = np.empty(n_out)
+    iso_cat = np.zeros(n_out, dtype=np.bool_)
+    c = 0
+    for i in range(k_all):
+        if not drop[i]:
+            s_cat[c] = s[i]
+            iso_cat[c] = iso[i]
+            c += 1
+    for i in range(n_new):
+        s_cat[n_kept + i] = new_s[i]
+    order = _stable_order(s_cat)
+    uv_cat = np.empty((L, n_out, 2))
+    _use_uv_all = np.empty((max(n_new, 1), 2))
+    for j in range(L):
+        c = 0
+        for i in range(k_all):
+            if not drop[i]:
+                uv_cat[j, c, 0], uv_cat[j, c, 1] = uvs[j, i, 0], uvs[j, i, 1]
+                c += 1
+        if n_new:
+            _use_uv(ci, cf, ck, cpw, j, new_s, _use_uv_all)
+        for axis in range(2):
+            g = G[j, axis, :gl[j, axis]]
+            for i in range(n_new):
+                v, hit = _snap1(_use_uv_all[i, axis], g, ptol[j])
+                uv_cat[j, n_kept + i, axis] = v
+                if hit:
+                    iso_cat[n_kept + i] = True
+    s_out = np.empty(n_out)
+    iso_out = np.empty(n_out, dtype=np.bool_)
+    uv_out = np.empty((L, n_out, 2))
+    for i in range(n_out):
+        o = order[i]
+        s_out[i] = s_cat[o]
+        iso_out[i] = iso_cat[o]
+        for j in range(L):
+            uv_out[j, i, 0], uv_out[j, i, 1] = uv_cat[j, o, 0], uv_cat[j, o, 1]
+    return s_out, uv_out, iso_out
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _merge_close(G, gl, ptol, s, uvs, iso):
+    """`discretize_chunk`'s merge of points that (nearly) coincide in some use (the inner point of the
+    pair dropped, preferably no iso point; the kept one takes over its grid coordinates)."""
+    L, k_all = uvs.shape[0], uvs.shape[1]
+    gap = np.empty(k_all - 1)
+    for i in range(k_all - 1):
+        gap[i] = np.inf
+    for j in range(L):
+        den = 100.0 * ptol[j]
+        for i in range(k_all - 1):
+            d0 = uvs[j, i + 1, 0] - uvs[j, i, 0]
+            d1 = uvs[j, i + 1, 1] - uvs[j, i, 1]
+            g = np.sqrt(d0 * d0 + d1 * d1) / den
+            if g < gap[i] or np.isnan(g):
+                gap[i] = g
+    drop = np.zeros(k_all, dtype=np.bool_)
+    any_drop = False
+    for k in range(k_all - 1):
+        if not gap[k] <= 1.0:
+            continue
+        c = -1
+        for cc in (k, k + 1):
+            if 0 < cc < k_all - 1 and not drop[cc]:
+                # min over (iso[c], c)
+                if c < 0 or (iso[cc] < iso[c]):
+                    c = cc
+        if c < 0:
+            continue
+        other = k + 1 if c == k else k
+        drop[c] = True
+        any_drop = True
+        for j in range(L):
+            for axis in range(2):
+                if _on_grid(uvs[j, c, axis], G, gl, j, axis) and not _on_grid(uvs[j, other, axis], G, gl, j, axis):
+                    uvs[j, other, axis] = uvs[j, c, axis]
+        iso[other] = iso[other] or iso[c]
+    if not any_drop:
+        return s, uvs, iso
+    keep = np.empty(k_all, dtype=np.bool_)
+    for i in range(k_all):
+        keep[i] = not drop[i]
+    return _select(s, uvs, iso, keep)
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _grow(a, n):
+    """a with room for at least n rows (rows copied by a loop)."""
+    if a.shape[0] >= n:
+        return a
+    out = np.empty((max(n, 2 * a.shape[0]),) + a.shape[1:], dtype=a.dtype)
+    fa = a.reshape(a.size)
+    fo = out.reshape(out.size)
+    for i in range(a.size):
+        fo[i] = fa[i]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, d_ku, d_kv, d_pw,
+                             ci, cf, ck, cpw, cku, ckv, cpw4, gi, gf, ptol_all, c_off, forced,
+                             s9, s33, tolerance, shared_chord, max_edge, max_values, flags):
+    """`trims.discretize_chunk` (strategy "equidistributed") for chunks c = 0 .. C-1, chunk c made of the
+    uses c_off[c] .. c_off[c + 1] - 1 (rows of ci, cf, gi, ptol_all); forced[c] = 1 / 0: degenerate or
+    not, -1: decided from the 3D extent of 33 probe points.
+    The first ten arguments are the unused kind-0 members of the family tuple (`kind` = 1); flags =
+    (reduce, 5, 9, 0): run-time constants. Returns (n_pts (C,), s, uv (sum L_c k_c, 2) use-major per
+    chunk, xyz (sum k_c, 3) as the mean of the uses' S(uv) without the degenerate averaging, iso,
+    degenerate (C,), status (C,): 0 done, 1 more than max_values intervals needed (the caller runs
+    the numpy path, which refuses))."""
+    do_reduce = flags[0] != 0
+    m9 = flags[2]
+    n_chunks = c_off.shape[0] - 1
+    n_pts = np.zeros(n_chunks, dtype=np.int64)
+    status = np.zeros(n_chunks, dtype=np.int64)
+    degen = np.zeros(n_chunks, dtype=np.bool_)
+    o_s = np.empty(64)
+    o_uv = np.empty((128, 2))
+    o_xyz = np.empty((64, 3))
+    o_iso = np.empty(64, dtype=np.bool_)
+    ns = 0
+    nuv = 0
+    for c in range(n_chunks):
+        u0, u1 = c_off[c], c_off[c + 1]
+        L = u1 - u0
+        cic = np.empty((L, ci.shape[1]), dtype=np.int64)
+        cfc = np.empty((L, cf.shape[1]))
+        ptol = np.empty(L)
+        g = 0
+        for j in range(L):
+            for q in range(ci.shape[1]):
+                cic[j, q] = ci[u0 + j, q]
+            for q in range(cf.shape[1]):
+                cfc[j, q] = cf[u0 + j, q]
+            ptol[j] = ptol_all[u0 + j]
+            g = max(g, gi[u0 + j, 1], gi[u0 + j, 3])
+        G = np.zeros((L, 2, g))
+        gl = np.empty((L, 2), dtype=np.int64)
+        for j in range(L):
+            for axis in range(2):
+                o, n = gi[u0 + j, 2 * axis], gi[u0 + j, 2 * axis + 1]
+                gl[j, axis] = n
+                for q in range(n):
+                    G[j, axis, q] = gf[o + q]
+        chord_tol = tolerance if L < 2 else shared_chord * tolerance
+        # the start values: the first use's p-curve knots inside its range, mapped onto [0, 1], and s9
+        cp = cic[0, 0]
+        kc = ck[cic[0, 5]:cic[0, 5] + cic[0, 6]]
+        lo, hi = cfc[0, 0], cfc[0, 1]
+        nk = 0
+        for q in range(kc.shape[0]):
+            if kc[q] > lo and kc[q] < hi:
+                nk += 1
+        kin = np.empty(nk)
+        nk = 0
+        for q in range(kc.shape[0]):
+            if kc[q] > lo and kc[q] < hi:
+                kin[nk] = kc[q]
+                nk += 1
+        kin = _unique(kin)
+        init = np.empty(s9.shape[0] + kin.shape[0])
+        for q in range(s9.shape[0]):
+            init[q] = s9[q]
+        for q in range(kin.shape[0]):
+            init[s9.shape[0] + q] = (kin[q] - lo) / (hi - lo)
+        init = _unique(init)
+        # the 3D extent of the 33 probe points (per use, from its first point)
+        ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(
+            max(cic[:, 2].max(), 1), max(cic[:, 3].max(), 1), 4)
+        res = np.empty((3, 3))
+        uvp = np.empty((s33.shape[0], 2))
+        extent = 0.0
+        for j in range(L):
+            kc_, cw_, ku, kv, pw = _use_arrays(cic, ck, cpw, cku, ckv, cpw4, j)
+            pu, pv, srat = cic[j, 2], cic[j, 3], cic[j, 4] != 0
+            su0, su1 = ku[pu], ku[ku.shape[0] - pu - 1]
+            sv0, sv1 = kv[pv], kv[kv.shape[0] - pv - 1]
+            _use_uv(cic, cfc, ck, cpw, j, s33, uvp)
+            x0, y0, z0 = 0.0, 0.0, 0.0
+            for i in range(s33.shape[0]):
+                _surface_point01(pu, pv, ku, kv, pw, srat, min(max(uvp[i, 0], su0), su1),
+                                 min(max(uvp[i, 1], sv0), sv1), 0, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
+                                 bu, bv, tmp, skl, res)
+                if i == 0:
+                    x0, y0, z0 = res[0, 0], res[0, 1], res[0, 2]
+                d0, d1, d2 = res[0, 0] - x0, res[0, 1] - y0, res[0, 2] - z0
+                e = np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
+                if e > extent or np.isnan(e):
+                    extent = e
+        if forced[c] >= 0:
+            degenerate = forced[c] == 1
+        else:
+            degenerate = extent <= 1e-3 * tolerance
+        if degenerate:
+            s = np.empty(2)
+            s[0], s[1] = 0.0, 1.0
+        else:
+            # adaptive_values: x0 = unique(clip(r_[0, init, 1], 0, 1)), then the compiled placement
+            xin = np.empty(init.shape[0] + 2)
+            xin[0] = 0.0
+            for q in range(init.shape[0]):
+                xin[q + 1] = min(max(init[q], 0.0), 1.0)
+            xin[init.shape[0] + 1] = 1.0
+            xin = _unique(xin)
+            s, needed = equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, d_ku, d_kv, d_pw,
+                                               cic, cfc, ck, cpw, cku, ckv, cpw4, xin, 0.0, 1.0, chord_tol,
+                                               max_edge, max_values)
+            if needed >= 0:
+                status[c] = 1
+                continue
+        s_all, uvs, iso = chunk_iso_kernel(cic, cfc, ck, cpw, G, gl, ptol, s)
+        if s_all.shape[0] > 2:
+            s_all, uvs, iso = _merge_close(G, gl, ptol, s_all, uvs, iso)
+        if do_reduce and not degenerate and s_all.shape[0] > 2:
+            k_all = s_all.shape[0]
+            if L >= 2:
+                must = _crossing_points(G, gl, uvs, k_all)
+            else:
+                must = iso.copy()
+            must[0] = True
+            must[k_all - 1] = True
+            s_all, uvs, iso = _reduce(cic, cfc, ck, cpw, cku, ckv, cpw4, G, gl, s_all, uvs, must, iso, chord_tol,
+                                      max_edge, m9)
+            if L >= 2:
+                s_all, uvs, iso = _even_spacing(cic, cfc, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s_all, uvs, iso,
+                                                chord_tol, max_edge, m9)
+        k = s_all.shape[0]
+        n_pts[c] = k
+        degen[c] = degenerate
+        o_s = _grow(o_s, ns + k)
+        o_iso = _grow(o_iso, ns + k)
+        o_xyz = _grow(o_xyz, ns + k)
+        o_uv = _grow(o_uv, nuv + L * k)
+        for i in range(k):
+            o_s[ns + i] = s_all[i]
+            o_iso[ns + i] = iso[i]
+        # the shared points: np.mean over the uses of S(uv) (a sequential sum, then / L)
+        for j in range(L):
+            kc_, cw_, ku, kv, pw = _use_arrays(cic, ck, cpw, cku, ckv, cpw4, j)
+            pu, pv, srat = cic[j, 2], cic[j, 3], cic[j, 4] != 0
+            su0, su1 = ku[pu], ku[ku.shape[0] - pu - 1]
+            sv0, sv1 = kv[pv], kv[kv.shape[0] - pv - 1]
+            for i in range(k):
+                uu, vv = uvs[j, i, 0], uvs[j, i, 1]
+                o_uv[nuv + j * k + i, 0] = uu
+                o_uv[nuv + j * k + i, 1] = vv
+                _surface_point01(pu, pv, ku, kv, pw, srat, min(max(uu, su0), su1), min(max(vv, sv0), sv1), 0,
+                                 ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
+                for q in range(3):
+                    if j == 0:
+                        o_xyz[ns + i, q] = res[0, q]
+                    else:
+                        o_xyz[ns + i, q] += res[0, q]
+        for i in range(k):
+            for q in range(3):
+                o_xyz[ns + i, q] = o_xyz[ns + i, q] / L
+        ns += k
+        nuv += L * k
+    return n_pts, o_s[:ns].copy(), o_uv[:nuv].copy(), o_xyz[:ns].copy(), o_iso[:ns].copy(), degen, status

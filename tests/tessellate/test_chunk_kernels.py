@@ -1,0 +1,84 @@
+"""The compiled edge discretization (`trims.discretize_chunks`, `_chunk_kernels`) against the numpy path it
+replaces (`trims._discretize_chunk_numpy`): the same points bit for bit (the meshes' hashes depend on it),
+on the shared and single-use chunks of real models, at tolerance-only and paper settings."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from trimsurf.errors import InputError
+from trimsurf.io import read_shell
+from trimsurf.samples import build_sample
+from trimsurf.tessellate.face import face_domain_values
+from trimsurf.tessellate.trims import ChunkUse, _discretize_chunk_numpy, discretize_chunk, discretize_chunks
+
+
+def _ptol(face) -> float:
+    (u0, u1), (v0, v1) = face.surface.domain
+    return 1e-7 * min(u1 - u0, v1 - v0)
+
+
+def _chunks(shell, tol, h):
+    """Per edge its uses (as tessellate_shell builds them) and whether the edge is degenerate."""
+    grids, chunks, degs = {}, [], []
+    for e in shell.edges:
+        uses = []
+        for fi, li, si in e.uses:
+            f = shell.faces[fi]
+            if fi not in grids:
+                grids[fi] = face_domain_values(f, tolerance=0.97 * tol, max_edge=h)
+            us, vs = grids[fi]
+            uses.append(ChunkUse(fi, li, si, f.loops[li].segments[si], f.surface, us, vs, _ptol(f)))
+        chunks.append(uses)
+        degs.append(True if e.is_degenerate else None)
+    return chunks, degs
+
+
+def _same(a, b) -> bool:
+    return (a.s.tobytes() == b.s.tobytes() and a.degenerate == b.degenerate and np.array_equal(a.is_iso, b.is_iso)
+            and len(a.uv) == len(b.uv) and all(x.tobytes() == y.tobytes() for x, y in zip(a.uv, b.uv))
+            and a.xyz.tobytes() == b.xyz.tobytes())
+
+
+@pytest.mark.parametrize("model", ["gmsh__t20_data.step", "occt__screw.step"])
+@pytest.mark.parametrize("rel_h", [1.0, 0.03])
+def test_compiled_chunks_equal_numpy_path(shared_data, model, rel_h):
+    shell = read_shell(shared_data / "cad" / model)
+    d = shell.diagonal()
+    tol, h = 1e-3 * d, rel_h * d
+    chunks, degs = _chunks(shell, tol, h)
+    singles = [[u] for ch in chunks for u in ch]          # loose mode: every segment its own chunk
+    for cl, dl in ((chunks, degs), (singles, [None] * len(singles))):
+        got = discretize_chunks(cl, tolerance=tol, max_edge=h, degenerate=dl)
+        ref = [_discretize_chunk_numpy(u, tolerance=tol, max_edge=h, degenerate=g) for u, g in zip(cl, dl)]
+        assert len(got) == len(ref) == len(cl)
+        bad = [i for i, (a, b) in enumerate(zip(got, ref)) if not _same(a, b)]
+        assert not bad, f"{len(bad)} of {len(cl)} chunks differ"
+        # the batch is the chunks one by one (no state carried from one chunk to the next)
+        for i in range(0, len(cl), max(1, len(cl) // 5)):
+            assert _same(discretize_chunk(cl[i], tolerance=tol, max_edge=h, degenerate=dl[i]), got[i])
+        # shared chunks: several points, and every chunk longer than the chord rule kept more than its ends
+        assert sum(len(c.s) > 2 for c in got) >= 5
+
+
+def test_compiled_chunks_forced_degenerate_and_refusal():
+    shell = build_sample("bspline_box")
+    d = shell.diagonal()
+    tol, h = 1e-3 * d, 0.03 * d
+    chunks, _ = _chunks(shell, tol, h)
+    uses = chunks[0]
+    for deg in (True, False, None):
+        got = discretize_chunks([uses], tolerance=tol, max_edge=h, degenerate=[deg])[0]
+        ref = _discretize_chunk_numpy(uses, tolerance=tol, max_edge=h, degenerate=deg)
+        assert _same(got, ref)
+        assert got.degenerate == (deg is True)
+        if deg:         # one 3D point for the whole curve
+            assert np.all(got.xyz == got.xyz[0])
+    # a grid size far too small for the curve: refused by name (the numpy path's InputError), not placed
+    with pytest.raises(InputError, match="intervals needed"):
+        discretize_chunks([uses], tolerance=tol, max_edge=1e-7 * d)
+    # the other strategies take the numpy path: the same chunk
+    for strategy in ("bisection", "uniform"):
+        a = discretize_chunks([uses], tolerance=tol, max_edge=h, strategy=strategy)[0]
+        assert _same(a, _discretize_chunk_numpy(uses, tolerance=tol, max_edge=h, strategy=strategy))
