@@ -24,7 +24,7 @@ from numba import njit
 
 from ..geom._nurbs_kernels import _point_scratch, _surface_point01
 from ._line_kernels import (_chunk_criteria, _nonzero, _snap1, _ss_left, _ss_right, _stable_order, _unique,
-                            _use_arrays, _use_uv, chunk_iso_kernel, equidistributed_kernel)
+                            _use_arrays, _use_uv, chunk_iso_kernel)
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
@@ -88,7 +88,7 @@ def _select(s, uvs, flags, keep):
     return s2, uv2, f2
 
 
-@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+@njit(cache=True, nogil=True, inline="always")
 def _crit(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, max_len, max_dev, stop):
     """`interval_criteria` of the chunk family over [a_i, b_i] (one call site of `_chunk_criteria`)."""
     length = np.empty(a.shape[0])
@@ -97,7 +97,7 @@ def _crit(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, max_len, max_dev, stop):
     return ok, length, dev
 
 
-@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+@njit(cache=True, nogil=True, inline="always")
 def _reduce(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, s, uvs, must, flags, tolerance, max_edge, m9):
     """`trims._reduce`: points that are no `must` point removed while the chord of their neighbours meets
     both criteria and stays in one closed grid cell of every use (rounds of parity 0, 1, 0, 1)."""
@@ -139,7 +139,7 @@ def _reduce(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, s, uvs, must, flags, toleran
     return _select(s, uvs, flags, keep)
 
 
-@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+@njit(cache=True, nogil=True, inline="always")
 def _even_spacing(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tolerance, max_edge, m9):
     """`trims._even_spacing`: between consecutive grid-line crossings, the fewest equally spaced points
     (in s) that meet both criteria with every chord in one grid cell of every use, where they are no
@@ -280,6 +280,26 @@ def _even_spacing(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tol
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _reduce_chunk(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tolerance, max_edge, m9):
+    """The polygon reduction of `discretize_chunk`: `_reduce` keeping the grid-line crossings (on a shared
+    edge only those the polygon does not run along, on a single use its iso points), then on a shared
+    edge `_even_spacing` (one compiled function: the criteria linked into it once)."""
+    k_all = s.shape[0]
+    L = uvs.shape[0]
+    if L >= 2:
+        must = _crossing_points(G, gl, uvs, k_all)
+    else:
+        must = iso.copy()
+    must[0] = True
+    must[k_all - 1] = True
+    s, uvs, iso = _reduce(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, s, uvs, must, iso, tolerance, max_edge, m9)
+    if L >= 2:
+        s, uvs, iso = _even_spacing(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tolerance, max_edge,
+                                    m9)
+    return s, uvs, iso
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _merge_close(G, gl, ptol, s, uvs, iso):
     """`discretize_chunk`'s merge of points that (nearly) coincide in some use (the inner point of the
     pair dropped, preferably no iso point; the kept one takes over its grid coordinates)."""
@@ -326,39 +346,35 @@ def _merge_close(G, gl, ptol, s, uvs, iso):
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _grow(a, n):
-    """a with room for at least n rows (rows copied by a loop)."""
+    """a (rows, cols) with room for at least n rows (copied by a loop)."""
     if a.shape[0] >= n:
         return a
-    out = np.empty((max(n, 2 * a.shape[0]),) + a.shape[1:], dtype=a.dtype)
-    fa = a.reshape(a.size)
-    fo = out.reshape(out.size)
-    for i in range(a.size):
-        fo[i] = fa[i]
+    out = np.empty((max(n, 2 * a.shape[0]), a.shape[1]))
+    for i in range(a.shape[0]):
+        for q in range(a.shape[1]):
+            out[i, q] = a[i, q]
     return out
 
 
 @njit(cache=True, nogil=True)
 def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, d_ku, d_kv, d_pw,
                              ci, cf, ck, cpw, cku, ckv, cpw4, gi, gf, ptol_all, c_off, forced,
-                             s9, s33, tolerance, shared_chord, max_edge, max_values, flags):
+                             s9, s33, s_in, s_off, tolerance, shared_chord, max_edge, max_values, flags):
     """`trims.discretize_chunk` (strategy "equidistributed") for chunks c = 0 .. C-1, chunk c made of the
     uses c_off[c] .. c_off[c + 1] - 1 (rows of ci, cf, gi, ptol_all); forced[c] = 1 / 0: degenerate or
     not, -1: decided from the 3D extent of 33 probe points.
     The first ten arguments are the unused kind-0 members of the family tuple (`kind` = 1); flags =
-    (reduce, 5, 9, 0): run-time constants. Returns (n_pts (C,), s, uv (sum L_c k_c, 2) use-major per
-    chunk, xyz (sum k_c, 3) as the mean of the uses' S(uv) without the degenerate averaging, iso,
-    degenerate (C,), status (C,): 0 done, 1 more than max_values intervals needed (the caller runs
-    the numpy path, which refuses))."""
+    (reduce, 5, 9, 0): run-time constants. Returns (info (C, 3): points k_c, degenerate, status (0 done,
+    1 more than max_values intervals needed: the caller runs the numpy path, which refuses); pts
+    (sum k_c, 5): s, xyz (the mean of the uses' S(uv), before the degenerate averaging), iso (0 / 1);
+    uv (sum L_c k_c, 2), use-major per chunk)."""
     do_reduce = flags[0] != 0
     m9 = flags[2]
+    mode = flags[3]
     n_chunks = c_off.shape[0] - 1
-    n_pts = np.zeros(n_chunks, dtype=np.int64)
-    status = np.zeros(n_chunks, dtype=np.int64)
-    degen = np.zeros(n_chunks, dtype=np.bool_)
-    o_s = np.empty(64)
+    info = np.zeros((n_chunks, 3), dtype=np.int64)       # points, degenerate, status
+    o_pts = np.empty((64, 5))                            # s, xyz, iso
     o_uv = np.empty((128, 2))
-    o_xyz = np.empty((64, 3))
-    o_iso = np.empty(64, dtype=np.bool_)
     ns = 0
     nuv = 0
     for c in range(n_chunks):
@@ -384,97 +400,91 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
                 for q in range(n):
                     G[j, axis, q] = gf[o + q]
         chord_tol = tolerance if L < 2 else shared_chord * tolerance
-        # the start values: the first use's p-curve knots inside its range, mapped onto [0, 1], and s9
-        cp = cic[0, 0]
-        kc = ck[cic[0, 5]:cic[0, 5] + cic[0, 6]]
-        lo, hi = cfc[0, 0], cfc[0, 1]
-        nk = 0
-        for q in range(kc.shape[0]):
-            if kc[q] > lo and kc[q] < hi:
-                nk += 1
-        kin = np.empty(nk)
-        nk = 0
-        for q in range(kc.shape[0]):
-            if kc[q] > lo and kc[q] < hi:
-                kin[nk] = kc[q]
-                nk += 1
-        kin = _unique(kin)
-        init = np.empty(s9.shape[0] + kin.shape[0])
-        for q in range(s9.shape[0]):
-            init[q] = s9[q]
-        for q in range(kin.shape[0]):
-            init[s9.shape[0] + q] = (kin[q] - lo) / (hi - lo)
-        init = _unique(init)
-        # the 3D extent of the 33 probe points (per use, from its first point)
-        ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(
-            max(cic[:, 2].max(), 1), max(cic[:, 3].max(), 1), 4)
-        res = np.empty((3, 3))
-        uvp = np.empty((s33.shape[0], 2))
-        extent = 0.0
+        mpu, mpv = 1, 1
         for j in range(L):
-            kc_, cw_, ku, kv, pw = _use_arrays(cic, ck, cpw, cku, ckv, cpw4, j)
-            pu, pv, srat = cic[j, 2], cic[j, 3], cic[j, 4] != 0
-            su0, su1 = ku[pu], ku[ku.shape[0] - pu - 1]
-            sv0, sv1 = kv[pv], kv[kv.shape[0] - pv - 1]
-            _use_uv(cic, cfc, ck, cpw, j, s33, uvp)
-            x0, y0, z0 = 0.0, 0.0, 0.0
-            for i in range(s33.shape[0]):
-                _surface_point01(pu, pv, ku, kv, pw, srat, min(max(uvp[i, 0], su0), su1),
-                                 min(max(uvp[i, 1], sv0), sv1), 0, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
-                                 bu, bv, tmp, skl, res)
-                if i == 0:
-                    x0, y0, z0 = res[0, 0], res[0, 1], res[0, 2]
-                d0, d1, d2 = res[0, 0] - x0, res[0, 1] - y0, res[0, 2] - z0
-                e = np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
-                if e > extent or np.isnan(e):
-                    extent = e
-        if forced[c] >= 0:
-            degenerate = forced[c] == 1
-        else:
-            degenerate = extent <= 1e-3 * tolerance
-        if degenerate:
-            s = np.empty(2)
-            s[0], s[1] = 0.0, 1.0
-        else:
-            # adaptive_values: x0 = unique(clip(r_[0, init, 1], 0, 1)), then the compiled placement
+            mpu, mpv = max(mpu, cic[j, 2]), max(mpv, cic[j, 3])
+        ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(mpu, mpv, 4)
+        res = np.empty((3, 3))
+        if mode == 0:
+            # the start values: the first use's p-curve knots inside its range, mapped onto [0, 1], and s9
+            cp = cic[0, 0]
+            kc = ck[cic[0, 5]:cic[0, 5] + cic[0, 6]]
+            lo, hi = cfc[0, 0], cfc[0, 1]
+            nk = 0
+            for q in range(kc.shape[0]):
+                if kc[q] > lo and kc[q] < hi:
+                    nk += 1
+            kin = np.empty(nk)
+            nk = 0
+            for q in range(kc.shape[0]):
+                if kc[q] > lo and kc[q] < hi:
+                    kin[nk] = kc[q]
+                    nk += 1
+            kin = _unique(kin)
+            init = np.empty(s9.shape[0] + kin.shape[0])
+            for q in range(s9.shape[0]):
+                init[q] = s9[q]
+            for q in range(kin.shape[0]):
+                init[s9.shape[0] + q] = (kin[q] - lo) / (hi - lo)
+            init = _unique(init)
+            # the 3D extent of the 33 probe points (per use, from its first point)
+            uvp = np.empty((s33.shape[0], 2))
+            extent = 0.0
+            for j in range(L):
+                kc_, cw_, ku, kv, pw = _use_arrays(cic, ck, cpw, cku, ckv, cpw4, j)
+                pu, pv, srat = cic[j, 2], cic[j, 3], cic[j, 4] != 0
+                su0, su1 = ku[pu], ku[ku.shape[0] - pu - 1]
+                sv0, sv1 = kv[pv], kv[kv.shape[0] - pv - 1]
+                _use_uv(cic, cfc, ck, cpw, j, s33, uvp)
+                x0, y0, z0 = 0.0, 0.0, 0.0
+                for i in range(s33.shape[0]):
+                    _surface_point01(pu, pv, ku, kv, pw, srat, min(max(uvp[i, 0], su0), su1),
+                                     min(max(uvp[i, 1], sv0), sv1), 0, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
+                                     bu, bv, tmp, skl, res)
+                    if i == 0:
+                        x0, y0, z0 = res[0, 0], res[0, 1], res[0, 2]
+                    d0, d1, d2 = res[0, 0] - x0, res[0, 1] - y0, res[0, 2] - z0
+                    e = np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
+                    if e > extent or np.isnan(e):
+                        extent = e
+            if forced[c] >= 0:
+                degenerate = forced[c] == 1
+            else:
+                degenerate = extent <= 1e-3 * tolerance
+            # adaptive_values' start: x0 = unique(clip(r_[0, init, 1], 0, 1))
             xin = np.empty(init.shape[0] + 2)
             xin[0] = 0.0
             for q in range(init.shape[0]):
                 xin[q + 1] = min(max(init[q], 0.0), 1.0)
             xin[init.shape[0] + 1] = 1.0
             xin = _unique(xin)
-            s, needed = equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, d_ku, d_kv, d_pw,
-                                               cic, cfc, ck, cpw, cku, ckv, cpw4, xin, 0.0, 1.0, chord_tol,
-                                               max_edge, max_values)
-            if needed >= 0:
-                status[c] = 1
-                continue
+            k = xin.shape[0]
+            info[c, 0] = k
+            info[c, 1] = degenerate
+            o_pts = _grow(o_pts, ns + k)
+            for i in range(k):
+                o_pts[ns + i, 0] = xin[i]
+            ns += k
+            continue
+        # mode 1: from the placed values s (`equidistributed_kernel`, called by the caller per chunk)
+        degenerate = forced[c] == 1
+        s = np.empty(s_off[c + 1] - s_off[c])
+        for i in range(s.shape[0]):
+            s[i] = s_in[s_off[c] + i]
         s_all, uvs, iso = chunk_iso_kernel(cic, cfc, ck, cpw, G, gl, ptol, s)
         if s_all.shape[0] > 2:
             s_all, uvs, iso = _merge_close(G, gl, ptol, s_all, uvs, iso)
         if do_reduce and not degenerate and s_all.shape[0] > 2:
-            k_all = s_all.shape[0]
-            if L >= 2:
-                must = _crossing_points(G, gl, uvs, k_all)
-            else:
-                must = iso.copy()
-            must[0] = True
-            must[k_all - 1] = True
-            s_all, uvs, iso = _reduce(cic, cfc, ck, cpw, cku, ckv, cpw4, G, gl, s_all, uvs, must, iso, chord_tol,
-                                      max_edge, m9)
-            if L >= 2:
-                s_all, uvs, iso = _even_spacing(cic, cfc, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s_all, uvs, iso,
-                                                chord_tol, max_edge, m9)
+            s_all, uvs, iso = _reduce_chunk(cic, cfc, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s_all, uvs, iso, chord_tol,
+                                            max_edge, m9)
         k = s_all.shape[0]
-        n_pts[c] = k
-        degen[c] = degenerate
-        o_s = _grow(o_s, ns + k)
-        o_iso = _grow(o_iso, ns + k)
-        o_xyz = _grow(o_xyz, ns + k)
+        info[c, 0] = k
+        info[c, 1] = degenerate
+        o_pts = _grow(o_pts, ns + k)
         o_uv = _grow(o_uv, nuv + L * k)
         for i in range(k):
-            o_s[ns + i] = s_all[i]
-            o_iso[ns + i] = iso[i]
+            o_pts[ns + i, 0] = s_all[i]
+            o_pts[ns + i, 4] = 1.0 if iso[i] else 0.0
         # the shared points: np.mean over the uses of S(uv) (a sequential sum, then / L)
         for j in range(L):
             kc_, cw_, ku, kv, pw = _use_arrays(cic, ck, cpw, cku, ckv, cpw4, j)
@@ -489,12 +499,12 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
                                  ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
                 for q in range(3):
                     if j == 0:
-                        o_xyz[ns + i, q] = res[0, q]
+                        o_pts[ns + i, 1 + q] = res[0, q]
                     else:
-                        o_xyz[ns + i, q] += res[0, q]
+                        o_pts[ns + i, 1 + q] += res[0, q]
         for i in range(k):
             for q in range(3):
-                o_xyz[ns + i, q] = o_xyz[ns + i, q] / L
+                o_pts[ns + i, 1 + q] = o_pts[ns + i, 1 + q] / L
         ns += k
         nuv += L * k
-    return n_pts, o_s[:ns].copy(), o_uv[:nuv].copy(), o_xyz[:ns].copy(), o_iso[:ns].copy(), degen, status
+    return info, o_pts[:ns], o_uv[:nuv]

@@ -23,6 +23,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -63,60 +64,92 @@ def _line(a, b) -> NurbsCurve:
 _POLE_REL = 1e-6     # |Su x Sv| below this x its largest value along the knot line: a pole, skipped
 
 
+def _full_knots(knots: np.ndarray, p: int, least: int) -> list:
+    """(value, index of its first occurrence, count) of the distinct knots occurring at least `least`
+    times (np.unique's values, return_index and return_counts, in a plain loop: knot vectors are short
+    and this runs for every face)."""
+    k = knots.tolist()
+    if any(b < a for a, b in zip(k, k[1:])):        # not sorted (np.unique sorts): its own path
+        vals, first, counts = np.unique(knots, return_index=True, return_counts=True)
+        return [(float(v), int(f), int(c)) for v, f, c in zip(vals, first, counts) if c >= least]
+    out = []
+    i = 0
+    while i < len(k):
+        j = i + 1
+        while j < len(k) and k[j] == k[i]:
+            j += 1
+        if j - i >= least:
+            out.append((k[i], i, j - i))
+        i = j
+    return out
+
+
+def _normals_and_areas(su: np.ndarray, sv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(`geom.unit_normals`(su, sv), |su x sv|): one cross product for both (the same numbers as
+    np.cross and np.linalg.norm: c0 = a1 b2 - a2 b1, ..., |c| = sqrt((c0^2 + c1^2) + c2^2))."""
+    a0, a1, a2 = su[:, 0], su[:, 1], su[:, 2]
+    b0, b1, b2 = sv[:, 0], sv[:, 1], sv[:, 2]
+    nrm = np.empty(su.shape)
+    nrm[:, 0] = a1 * b2 - a2 * b1
+    nrm[:, 1] = a2 * b0 - a0 * b2
+    nrm[:, 2] = a0 * b1 - a1 * b0
+    sq = nrm * nrm
+    length = np.sqrt((sq[:, 0] + sq[:, 1]) + sq[:, 2])
+    pos = (length > 0)[:, None]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(pos, nrm / np.where(pos, length[:, None], 1.0), np.nan), length
+
+
 def g1_defects(face: TrimmedFace, *, n: int = 33) -> float:
     """Largest angle (degrees) between the normals on both sides of an internal C0 knot line, inside the trim.
 
     Points where the parameterization is singular (a pole: |Su x Sv| = 0) are left out: the normal
     there is not defined by the derivatives, and the jump of the one-sided limits is no G1 defect.
+    A surface without interior knots of multiplicity >= degree (no C0 knot line) has none: 0.0.
     """
-    from ..geom import unit_normals
     from ..quality.sampling import inside_face
 
     s = face.surface
     (u0, u1), (v0, v1) = s.domain
-    sides = []          # per knot line: (u, v) just left and just right of it, and on it
+    sides = []          # per direction: (u, v) just left and just right of its knot lines, and on them
     for axis, knots, p, (a, b), (c, d) in ((0, s.knots_u, s.degree_u, (u0, u1), (v0, v1)),
                                            (1, s.knots_v, s.degree_v, (v0, v1), (u0, u1))):
-        inner = knots[p + 1:-p - 1]
-        vals, counts = np.unique(inner, return_counts=True)
-        lines = vals[counts >= p]
-        if not len(lines):
+        lines = [v for v, _, _ in _full_knots(knots[p + 1:-p - 1], p, p)]
+        if not lines:
             continue
         eps = 1e-7 * (b - a)
-        t = np.linspace(c, d, n)
-        for k in lines:
-            uv_l = np.column_stack([np.full(n, k - eps), t]) if axis == 0 else np.column_stack([t, np.full(n, k - eps)])
-            uv_r = uv_l.copy()
-            uv_r[:, axis] = k + eps
-            mid = uv_l.copy()
-            mid[:, axis] = k
-            sides.append((uv_l, uv_r, mid))
+        k = np.array(lines)
+        mid = np.empty((len(k), n, 2))
+        mid[:, :, axis] = k[:, None]
+        mid[:, :, 1 - axis] = np.linspace(c, d, n)
+        uv_l, uv_r = mid.copy(), mid.copy()
+        uv_l[:, :, axis] = (k - eps)[:, None]
+        uv_r[:, :, axis] = (k + eps)[:, None]
+        sides.append((uv_l, uv_r, mid))
     if not sides:
         return 0.0
     # one inside test and one evaluation on each side for all lines (the same numbers per point)
-    ins = inside_face(face, np.concatenate([x[2] for x in sides]), n_per_segment=16).reshape(len(sides), n)
+    uv_l, uv_r, mid = (np.concatenate([x[q] for x in sides]) for q in range(3))
+    ins = inside_face(face, mid.reshape(-1, 2), n_per_segment=16).reshape(len(mid), n)
     if not ins.any():
         return 0.0
-    dl = s.derivatives(np.concatenate([x[0][m] for x, m in zip(sides, ins)]), 1)
-    dr = s.derivatives(np.concatenate([x[1][m] for x, m in zip(sides, ins)]), 1)
-    nl_all, nr_all = unit_normals(dl[1, 0], dl[0, 1]), unit_normals(dr[1, 0], dr[0, 1])
-    area_l = np.linalg.norm(np.cross(dl[1, 0], dl[0, 1]), axis=-1)
-    area_r = np.linalg.norm(np.cross(dr[1, 0], dr[0, 1]), axis=-1)
-    cut = np.r_[0, np.cumsum(ins.sum(axis=1))]
-    worst = 0.0
-    for a, b in zip(cut[:-1].tolist(), cut[1:].tolist()):
-        if a == b:
-            continue
-        nl, nr = nl_all[a:b], nr_all[a:b]
-        cos = np.clip(np.einsum("ij,ij->i", nl, nr), -1.0, 1.0)
-        # a pole (|Su x Sv| = 0, e.g. the axis of a surface of revolution) has no normal to compare
-        regular = np.ones(len(cos), dtype=bool)
-        for area in (area_l[a:b], area_r[a:b]):
-            regular &= area > _POLE_REL * max(float(area.max(initial=0.0)), 1e-300)
-        ang = np.degrees(np.arccos(cos[np.isfinite(cos) & regular]))
-        if len(ang):
-            worst = max(worst, float(ang.max()))
-    return worst
+    flat = ins.ravel()
+    dl = s.derivatives(uv_l.reshape(-1, 2)[flat], 1)
+    dr = s.derivatives(uv_r.reshape(-1, 2)[flat], 1)
+    nl, area_l = _normals_and_areas(dl[1, 0], dl[0, 1])
+    nr, area_r = _normals_and_areas(dr[1, 0], dr[0, 1])
+    cos = np.clip(np.einsum("ij,ij->i", nl, nr), -1.0, 1.0)
+    # a pole (|Su x Sv| = 0, e.g. the axis of a surface of revolution) has no normal to compare: per line,
+    # the points whose area is above _POLE_REL x the line's largest on both sides
+    cnt = ins.sum(axis=1)
+    cnt = cnt[cnt > 0]
+    start = np.r_[0, np.cumsum(cnt)[:-1]]
+    regular = np.ones(len(cos), dtype=bool)
+    for area in (area_l, area_r):
+        top = np.maximum(np.maximum.reduceat(area, start), 0.0)
+        regular &= area > np.repeat(_POLE_REL * np.maximum(top, 1e-300), cnt)
+    ang = np.degrees(np.arccos(cos[np.isfinite(cos) & regular]))
+    return max(0.0, float(ang.max())) if len(ang) else 0.0
 
 
 def _inside_trim(face: TrimmedFace, u_range, v_range, n: int = 17) -> bool:
@@ -134,10 +167,9 @@ def _knot_breaks(s):
     """Breaks of a surface at interior knots of multiplicity degree + 1: (gap, axis, knot value), largest first."""
     out = []
     for axis, knots, p in ((0, s.knots_u, s.degree_u), (1, s.knots_v, s.degree_v)):
-        vals, first, counts = np.unique(knots, return_index=True, return_counts=True)
         lo, hi = knots[p], knots[-p - 1]
-        for v, f, c in zip(vals, first, counts):
-            if lo < v < hi and c > p:
+        for v, f, c in _full_knots(knots, p, p + 1):
+            if lo < v < hi:
                 cp = np.moveaxis(s.control_points, axis, 0)
                 out.append((float(np.linalg.norm(cp[f - 1] - cp[f], axis=-1).max()), axis, float(v)))
     return sorted(out, reverse=True)
@@ -189,6 +221,25 @@ def patch_grid_defect(face: TrimmedFace, tolerance: float) -> tuple[str | None, 
     return None, notes
 
 
+def _ends(seg: PCurve) -> np.ndarray:
+    """seg.curve.evaluate([seg.t0, seg.t1]) (the same numbers: `geom.curve_derivatives`' compiled path
+    without its wrappers, which cost more than the two points on a face's few segments)."""
+    from ..geom._nurbs_kernels import curve_points_kernel
+    from ..geom.nurbs import _clip, _homogeneous, read_only
+
+    c = seg.curve
+    t0, t1 = seg.t0, seg.t1
+    if not (math.isfinite(t0) and math.isfinite(t1)):
+        return c.evaluate([t0, t1])          # raises as evaluate does
+    knots = read_only(c.knots)
+    p = int(c.degree)
+    t = _clip(np.array([t0, t1], dtype=np.float64), knots[p], knots[-p - 1])
+    pw = _homogeneous(c.control_points, c.weights)
+    out = np.empty((2, pw.shape[-1] - (c.weights is not None)))
+    curve_points_kernel(p, knots, read_only(pw), c.weights is not None, t, out)
+    return out
+
+
 def repair_face(face: TrimmedFace, *, tolerance: float, g1_angle_deg: float = 1.0) -> FaceRepair:
     """Check and repair one face (paper Sec. 4.1).
 
@@ -221,11 +272,13 @@ def repair_face(face: TrimmedFace, *, tolerance: float, g1_angle_deg: float = 1.
     for li, loop in enumerate(face.loops):
         segs = list(loop.segments)
         # each segment's start and end in one evaluation (the same points as .start / .end)
-        ends = [sg.curve.evaluate([sg.t0, sg.t1]) for sg in segs]
+        ends = [_ends(sg) for sg in segs]
         out: list[PCurve] = []
         for si, seg in enumerate(segs):
             out.append(seg)
             a, b = ends[si][1], ends[(si + 1) % len(segs)][0]
+            if a[0] == b[0] and a[1] == b[1]:
+                continue        # the same point (a gap of 0.0)
             gap_uv = float(np.linalg.norm(b - a))
             if gap_uv <= 1e-9 * max(u1 - u0, v1 - v0):
                 continue

@@ -315,29 +315,56 @@ def discretize_chunks(chunks: list, *, tolerance: float, max_edge: float, strate
         return [_discretize_chunk_numpy(uses, tolerance=tolerance, max_edge=max_edge, strategy=strategy,
                                         reduce=reduce, degenerate=deg) for uses, deg in zip(chunks, degenerate)]
     from ._chunk_kernels import discretize_chunks_kernel
-    from ._line_kernels import DUMMY_1D as D1, DUMMY_3D as D3, DUMMY_BOOL as DB
+    from ._line_kernels import DUMMY_1D as D1, DUMMY_3D as D3, DUMMY_BOOL as DB, equidistributed_kernel
     from .domain import MAX_VALUES
 
     ci, cf, ck, cpw, cku, ckv, cpw4, gi, gf, ptol, c_off = _batch_arrays(chunks)
     forced = np.array([-1 if d is None else int(bool(d)) for d in degenerate], dtype=np.int64)
-    n_pts, s, uv, xyz, iso, degen, status = discretize_chunks_kernel(
-        1, np.zeros(5, dtype=np.int64), np.zeros(2), D1, D1, DB, np.zeros(4), D1, D1, D3,
-        ci, cf, ck, cpw, cku, ckv, cpw4, gi, gf, ptol, c_off, forced, _S9W, _S33W,
-        float(tolerance), float(SHARED_CHORD), float(max_edge), float(MAX_VALUES),
-        np.array([bool(reduce), 5, 9, 0], dtype=np.int64))
+    fam0 = (1, np.zeros(5, dtype=np.int64), np.zeros(2), D1, D1, DB, np.zeros(4), D1, D1, D3)
+    args = (*fam0, ci, cf, ck, cpw, cku, ckv, cpw4, gi, gf, ptol, c_off)
+    tail = (float(tolerance), float(SHARED_CHORD), float(max_edge), float(MAX_VALUES))
+    # 1. per chunk the placement's start values and whether it is degenerate (the 33-point probe)
+    info, pts, _ = discretize_chunks_kernel(*args, forced, _S9W, _S33W, _S9W, c_off, *tail,
+                                            np.array([bool(reduce), 5, 9, 0], dtype=np.int64))
+    # 2. the placement (`domain.adaptive_values`' compiled path, per chunk: linked into the chunk
+    #    kernel it would be compiled a second time)
+    placed, status, o = [], np.zeros(len(chunks), dtype=np.int64), 0
+    s01 = np.array([0.0, 1.0])
+    for c, uses in enumerate(chunks):
+        k, degen, _ = info[c].tolist()
+        if degen:
+            placed.append(s01)
+        else:
+            u0, u1 = int(c_off[c]), int(c_off[c + 1])
+            x, needed = equidistributed_kernel(*fam0, ci[u0:u1], cf[u0:u1], ck, cpw, cku, ckv, cpw4,
+                                               pts[o:o + k, 0].copy(), 0.0, 1.0,
+                                               float(tolerance if len(uses) < 2 else SHARED_CHORD * tolerance),
+                                               float(max_edge), float(MAX_VALUES))
+            if needed >= 0:
+                status[c] = 1
+                x = s01
+            placed.append(x)
+        o += k
+    s_off = np.zeros(len(chunks) + 1, dtype=np.int64)
+    np.cumsum([len(x) for x in placed], out=s_off[1:])
+    # 3. the iso-values, the reduction and the shared points
+    info, pts, uv = discretize_chunks_kernel(*args, info[:, 1].copy(), _S9W, _S33W, np.concatenate(placed), s_off,
+                                             *tail, np.array([bool(reduce), 5, 9, 1], dtype=np.int64))
+    info[:, 2] = status
+    s, xyz, iso = pts[:, 0].copy(), pts[:, 1:4].copy(), pts[:, 4] > 0.5
     out = []
     o = ouv = 0
     for c, uses in enumerate(chunks):
-        if status[c]:           # more intervals than MAX_VALUES: the numpy path refuses (InputError)
+        k, degen, status = info[c].tolist()
+        if status:              # more intervals than MAX_VALUES: the numpy path refuses (InputError)
             out.append(_discretize_chunk_numpy(uses, tolerance=tolerance, max_edge=max_edge, strategy=strategy,
                                                reduce=reduce, degenerate=degenerate[c]))
             continue
-        k = int(n_pts[c])
         cx = xyz[o:o + k]
-        if degen[c]:
+        if degen:
             cx[:] = cx.mean(axis=0)
         out.append(Chunk(s[o:o + k], list(uses), [uv[ouv + j * k:ouv + (j + 1) * k] for j in range(len(uses))],
-                         cx, iso[o:o + k], bool(degen[c])))
+                         cx, iso[o:o + k], bool(degen)))
         o += k
         ouv += len(uses) * k
     return out
