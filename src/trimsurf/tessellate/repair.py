@@ -23,11 +23,12 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..geom._nurbs_kernels import curve_points_kernel
+from ..geom.nurbs import _clip, _homogeneous, read_only
 from ..geom.predicates import polyline_self_intersections
 from ..model import Loop, NurbsCurve, PCurve, TrimmedFace
 
@@ -129,15 +130,16 @@ def g1_defects(face: TrimmedFace, *, n: int = 33) -> float:
     if not sides:
         return 0.0
     # one inside test and one evaluation on each side for all lines (the same numbers per point)
-    uv_l, uv_r, mid = (np.concatenate([x[q] for x in sides]) for q in range(3))
+    uv_l, uv_r, mid = sides[0] if len(sides) == 1 else (np.concatenate([x[q] for x in sides]) for q in range(3))
     ins = inside_face(face, mid.reshape(-1, 2), n_per_segment=16).reshape(len(mid), n)
     if not ins.any():
         return 0.0
     flat = ins.ravel()
-    dl = s.derivatives(uv_l.reshape(-1, 2)[flat], 1)
-    dr = s.derivatives(uv_r.reshape(-1, 2)[flat], 1)
-    nl, area_l = _normals_and_areas(dl[1, 0], dl[0, 1])
-    nr, area_r = _normals_and_areas(dr[1, 0], dr[0, 1])
+    m = int(flat.sum())
+    # both sides in one evaluation (point by point: the same numbers as one call per side)
+    dd = s.derivatives(np.concatenate([uv_l.reshape(-1, 2)[flat], uv_r.reshape(-1, 2)[flat]]), 1)
+    nl, area_l = _normals_and_areas(dd[1, 0, :m], dd[0, 1, :m])
+    nr, area_r = _normals_and_areas(dd[1, 0, m:], dd[0, 1, m:])
     cos = np.clip(np.einsum("ij,ij->i", nl, nr), -1.0, 1.0)
     # a pole (|Su x Sv| = 0, e.g. the axis of a surface of revolution) has no normal to compare: per line,
     # the points whose area is above _POLE_REL x the line's largest on both sides
@@ -224,19 +226,17 @@ def patch_grid_defect(face: TrimmedFace, tolerance: float) -> tuple[str | None, 
 def _ends(seg: PCurve) -> np.ndarray:
     """seg.curve.evaluate([seg.t0, seg.t1]) (the same numbers: `geom.curve_derivatives`' compiled path
     without its wrappers, which cost more than the two points on a face's few segments)."""
-    from ..geom._nurbs_kernels import curve_points_kernel
-    from ..geom.nurbs import _clip, _homogeneous, read_only
-
     c = seg.curve
-    t0, t1 = seg.t0, seg.t1
-    if not (math.isfinite(t0) and math.isfinite(t1)):
-        return c.evaluate([t0, t1])          # raises as evaluate does
-    knots = read_only(c.knots)
+    knots, cp = c.knots, c.control_points           # (t0, t1 finite: PCurve checks them)
+    if knots.flags.writeable or not knots.flags.c_contiguous or knots.dtype != np.float64:
+        knots = read_only(knots)
     p = int(c.degree)
-    t = _clip(np.array([t0, t1], dtype=np.float64), knots[p], knots[-p - 1])
-    pw = _homogeneous(c.control_points, c.weights)
-    out = np.empty((2, pw.shape[-1] - (c.weights is not None)))
-    curve_points_kernel(p, knots, read_only(pw), c.weights is not None, t, out)
+    t = _clip(np.array([seg.t0, seg.t1], dtype=np.float64), knots[p], knots[-p - 1])
+    rational = c.weights is not None
+    if rational or cp.flags.writeable or not cp.flags.c_contiguous or cp.dtype != np.float64:
+        cp = read_only(_homogeneous(cp, c.weights))
+    out = np.empty((2, cp.shape[-1] - rational))
+    curve_points_kernel(p, knots, cp, rational, t, out)
     return out
 
 
@@ -300,8 +300,10 @@ def repair_face(face: TrimmedFace, *, tolerance: float, g1_angle_deg: float = 1.
             else:
                 return FaceRepair(face, "failed", [f"{name}: trim loop {li} is open after segment {si} "
                                                    f"(gap {gap3:.3g} in 3D > tolerance {tolerance:.3g})"])
-        loops.append(Loop(tuple(out)))
-    repaired = TrimmedFace(s, tuple(loops), face.same_sense, face.name, face.tolerance) if filled else face
+        loops.append(out)
+    # (new Loop objects only when a segment was inserted: otherwise the face is returned as it was)
+    repaired = (TrimmedFace(s, tuple(Loop(tuple(out)) for out in loops), face.same_sense, face.name, face.tolerance)
+                if filled else face)
     g1 = g1_defects(repaired)
     if g1 > g1_angle_deg:
         msgs.append(f"{name}: not G1 inside the trim (normals jump {g1:.2f} deg across a patch boundary)")
