@@ -70,15 +70,15 @@ def _full_knots(knots: np.ndarray, p: int, least: int) -> list:
     times (np.unique's values, return_index and return_counts, in a plain loop: knot vectors are short
     and this runs for every face)."""
     k = knots.tolist()
-    if any(b < a for a, b in zip(k, k[1:])):        # not sorted (np.unique sorts): its own path
-        vals, first, counts = np.unique(knots, return_index=True, return_counts=True)
-        return [(float(v), int(f), int(c)) for v, f, c in zip(vals, first, counts) if c >= least]
     out = []
     i = 0
     while i < len(k):
         j = i + 1
         while j < len(k) and k[j] == k[i]:
             j += 1
+        if j < len(k) and not k[j] > k[i]:          # not sorted (np.unique sorts): its own path
+            vals, first, counts = np.unique(knots, return_index=True, return_counts=True)
+            return [(float(v), int(f), int(c)) for v, f, c in zip(vals, first, counts) if c >= least]
         if j - i >= least:
             out.append((k[i], i, j - i))
         i = j
@@ -269,6 +269,7 @@ def repair_face(face: TrimmedFace, *, tolerance: float, g1_angle_deg: float = 1.
         return FaceRepair(face, "failed", [failure])
     msgs.extend(notes)
     loops, filled, status = [], [], "ok"
+    span = max(u1 - u0, v1 - v0)
     for li, loop in enumerate(face.loops):
         segs = list(loop.segments)
         # each segment's start and end in one evaluation (the same points as .start / .end)
@@ -277,16 +278,19 @@ def repair_face(face: TrimmedFace, *, tolerance: float, g1_angle_deg: float = 1.
         for si, seg in enumerate(segs):
             out.append(seg)
             a, b = ends[si][1], ends[(si + 1) % len(segs)][0]
-            if a[0] == b[0] and a[1] == b[1]:
-                continue        # the same point (a gap of 0.0)
+            # joined ends: the same point, or a gap below 1e-9 x the domain (decided without the norm where
+            # sqrt(2) x the larger coordinate difference, with room for the norm's rounding, is below it)
+            d0, d1 = abs(float(b[0] - a[0])), abs(float(b[1] - a[1]))
+            if d0 == 0.0 and d1 == 0.0 or 1.4142135623730951 * (1.0 + 1e-12) * max(d0, d1) <= 1e-9 * span:
+                continue
             gap_uv = float(np.linalg.norm(b - a))
-            if gap_uv <= 1e-9 * max(u1 - u0, v1 - v0):
+            if gap_uv <= 1e-9 * span:
                 continue
             pa, pb = s.evaluate(np.array([a, b]))
             gap3 = float(np.linalg.norm(pb - pa))
             line_pts = s.evaluate(a + np.linspace(0, 1, 17)[:, None] * (b - a))
             spread = float(np.linalg.norm(line_pts - pa, axis=1).max())
-            big = gap_uv > 1e-4 * max(u1 - u0, v1 - v0)
+            big = gap_uv > 1e-4 * span
             if spread <= 1e-3 * tolerance and big:
                 # a missing segment of zero 3D length (suit-case corner, Fig. 8): fill it
                 if True:
