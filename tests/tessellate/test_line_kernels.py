@@ -89,3 +89,36 @@ def test_chunk_values_and_iso_insertion_equal_numpy_path(t20):
                 assert got[2].sum() >= 2
                 n += 1
     assert n > 20
+
+
+def test_inside_grid_equals_points_in_polygons(t20):
+    # the row-wise kernel of the raster and of `_near_trim` against the per-point test it replaces, on
+    # real trim polygons (grids through their vertices' coordinates too: rows at a vertex's height)
+    from trimsurf.geom.predicates import PolygonIndex, points_in_polygons
+    from trimsurf.tessellate._line_kernels import inside_grid_kernel
+
+    rng = np.random.default_rng(3)
+    n = 0
+    for face in _faces(t20):
+        if not face.loops:
+            continue
+        polys = _loop_polys(face)
+        index = PolygonIndex(polys)
+        lo, hi = grid_box(face)
+        verts = np.concatenate(polys)
+        for xs, ys in ((np.linspace(lo[0], hi[0], 37), np.linspace(lo[1], hi[1], 41)),
+                       (np.sort(rng.choice(verts[:, 0], 15)), np.sort(rng.choice(verts[:, 1], 17)))):
+            dil = np.empty((len(xs), len(ys)), dtype=bool)
+            ero = np.empty_like(dil)
+            inside_grid_kernel(xs, ys, index.a, index.b, dil, ero)
+            uu, vv = np.meshgrid(xs, ys, indexing="ij")
+            ins = points_in_polygons(np.column_stack([uu.ravel(), vv.ravel()]), polys).reshape(uu.shape)
+            ref_d, ref_e = ins.copy(), ins.copy()
+            for sl, sr in (((slice(1, None),), (slice(None, -1),)), ((slice(None, -1),), (slice(1, None),)),
+                           ((slice(None), slice(1, None)), (slice(None), slice(None, -1))),
+                           ((slice(None), slice(None, -1)), (slice(None), slice(1, None)))):
+                ref_d[sl] |= ins[sr]
+                ref_e[sl] &= ins[sr]
+            assert np.array_equal(dil, ref_d) and np.array_equal(ero, ref_e)
+            n += int(ins.sum())
+    assert n > 100

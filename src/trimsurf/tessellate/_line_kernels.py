@@ -806,3 +806,69 @@ def chunk_iso_kernel(ci, cf, ck, cpw, G, gl, ptol, s):
     iso[0] = True
     iso[k_all - 1] = True
     return s_all, uvs, iso
+
+
+@njit(cache=True, nogil=True)
+def inside_grid_kernel(xs, ys, a, b, dil, ero):
+    """Which points (xs[i], ys[j]) of a tensor grid lie inside the closed polygons with edges a[e] -> b[e]
+    (even-odd rule), dilated (dil: the point or one of its four neighbours inside) and eroded (ero: the
+    point and its four neighbours inside), by rows: the crossings of row y are computed once, with the
+    crossing test and abscissa of `predicates._points_in_polygons_kernel`, so the same decisions as
+    `points_in_polygons` (which counts the same crossings, edge by edge)."""
+    nx, ny, m = xs.shape[0], ys.shape[0], a.shape[0]
+    ins = np.zeros((nx, ny), dtype=np.bool_)
+    xc = np.empty(max(m, 1))
+    for j in range(ny):
+        y = ys[j]
+        k = 0
+        finite = True
+        for e in range(m):
+            ay, by = a[e, 1], b[e, 1]
+            if (ay > y) != (by > y):
+                c = a[e, 0] + (y - ay) * (b[e, 0] - a[e, 0]) / (by - ay)
+                xc[k] = c
+                k += 1
+                finite = finite and not np.isnan(c)
+        if k == 0:
+            continue
+        if finite:
+            srt = xc[:k].copy()
+            for q in range(1, k):       # insertion sort (a few crossings per row)
+                v = srt[q]
+                r = q - 1
+                while r >= 0 and srt[r] > v:
+                    srt[r + 1] = srt[r]
+                    r -= 1
+                srt[r + 1] = v
+            for i in range(nx):
+                x = xs[i]
+                if not np.isnan(x):
+                    # crossings with x < xc: those after the last xc <= x
+                    ins[i, j] = (k - _ss_right(srt, x)) % 2 == 1
+        else:
+            for i in range(nx):
+                x = xs[i]
+                c = 0
+                for q in range(k):
+                    if x < xc[q]:
+                        c += 1
+                ins[i, j] = c % 2 == 1
+    for i in range(nx):
+        for j in range(ny):
+            v = ins[i, j]
+            lo_ = v
+            hi_ = v
+            if i > 0:
+                lo_ = lo_ or ins[i - 1, j]
+                hi_ = hi_ and ins[i - 1, j]
+            if i < nx - 1:
+                lo_ = lo_ or ins[i + 1, j]
+                hi_ = hi_ and ins[i + 1, j]
+            if j > 0:
+                lo_ = lo_ or ins[i, j - 1]
+                hi_ = hi_ and ins[i, j - 1]
+            if j < ny - 1:
+                lo_ = lo_ or ins[i, j + 1]
+                hi_ = hi_ and ins[i, j + 1]
+            dil[i, j] = lo_
+            ero[i, j] = hi_

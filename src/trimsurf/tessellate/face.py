@@ -72,18 +72,18 @@ def grid_box(face: TrimmedFace, polys: list | None = None) -> tuple[np.ndarray, 
     return lo, hi
 
 
-def _inside_raster(polys: list, lo: np.ndarray, hi: np.ndarray, n: int = 96):
+def _inside_raster(polys: list, lo: np.ndarray, hi: np.ndarray, n: int = 96, index=None):
     """A lookup uv (k, 2) -> inside the trim (bool), from an n x n raster of the grid box, dilated by one
-    pixel (only which lines count when domain values are chosen depends on it)."""
+    pixel (only which lines count when domain values are chosen depends on it). `index`: the
+    `PolygonIndex` of `polys` when the caller has it."""
+    from ._line_kernels import inside_grid_kernel
+
     gu = np.linspace(lo[0], hi[0], n)
     gv = np.linspace(lo[1], hi[1], n)
-    uu, vv = np.meshgrid(gu, gv, indexing="ij")
-    ins = points_in_polygons(np.column_stack([uu.ravel(), vv.ravel()]), polys).reshape(n, n)
-    dil = ins.copy()
-    dil[1:] |= ins[:-1]
-    dil[:-1] |= ins[1:]
-    dil[:, 1:] |= ins[:, :-1]
-    dil[:, :-1] |= ins[:, 1:]
+    if index is None:
+        index = PolygonIndex(polys)
+    dil = np.empty((n, n), dtype=np.bool_)
+    inside_grid_kernel(gu, gv, index.a, index.b, dil, np.empty((n, n), dtype=np.bool_))
     step = np.maximum((hi - lo) / (n - 1), 1e-300)
 
     def lookup(uv: np.ndarray) -> np.ndarray:
@@ -199,7 +199,11 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
     if face.loops:
         box_polys, polys = (list(q) for q in zip(*(loop.polylines(32, 6) for loop in face.loops)))
     lo, hi = grid_box(face, box_polys)
-    raster = None if polys is None else _inside_raster(polys, lo, hi)
+    cache = _CellCache(s)
+    raster = None
+    if polys is not None:       # refine_cells and _worst_cell_ratio index the same trim polygons
+        cache.seed(face, polys)
+        raster = _inside_raster(polys, lo, hi, index=cache.polygon_index(polys))
     lines = {}
     for axis in (0, 1):
         o = 1 - axis
@@ -231,9 +235,6 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
         return out
 
     us, vs = place(tolerance)
-    cache = _CellCache(s)
-    if polys is not None:       # refine_cells and _worst_cell_ratio index the same trim polygons
-        cache.seed(face, polys)
     if strategy == "uniform":
         return refine_cells(face, us, vs, tolerance=tolerance, max_edge=max_edge, cache=cache)
     # iso-lines within the tolerance still leave cells whose triangles deviate more (curvature in both
@@ -262,20 +263,14 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
 def _near_trim(us, vs, polys):
     """Cells whose centre is inside the trim, dilated by one cell (those crossed by it count too),
     and the cells of the interior (inside with all four neighbours)."""
+    from ._line_kernels import inside_grid_kernel
+
     ci = 0.5 * (us[:-1] + us[1:])
     cj = 0.5 * (vs[:-1] + vs[1:])
-    cu, cv = np.meshgrid(ci, cj, indexing="ij")
-    ins = points_in_polygons(np.column_stack([cu.ravel(), cv.ravel()]), polys).reshape(len(ci), len(cj))
-    near = ins.copy()
-    near[1:] |= ins[:-1]
-    near[:-1] |= ins[1:]
-    near[:, 1:] |= ins[:, :-1]
-    near[:, :-1] |= ins[:, 1:]
-    interior = ins.copy()
-    interior[1:] &= ins[:-1]
-    interior[:-1] &= ins[1:]
-    interior[:, 1:] &= ins[:, :-1]
-    interior[:, :-1] &= ins[:, 1:]
+    index = polys if isinstance(polys, PolygonIndex) else PolygonIndex(polys)
+    near = np.empty((len(ci), len(cj)), dtype=np.bool_)
+    interior = np.empty((len(ci), len(cj)), dtype=np.bool_)
+    inside_grid_kernel(ci, cj, index.a, index.b, near, interior)
     return near, interior
 
 
