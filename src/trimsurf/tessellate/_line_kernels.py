@@ -14,7 +14,8 @@ as separate arguments (`*F`: numba compiles functions with a tuple of arrays sev
     (kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,   # kind 0: iso-lines of one surface
      ci, cf, ck, cpw, cku, ckv, cpw4)                                 # kind 1: chunk uses
 
-kind 0: iso_i = (axis, has_raster, pu, pv, rational), iso_f = (x0, x1) (the moving parameter's range),
+kind 0: iso_i = (axis, has_raster, pu, pv, rational), iso_f = (x0, x1) (the moving parameter's range) or
+(x0, x1, bound) for straight lines (bound: of the rounding noise of their sampled chord deviation),
 lines_c / lines_raw the lines clipped into the domain / as given, dil the inside raster of
 `face._inside_raster` and rgeo = (u0, v0, du, dv) its origin and steps, ku, kv, pw the surface.
 
@@ -150,13 +151,54 @@ def _raster_in(dil, rgeo, u, v):
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _iso_point(axis, rational, pu, pv, pw, dimw, lspan, lbasis, mspan, mbasis, tmp, pts, l, k):
+    """pts[l, k] = the point of line l at the moving parameter's sample k (spans and bases given)."""
+    if axis == 0:
+        su = mspan[0, k]
+        sv = lspan[0, l]
+    else:
+        su = lspan[0, l]
+        sv = mspan[0, k]
+    for r in range(pu + 1):
+        for dd_ in range(dimw):
+            tmp[r, dd_] = 0.0
+        for s_ in range(pv + 1):
+            bb = lbasis[0, l, s_] if axis == 0 else mbasis[0, k, s_]
+            if bb != 0.0:
+                row = su - pu + r
+                col = sv - pv + s_
+                for dd_ in range(dimw):
+                    tmp[r, dd_] += bb * pw[row, col, dd_]
+    w0 = 1.0
+    for dd_ in range(dimw):
+        acc = 0.0
+        for r in range(pu + 1):
+            bu = mbasis[0, k, r] if axis == 0 else lbasis[0, l, r]
+            acc += bu * tmp[r, dd_]
+        if dd_ < 3:
+            pts[l, k, dd_] = acc
+        else:
+            w0 = acc
+    if rational:
+        for dd_ in range(dimw - 1):
+            pts[l, k, dd_] = pts[l, k, dd_] / w0
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b, m, length, dev, max_len, max_dev,
                   stop):
     """`iso_line_criteria_kernel` over the intervals [a_i, b_i] (weights from the raster), interval by
     interval: a point equal to the previous interval's last one (same parameter, same line) is taken
-    from it; with `stop`, returns False at the first interval over max_len or max_dev."""
+    from it; with `stop`, returns False at the first interval over max_len or max_dev.
+
+    Straight lines (iso_f[2] = thr >= 0, see `equidistributed_kernel`): an interval whose chords are
+    at least thr long (and finite) gets deviation 0 without its interior samples being evaluated: the
+    sampled deviation it stands for is rounding noise below the bound that `equidistributed_kernel`
+    checked makes no decision differ (shorter intervals are sampled as usual)."""
     axis, has_raster, pu, pv, rational = iso_i[0], iso_i[1] != 0, iso_i[2], iso_i[3], iso_i[4] != 0
     xr0, xr1 = iso_f[0], iso_f[1]
+    straight = iso_f.shape[0] > 2 and iso_f[2] >= 0.0
+    thr = iso_f[2] if straight else 0.0
     nu_ctrl, nv_ctrl, dimw = pw.shape
     if axis == 0:
         pf, kf, nf, pm, km, nm = pv, kv, nv_ctrl, pu, ku, nu_ctrl
@@ -203,6 +245,8 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
         dmax = 0.0
         if any_w:
             for k in range(m):
+                if straight and 0 < k < m - 1:
+                    continue
                 sk = _span(pm, km, nm, xs[0, k])
                 _ders_basis(sk, xs[0, k], pm, km, 0, ndu, aa, left, right, ders)
                 mspan[0, k] = sk
@@ -218,56 +262,37 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
                     pts[l, 0, q] = pts[l, m - 1, q]
                 k0 = 1
             for k in range(k0, m):
-                if axis == 0:
-                    su = mspan[0, k]
-                    sv = lspan[0, l]
-                else:
-                    su = lspan[0, l]
-                    sv = mspan[0, k]
-                for r in range(pu + 1):
-                    for dd_ in range(dimw):
-                        tmp[r, dd_] = 0.0
-                    for s_ in range(pv + 1):
-                        bb = lbasis[0, l, s_] if axis == 0 else mbasis[0, k, s_]
-                        if bb != 0.0:
-                            row = su - pu + r
-                            col = sv - pv + s_
-                            for dd_ in range(dimw):
-                                tmp[r, dd_] += bb * pw[row, col, dd_]
-                w0 = 1.0
-                for dd_ in range(dimw):
-                    acc = 0.0
-                    for r in range(pu + 1):
-                        bu = mbasis[0, k, r] if axis == 0 else lbasis[0, l, r]
-                        acc += bu * tmp[r, dd_]
-                    if dd_ < 3:
-                        pts[l, k, dd_] = acc
-                    else:
-                        w0 = acc
-                if rational:
-                    for dd_ in range(dimw - 1):
-                        pts[l, k, dd_] = pts[l, k, dd_] / w0
+                if straight and 0 < k < m - 1:
+                    continue
+                _iso_point(axis, rational, pu, pv, pw, dimw, lspan, lbasis, mspan, mbasis, tmp, pts, l, k)
             a0, a1, a2 = pts[l, 0, 0], pts[l, 0, 1], pts[l, 0, 2]
             ab0, ab1, ab2 = pts[l, m - 1, 0] - a0, pts[l, m - 1, 1] - a1, pts[l, m - 1, 2] - a2
             den = (ab0 * ab0 + ab2 * ab2) + ab1 * ab1
             lnl = np.sqrt(den)
             if lnl > lmax:
                 lmax = lnl
-            dd = den if den > 0 else 1.0
-            worst = 0.0
+            if not straight:
+                worst = _chord_worst(pts, l, m, den)
+                if worst > dmax:
+                    dmax = worst
+        if straight and any_w and not (lmax >= thr and lmax < np.inf):
+            # a short (or non-finite) interval: its interior samples after all
             for k in range(1, m - 1):
-                q0, q1, q2 = pts[l, k, 0] - a0, pts[l, k, 1] - a1, pts[l, k, 2] - a2
-                tq = ((q0 * ab0 + q2 * ab2) + q1 * ab1) / dd
-                if tq < 0.0:
-                    tq = 0.0
-                elif tq > 1.0:
-                    tq = 1.0
-                r0, r1, r2 = q0 - tq * ab0, q1 - tq * ab1, q2 - tq * ab2
-                dist = np.sqrt((r0 * r0 + r1 * r1) + r2 * r2)
-                if dist > worst or k == 1:
-                    worst = dist
-            if worst > dmax:
-                dmax = worst
+                sk = _span(pm, km, nm, xs[0, k])
+                _ders_basis(sk, xs[0, k], pm, km, 0, ndu, aa, left, right, ders)
+                mspan[0, k] = sk
+                for r in range(pm + 1):
+                    mbasis[0, k, r] = ders[0, r]
+            for l in range(n_lines):
+                if not w[l]:
+                    continue
+                for k in range(1, m - 1):
+                    _iso_point(axis, rational, pu, pv, pw, dimw, lspan, lbasis, mspan, mbasis, tmp, pts, l, k)
+                ab0, ab1, ab2 = (pts[l, m - 1, 0] - pts[l, 0, 0], pts[l, m - 1, 1] - pts[l, 0, 1],
+                                 pts[l, m - 1, 2] - pts[l, 0, 2])
+                worst = _chord_worst(pts, l, m, (ab0 * ab0 + ab2 * ab2) + ab1 * ab1)
+                if worst > dmax:
+                    dmax = worst
         for l in range(n_lines):
             prev_ok[l] = w[l]
         prev_x = xs[0, m - 1]
@@ -276,6 +301,28 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
         if stop and not (lmax <= max_len and dmax <= max_dev):
             return False
     return True
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _chord_worst(pts, l, m, den):
+    """Largest distance of the interior samples pts[l, 1:m-1] from the chord pts[l, 0] -> pts[l, m - 1]
+    (den: the chord's squared length), as `iso_line_criteria_kernel` computes it."""
+    a0, a1, a2 = pts[l, 0, 0], pts[l, 0, 1], pts[l, 0, 2]
+    ab0, ab1, ab2 = pts[l, m - 1, 0] - a0, pts[l, m - 1, 1] - a1, pts[l, m - 1, 2] - a2
+    dd = den if den > 0 else 1.0
+    worst = 0.0
+    for k in range(1, m - 1):
+        q0, q1, q2 = pts[l, k, 0] - a0, pts[l, k, 1] - a1, pts[l, k, 2] - a2
+        tq = ((q0 * ab0 + q2 * ab2) + q1 * ab1) / dd
+        if tq < 0.0:
+            tq = 0.0
+        elif tq > 1.0:
+            tq = 1.0
+        r0, r1, r2 = q0 - tq * ab0, q1 - tq * ab1, q2 - tq * ab2
+        dist = np.sqrt((r0 * r0 + r1 * r1) + r2 * r2)
+        if dist > worst or k == 1:
+            worst = dist
+    return worst
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -478,6 +525,18 @@ def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku
     4 the placed values' criteria, 5 a bisection round's (adaptive_values')."""
     m5, m9, no, yes = _rt()
     inf = np.inf
+    if kind == 0 and iso_f.shape[0] > 2:
+        # straight iso-lines (`face.IsoLines.family`: iso_f[2] bounds the rounding noise of their sampled
+        # deviation): an interval at least thr long may skip its interior samples, its deviation
+        # then counts 0. Exact: noise <= bound <= tolerance / 1000 passes every deviation check the
+        # same, and in the density max(len / max_edge, sqrt(dev / tolerance)) the length term wins
+        thr = -1.0
+        bound = iso_f[2]
+        if bound >= 0.0 and bound <= 1e-3 * tolerance:
+            thr = max_edge * np.sqrt(bound / tolerance) * (1.0 + 1e-9)
+        f2 = np.empty(3)
+        f2[0], f2[1], f2[2] = iso_f[0], iso_f[1], thr
+        iso_f = f2
     x = x0
     n = x.shape[0] - 1
     length = np.empty(n)
@@ -872,3 +931,57 @@ def inside_grid_kernel(xs, ys, a, b, dil, ero):
                 hi_ = hi_ and ins[i, j + 1]
             dil[i, j] = lo_
             ero[i, j] = hi_
+
+
+@njit(cache=True, nogil=True)
+def cell_points_kernel(pu, pv, ku, kv, pw, rational, us, vs, ki, kj, uv, p, cuv, mids):
+    """Of grid cells (ki, kj) of the grid us x vs, as `face._CellCache._cells` computes them with numpy:
+    uv (n, 5, 2) the four corners (u0 v0, u1 v0, u1 v1, u0 v1) and the centre, p (n, 5, 3) their points
+    (`NurbsSurface.evaluate`: the parameters clamped into the domain), and the two diagonals' midpoints
+    mids (2 n, 3) with their start parameters cuv (2 n, 2) (the centre) for `surface_distance`."""
+    u_lo, u_hi = ku[pu], ku[ku.shape[0] - pu - 1]
+    v_lo, v_hi = kv[pv], kv[kv.shape[0] - pv - 1]
+    ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(pu, pv, pw.shape[2])
+    res = np.empty((3, 3))
+    nd0 = np.zeros(1, dtype=np.int64)[0]      # a run-time 0 (no compiled version per literal)
+    for c in range(ki.shape[0]):
+        u0, u1, v0, v1 = us[ki[c]], us[ki[c] + 1], vs[kj[c]], vs[kj[c] + 1]
+        uv[c, 0, 0], uv[c, 0, 1] = u0, v0
+        uv[c, 1, 0], uv[c, 1, 1] = u1, v0
+        uv[c, 2, 0], uv[c, 2, 1] = u1, v1
+        uv[c, 3, 0], uv[c, 3, 1] = u0, v1
+        uv[c, 4, 0], uv[c, 4, 1] = 0.5 * (u0 + u1), 0.5 * (v0 + v1)
+        for k in range(5):
+            uu = min(max(uv[c, k, 0], u_lo), u_hi)
+            vv = min(max(uv[c, k, 1], v_lo), v_hi)
+            _surface_point01(pu, pv, ku, kv, pw, rational, uu, vv, nd0, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
+                             bu, bv, tmp, skl, res)
+            for q in range(3):
+                p[c, k, q] = res[0, q]
+        for h in range(2):
+            cuv[2 * c + h, 0] = uv[c, 4, 0]
+            cuv[2 * c + h, 1] = uv[c, 4, 1]
+        for q in range(3):
+            mids[2 * c, q] = 0.5 * (p[c, 0, q] + p[c, 2, q])
+            mids[2 * c + 1, q] = 0.5 * (p[c, 1, q] + p[c, 3, q])
+
+
+@njit(cache=True, nogil=True)
+def cell_samples_kernel(bary, uv, p, rows, main, tuv, tx):
+    """The sample points of the split cells' two triangles, as `face._CellCache.deviation` computes them
+    with np.einsum("bk,nskd->nsbd", bary, ...) (the same sums in the same order): cell rows[c] split
+    along (0, 2) if main[c] (triangles 0 1 2, 0 2 3), else along (1, 3) (triangles 0 1 3, 1 2 3);
+    tuv (n, 2, b, 2) their parameters, tx (n, 2, b, 3) their points."""
+    nb = bary.shape[0]
+    for c in range(rows.shape[0]):
+        r = rows[c]
+        for s in range(2):
+            if main[c]:
+                t0, t1, t2 = (0, 1, 2) if s == 0 else (0, 2, 3)
+            else:
+                t0, t1, t2 = (0, 1, 3) if s == 0 else (1, 2, 3)
+            for b in range(nb):
+                for q in range(2):
+                    tuv[c, s, b, q] = (bary[b, 0] * uv[r, t0, q] + bary[b, 1] * uv[r, t1, q]) + bary[b, 2] * uv[r, t2, q]
+                for q in range(3):
+                    tx[c, s, b, q] = (bary[b, 0] * p[r, t0, q] + bary[b, 1] * p[r, t1, q]) + bary[b, 2] * p[r, t2, q]

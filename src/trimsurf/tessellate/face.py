@@ -118,6 +118,7 @@ class IsoLines:
         self._xr = (u0, u1) if axis == 0 else (v0, v1)
         lr = (v0, v1) if axis == 0 else (u0, u1)
         self._lines_c = read_only(np.clip(self.lines, lr[0], lr[1]))
+        self._family = None
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         uv = np.empty((len(x), len(self.lines), 2))
@@ -140,17 +141,41 @@ class IsoLines:
         return ins[:n - 1] | ins[1:n] | ins[n:]
 
     def family(self) -> tuple:
-        """The family as `_line_kernels` takes it (kind 0), with `weights` computed inside."""
+        """The family as `_line_kernels` takes it (kind 0), with `weights` computed inside (built once)."""
+        if self._family is None:
+            self._family = self._make_family()
+        return self._family
+
+    def _make_family(self) -> tuple:
         from ._line_kernels import DUMMY_1D as D1, DUMMY_BOOL, DUMMY_CF, DUMMY_CI
         from ..geom.nurbs import read_only
 
         r = self.raster
         s = self.surface
         iso_i = np.array([self.axis, r is not None, s.degree_u, s.degree_v, s.weights is not None], dtype=np.int64)
-        iso_f = np.array([self._xr[0], self._xr[1]], dtype=np.float64)
+        iso_f = np.array([self._xr[0], self._xr[1], self.straight_bound()], dtype=np.float64)
         rgeo = np.zeros(4) if r is None else np.r_[r.lo, r.step].astype(np.float64)
         return (0, iso_i, iso_f, self._lines_c, read_only(self.lines), DUMMY_BOOL if r is None else r.dil, rgeo,
                 self._ku, self._kv, self._pw, DUMMY_CI, DUMMY_CF, D1, D1, D1, D1, D1)
+
+    def straight_bound(self) -> float:
+        """-1, or when every line is straight (degree 1 along it, one knot span: a segment, rational or
+        not, of two points of the homogeneous net combined with the line's fixed basis) a bound of the
+        sampled chord deviation the compiled criteria compute for it (rounding noise: each point is
+        a two-term combination of the same two homogeneous points, divided by its weight; bounded
+        here ~100x generously by the net's magnitudes)."""
+        s = self.surface
+        deg, n_ctrl = (s.degree_u, s.control_points.shape[0]) if self.axis == 0 else (s.degree_v, s.control_points.shape[1])
+        if deg != 1 or n_ctrl != 2:
+            return -1.0
+        big = float(np.abs(s.control_points).max(initial=0.0))
+        hw = float(np.abs(self._pw).max(initial=0.0))
+        wmin, wmax = (1.0, 1.0) if s.weights is None else (float(s.weights.min()), float(s.weights.max()))
+        if not (np.isfinite(big) and np.isfinite(hw) and wmin > 0 and np.isfinite(wmax)):
+            return -1.0
+        eps = np.finfo(np.float64).eps
+        delta = 64.0 * (s.degree_u + s.degree_v + 2) ** 2 * eps * (hw + big * wmax) / wmin
+        return 4.0 * delta + 128.0 * eps * big
 
     def criteria(self, x: np.ndarray, n_sub: int, weights) -> tuple[np.ndarray, np.ndarray]:
         """`interval_criteria` of this family."""
@@ -210,17 +235,20 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
         knots_o = s.knots_v if axis == 0 else s.knots_u
         lines[axis] = unique_values(np.concatenate((np.linspace(lo[o], hi[o], n_lines), _knots_in(knots_o, lo[o], hi[o]))))
 
+    families = {}
+
     def place(line_tol: float, edge: float = max_edge):
         out = []
         for axis in (0, 1):
             # the cells of the whole grid are bounded too (MAX_CELLS): the v lines by what the u lines leave
             limit = MAX_VALUES if axis == 0 else max(1, min(MAX_VALUES, MAX_CELLS // max(len(out[0]) - 1, 1)))
-            other = lines[axis]
-            knots = s.knots_u if axis == 0 else s.knots_v
-
-            evaluate = IsoLines(s, axis, other, raster)
+            if axis not in families:    # the line families (and their compiled form) serve both placements
+                knots = s.knots_u if axis == 0 else s.knots_v
+                ev = IsoLines(s, axis, lines[axis], raster)
+                families[axis] = (ev, unique_values(np.concatenate((np.linspace(lo[axis], hi[axis], 17),
+                                                                     _knots_in(knots, lo[axis], hi[axis])))))
+            evaluate, init = families[axis]
             weights_fn = None if raster is None else evaluate.weights
-            init = unique_values(np.concatenate((np.linspace(lo[axis], hi[axis], 17), _knots_in(knots, lo[axis], hi[axis]))))
             # grid size max_edge / sqrt(2): the cell diagonals (triangle edges) stay within max_edge
             try:
                 out.append(adaptive_values(evaluate, lo[axis], hi[axis], tolerance=line_tol,
@@ -278,11 +306,17 @@ def _worst_cell_ratio(face: TrimmedFace, us, vs, tolerance: float, polys, cache=
                       max_edge: float = np.inf) -> tuple[float, float]:
     """Largest deviation / tolerance and largest diagonal / max_edge of the split cells at (or near) the
     trimmed region (both diagonals in the band along the trim, as `refine_cells` checks them)."""
-    dev, diag, diag_max = _cell_deviation(face.surface, us, vs, tolerance, cache)[:3]
-    if polys is not None:
-        near, interior = _near_trim(us, vs, polys if cache is None else cache.polygon_index(polys))
-        dev = np.where(near, dev, 0.0)
-        diag = np.where(near & ~interior, diag_max, np.where(near, diag, 0.0))
+    known = None if cache is None else cache.checked
+    if known is not None and known[0] is us and known[1] is vs and known[2] == tolerance and (
+            (polys is None) == (known[5] is None)
+            and (polys is None or cache.polygon_index(polys) is known[5])):
+        dev, diag = known[3], known[4]      # refine_cells' first round checked this grid (the same numbers)
+    else:
+        dev, diag, diag_max = _cell_deviation(face.surface, us, vs, tolerance, cache)[:3]
+        if polys is not None:
+            near, interior = _near_trim(us, vs, polys if cache is None else cache.polygon_index(polys))
+            dev = np.where(near, dev, 0.0)
+            diag = np.where(near & ~interior, diag_max, np.where(near, diag, 0.0))
     return float(dev.max(initial=0.0)) / tolerance, float(diag.max(initial=0.0)) / max_edge
 
 
@@ -297,7 +331,7 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
         polys = PolygonIndex(_loop_polys(face)) if cache is None else cache.loop_index(face)
     # the twist of the cells: split along the better diagonal, refine rows/columns where it fails;
     # the same for a diagonal longer than max_edge (split across its longer side)
-    for _ in range(6):
+    for round_ in range(6):
         dev, diag, diag_max, side_u, side_v = _cell_deviation(s, us, vs, tolerance, cache)
         if polys is not None:
             # cells crossed by the trim count too (one cell dilation); in the band along the trim
@@ -306,6 +340,8 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
             near, interior = _near_trim(us, vs, polys)
             dev = np.where(near, dev, 0.0)
             diag = np.where(near & ~interior, diag_max, np.where(near, diag, 0.0))
+        if round_ == 0 and cache is not None:      # for _worst_cell_ratio of the same grid
+            cache.checked = (us, vs, tolerance, dev, diag, polys)
         bad = dev > tolerance
         long = (diag > max_edge) & ~bad
         if aspect:
@@ -489,7 +525,11 @@ class _CellCache:
     """
 
     def __init__(self, surface):
+        from ..geom.nurbs import _homogeneous, read_only
+
         self.surface = surface
+        self._surf = (surface.degree_u, surface.degree_v, read_only(surface.knots_u), read_only(surface.knots_v),
+                      _homogeneous(surface.control_points, surface.weights), surface.weights is not None)
         self.ids = ({}, {})                 # per direction: (x0, x1) interval -> id
         self.codes = np.zeros(0, dtype=np.int64)
         self.rows = np.zeros(0, dtype=np.int64)
@@ -499,6 +539,8 @@ class _CellCache:
         self.dev = np.zeros((0, 2))         # deviation of the main / anti split (NaN: not yet)
         self._loops = None                  # (face, PolygonIndex of its `_loop_polys`)
         self._index = None                  # (polygons, their PolygonIndex)
+        #: refine_cells' first grid: (us, vs, tolerance, deviation, diagonal (masked by the trim), index)
+        self.checked = None
 
     def loop_index(self, face):
         """`PolygonIndex` of the face's `_loop_polys` (computed once: the face of this cache)."""
@@ -536,14 +578,14 @@ class _CellCache:
         rows = np.where(known, self.rows[pos_c] if len(self.rows) else 0, -1)
         new = np.flatnonzero(~known)
         if len(new):
-            ki, kj = np.meshgrid(np.arange(len(us) - 1), np.arange(len(vs) - 1), indexing="ij")
-            ki, kj = ki.ravel()[new], kj.ravel()[new]
-            u0, u1, v0, v1 = us[ki], us[ki + 1], vs[kj], vs[kj + 1]
-            uv = np.stack([np.column_stack([u0, v0]), np.column_stack([u1, v0]), np.column_stack([u1, v1]),
-                           np.column_stack([u0, v1]), np.column_stack([0.5 * (u0 + u1), 0.5 * (v0 + v1)])], axis=1)
-            p = self.surface.evaluate(uv.reshape(-1, 2)).reshape(-1, 5, 3)
-            cuv = np.repeat(uv[:, 4], 2, axis=0)
-            mids = np.stack([0.5 * (p[:, 0] + p[:, 2]), 0.5 * (p[:, 1] + p[:, 3])], axis=1).reshape(-1, 3)
+            from ._line_kernels import cell_points_kernel
+
+            nv = len(vs) - 1
+            ki, kj = new // nv, new % nv        # meshgrid(..., indexing="ij") raveled
+            k = len(new)
+            uv, p, cuv, mids = np.empty((k, 5, 2)), np.empty((k, 5, 3)), np.empty((2 * k, 2)), np.empty((2 * k, 3))
+            cell_points_kernel(*self._surf, np.ascontiguousarray(us, dtype=np.float64),
+                               np.ascontiguousarray(vs, dtype=np.float64), ki, kj, uv, p, cuv, mids)
             d = surface_distance(self.surface, cuv, mids, steps=1).reshape(-1, 2)
             first = len(self.p)
             rows[new] = first + np.arange(len(new))
@@ -571,13 +613,12 @@ class _CellCache:
         col = np.where(main, 0, 1)
         need = np.isnan(self.dev[rows, col])
         if need.any():
+            from ._line_kernels import cell_samples_kernel
+
             r, m = rows[need], main[need]
-            uv, p = self.uv[r], self.p[r]
-            t = np.where(m[:, None, None], np.array([[0, 1, 2], [0, 2, 3]])[None],
-                         np.array([[0, 1, 3], [1, 2, 3]])[None])
-            k = np.arange(len(r))[:, None, None]
-            tuv = np.einsum("bk,nskd->nsbd", _BARY, uv[k, t])
-            tx = np.einsum("bk,nskd->nsbd", _BARY, p[k, t])
+            nb = len(_BARY)
+            tuv, tx = np.empty((len(r), 2, nb, 2)), np.empty((len(r), 2, nb, 3))
+            cell_samples_kernel(_BARY, self.uv, self.p, r, m, tuv, tx)
             dev = surface_distance(self.surface, tuv.reshape(-1, 2), tx.reshape(-1, 3)).reshape(len(r), -1).max(axis=1)
             self.dev[r, np.where(m, 0, 1)] = dev
         dev = self.dev[rows, col]
