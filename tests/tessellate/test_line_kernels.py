@@ -122,3 +122,32 @@ def test_inside_grid_equals_points_in_polygons(t20):
             assert np.array_equal(dil, ref_d) and np.array_equal(ero, ref_e)
             n += int(ins.sum())
     assert n > 100
+
+
+@pytest.mark.parametrize("tol_scale, edge_scale", [(1e-3, 1.0), (1e-3, 0.01), (1e-9, 0.03)])
+def test_straight_lines_give_the_sampled_values(shared_data, tol_scale, edge_scale):
+    # degree-1 directions (planes, the straight direction of cylinders) skip the interior samples of long
+    # intervals (`IsoLines.straight_bound`): the same values as the full sampling of the numpy path;
+    # at tol_scale 1e-9 the grid is fine enough that short intervals are sampled after all
+    shell = read_shell(shared_data / "cad" / "trimesh__featuretype.STEP")
+    d = shell.diagonal()
+    n_straight = 0
+    for face in shell.faces[:40]:
+        s = face.surface
+        lo, hi = grid_box(face)
+        raster = _inside_raster(_loop_polys(face), lo, hi) if face.loops else None
+        for axis in (0, 1):
+            o = 1 - axis
+            fam = IsoLines(s, axis, np.linspace(lo[o], hi[o], 9), raster)
+            n_straight += fam.straight_bound() >= 0
+            wf = None if raster is None else fam.weights
+            kw = dict(tolerance=tol_scale * d, max_edge=edge_scale * d / np.sqrt(2.0),
+                      init=np.linspace(lo[axis], hi[axis], 17))
+            try:
+                got = domain.adaptive_values(fam, lo[axis], hi[axis], weights_fn=wf, **kw)
+            except InputError:
+                with pytest.raises(InputError):
+                    domain.adaptive_values(_Plain(fam), lo[axis], hi[axis], weights_fn=wf, **kw)
+                continue
+            assert np.array_equal(got, domain.adaptive_values(_Plain(fam), lo[axis], hi[axis], weights_fn=wf, **kw))
+    assert n_straight >= 30

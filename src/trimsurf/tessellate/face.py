@@ -7,9 +7,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError, TrimLoopError
-from ..geom.predicates import PolygonIndex, points_in_polygons
+from ..geom.nurbs import _homogeneous, read_only
+from ..geom.predicates import PolygonIndex
 from ..model import TriMesh, TrimmedFace
 from .domain import MAX_VALUES, adaptive_values, unique_values
+from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CF, DUMMY_CI, cell_points_kernel, cell_samples_kernel,
+                            inside_grid_kernel)
 from .grid import triangulate_domain
 from .repair import remove_polygon_loops, repair_face
 from .slivers import collapse_boundary_slivers
@@ -76,8 +79,6 @@ def _inside_raster(polys: list, lo: np.ndarray, hi: np.ndarray, n: int = 96, ind
     """A lookup uv (k, 2) -> inside the trim (bool), from an n x n raster of the grid box, dilated by one
     pixel (only which lines count when domain values are chosen depends on it). `index`: the
     `PolygonIndex` of `polys` when the caller has it."""
-    from ._line_kernels import inside_grid_kernel
-
     gu = np.linspace(lo[0], hi[0], n)
     gv = np.linspace(lo[1], hi[1], n)
     if index is None:
@@ -110,8 +111,6 @@ class IsoLines:
         self.lines = np.asarray(lines, dtype=np.float64)
         self.raster = raster        # `_inside_raster`'s lookup: only intervals at the trim count (`weights`)
         s = surface
-        from ..geom.nurbs import _homogeneous, read_only
-
         self._ku, self._kv = read_only(s.knots_u), read_only(s.knots_v)
         self._pw = _homogeneous(s.control_points, s.weights)
         (u0, u1), (v0, v1) = s.domain
@@ -147,16 +146,13 @@ class IsoLines:
         return self._family
 
     def _make_family(self) -> tuple:
-        from ._line_kernels import DUMMY_1D as D1, DUMMY_BOOL, DUMMY_CF, DUMMY_CI
-        from ..geom.nurbs import read_only
-
         r = self.raster
         s = self.surface
         iso_i = np.array([self.axis, r is not None, s.degree_u, s.degree_v, s.weights is not None], dtype=np.int64)
         iso_f = np.array([self._xr[0], self._xr[1], self.straight_bound()], dtype=np.float64)
         rgeo = np.zeros(4) if r is None else np.r_[r.lo, r.step].astype(np.float64)
         return (0, iso_i, iso_f, self._lines_c, read_only(self.lines), DUMMY_BOOL if r is None else r.dil, rgeo,
-                self._ku, self._kv, self._pw, DUMMY_CI, DUMMY_CF, D1, D1, D1, D1, D1)
+                self._ku, self._kv, self._pw, DUMMY_CI, DUMMY_CF, DUMMY_1D, DUMMY_1D, DUMMY_1D, DUMMY_1D, DUMMY_1D)
 
     def straight_bound(self) -> float:
         """-1, or when every line is straight (degree 1 along it, one knot span: a segment, rational or
@@ -291,8 +287,6 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
 def _near_trim(us, vs, polys):
     """Cells whose centre is inside the trim, dilated by one cell (those crossed by it count too),
     and the cells of the interior (inside with all four neighbours)."""
-    from ._line_kernels import inside_grid_kernel
-
     ci = 0.5 * (us[:-1] + us[1:])
     cj = 0.5 * (vs[:-1] + vs[1:])
     index = polys if isinstance(polys, PolygonIndex) else PolygonIndex(polys)
@@ -525,8 +519,6 @@ class _CellCache:
     """
 
     def __init__(self, surface):
-        from ..geom.nurbs import _homogeneous, read_only
-
         self.surface = surface
         self._surf = (surface.degree_u, surface.degree_v, read_only(surface.knots_u), read_only(surface.knots_v),
                       _homogeneous(surface.control_points, surface.weights), surface.weights is not None)
@@ -578,8 +570,6 @@ class _CellCache:
         rows = np.where(known, self.rows[pos_c] if len(self.rows) else 0, -1)
         new = np.flatnonzero(~known)
         if len(new):
-            from ._line_kernels import cell_points_kernel
-
             nv = len(vs) - 1
             ki, kj = new // nv, new % nv        # meshgrid(..., indexing="ij") raveled
             k = len(new)
@@ -613,8 +603,6 @@ class _CellCache:
         col = np.where(main, 0, 1)
         need = np.isnan(self.dev[rows, col])
         if need.any():
-            from ._line_kernels import cell_samples_kernel
-
             r, m = rows[need], main[need]
             nb = len(_BARY)
             tuv, tx = np.empty((len(r), 2, nb, 2)), np.empty((len(r), 2, nb, 3))
