@@ -320,9 +320,11 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
     diagonal is longer than max_edge or whose sides differ by more than `aspect` (None: no limit);
     returns the refined (us, vs)."""
     s = face.surface
+    if cache is None:   # the rounds share most cells: each cell's surface work once (the same numbers)
+        cache = _CellCache(s)
     polys = None
-    if face.loops:      # the trim polygons, their slab index built once (per face with a cache)
-        polys = PolygonIndex(_loop_polys(face)) if cache is None else cache.loop_index(face)
+    if face.loops:      # the trim polygons, their slab index built once
+        polys = cache.loop_index(face)
     # the twist of the cells: split along the better diagonal, refine rows/columns where it fails;
     # the same for a diagonal longer than max_edge (split across its longer side)
     for round_ in range(6):
