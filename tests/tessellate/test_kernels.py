@@ -139,3 +139,31 @@ def test_triangle_deviation_shared_edge_midpoints_are_the_full_sampling():
         assert np.array_equal(triangle_deviation(face.surface, fm.uv, fm.vertices, t), full)
         n += len(t)
     assert n > 1000
+
+
+def test_cell_cache_screen_changes_no_decision(t20):
+    # deviation(exact=False) may give cells within the tolerance an upper bound (the samples' start
+    # distances) instead of their deviation: such a bound is within the tolerance and not below the
+    # exact value, and every cell over the tolerance keeps its exact value
+    from trimsurf.tessellate.face import _CellCache, _cell_deviation
+
+    n_bounded = n_over = 0
+    for face in _faces(t20)[:8]:
+        s = face.surface
+        (u0, u1), (v0, v1) = s.domain
+        us, vs = np.linspace(u0, u1, 9), np.linspace(v0, v1, 6)
+        ref = _cell_deviation(s, us, vs, 1.0)[0]
+        for tol in np.quantile(ref, [0.2, 0.6, 0.95]):
+            cache = _CellCache(s)
+            got = _cell_deviation(s, us, vs, tol, cache, exact=False)
+            exact = _cell_deviation(s, us, vs, tol)
+            for g, r in zip(got[1:], exact[1:]):
+                assert np.array_equal(g, r)
+            over = exact[0] > tol
+            assert np.array_equal(got[0][over], exact[0][over])
+            assert np.all(got[0][~over] <= tol) and np.all(got[0][~over] >= exact[0][~over])
+            n_bounded += int(np.sum(got[0] != exact[0]))
+            n_over += int(over.sum())
+            # an exact request afterwards gets the exact values from the same cache
+            assert np.array_equal(_cell_deviation(s, us, vs, tol, cache)[0], exact[0])
+    assert n_bounded > 50 and n_over > 50

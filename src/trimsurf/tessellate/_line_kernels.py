@@ -966,13 +966,61 @@ def cell_points_kernel(pu, pv, ku, kv, pw, rational, us, vs, ki, kj, uv, p, cuv,
             mids[2 * c + 1, q] = 0.5 * (p[c, 1, q] + p[c, 3, q])
 
 
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _surface_distance1(pu, pv, ku, kv, pw, rational, u, v, x0, x1, x2, steps, u0, u1, v0, v1,
+                       ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res):
+    """`_nurbs_kernels.surface_distance_kernel` of one point (the same operations in the same order)."""
+    b = np.inf
+    for it in range(steps + 1):
+        uc = min(max(u, u0), u1)
+        vc = min(max(v, v0), v1)
+        _surface_point01(pu, pv, ku, kv, pw, rational, uc, vc, 1 if it < steps else 0, ndu_u, ndu_v, a_u, a_v,
+                         l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
+        p0, p1, p2 = res[0, 0], res[0, 1], res[0, 2]
+        r0, r1, r2 = x0 - p0, x1 - p1, x2 - p2
+        dist = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+        if it == 0 or dist < b:
+            b = dist
+        if it == steps:
+            break
+        su0, su1, su2 = res[1, 0], res[1, 1], res[1, 2]
+        sv0, sv1, sv2 = res[2, 0], res[2, 1], res[2, 2]
+        a = su0 * su0 + su1 * su1 + su2 * su2
+        bb = su0 * sv0 + su1 * sv1 + su2 * sv2
+        c = sv0 * sv0 + sv1 * sv1 + sv2 * sv2
+        ru = su0 * r0 + su1 * r1 + su2 * r2
+        rv = sv0 * r0 + sv1 * r1 + sv2 * r2
+        det = a * c - bb * bb
+        if np.isfinite(det) and det > 1e-12 * max(a * c, 1e-300):
+            u = min(max(u + (c * ru - bb * rv) / det, u0), u1)
+            v = min(max(v + (a * rv - bb * ru) / det, v0), v1)
+        else:
+            u = min(max(u, u0), u1)
+            v = min(max(v, v0), v1)
+    return b
+
+
 @njit(cache=True, nogil=True)
-def cell_samples_kernel(bary, uv, p, rows, main, tuv, tx):
-    """The sample points of the split cells' two triangles, as `face._CellCache.deviation` computes them
-    with np.einsum("bk,nskd->nsbd", bary, ...) (the same sums in the same order): cell rows[c] split
-    along (0, 2) if main[c] (triangles 0 1 2, 0 2 3), else along (1, 3) (triangles 0 1 3, 1 2 3);
-    tuv (n, 2, b, 2) their parameters, tx (n, 2, b, 3) their points."""
+def cell_deviation_kernel(pu, pv, ku, kv, pw, rational, bary, uv, p, rows, main, screen, dev, bounded):
+    """Deviation of the split cells rows[c]: the largest `surface_distance` (2 Gauss-Newton steps) of
+    their two triangles' sample points, as `face._CellCache.deviation` computed it with numpy (np.max:
+    NaN if one is NaN). Cell rows[c] is split along (0, 2) if main[c] (triangles 0 1 2, 0 2 3), else
+    along (1, 3) (triangles 0 1 3, 1 2 3); the sample points as np.einsum("bk,nskd->nsbd", bary, ...)
+    computes them (the same sums in the same order).
+
+    With screen > 0, a cell whose samples all lie within `screen` of the surface point at their
+    interpolated parameters gets that largest start distance instead (bounded[c] True): an upper
+    bound of its deviation (`surface_distance` keeps the smallest distance met, the start one
+    included), enough where only "at most screen" counts; its steps are not taken."""
     nb = bary.shape[0]
+    u0, u1 = ku[pu], ku[ku.shape[0] - pu - 1]
+    v0, v1 = kv[pv], kv[kv.shape[0] - pv - 1]
+    ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(pu, pv, pw.shape[2])
+    res = np.empty((3, 3))
+    su = np.empty((2 * nb, 2))
+    sx = np.empty((2 * nb, 3))
+    two = np.full(1, 2, dtype=np.int64)[0]
+    zero = two - two
     for c in range(rows.shape[0]):
         r = rows[c]
         for s in range(2):
@@ -981,7 +1029,36 @@ def cell_samples_kernel(bary, uv, p, rows, main, tuv, tx):
             else:
                 t0, t1, t2 = (0, 1, 3) if s == 0 else (1, 2, 3)
             for b in range(nb):
+                k = s * nb + b
                 for q in range(2):
-                    tuv[c, s, b, q] = (bary[b, 0] * uv[r, t0, q] + bary[b, 1] * uv[r, t1, q]) + bary[b, 2] * uv[r, t2, q]
+                    su[k, q] = (bary[b, 0] * uv[r, t0, q] + bary[b, 1] * uv[r, t1, q]) + bary[b, 2] * uv[r, t2, q]
                 for q in range(3):
-                    tx[c, s, b, q] = (bary[b, 0] * p[r, t0, q] + bary[b, 1] * p[r, t1, q]) + bary[b, 2] * p[r, t2, q]
+                    sx[k, q] = (bary[b, 0] * p[r, t0, q] + bary[b, 1] * p[r, t1, q]) + bary[b, 2] * p[r, t2, q]
+        done = False
+        if screen > 0:
+            worst = 0.0
+            for k in range(2 * nb):
+                d0 = _surface_distance1(pu, pv, ku, kv, pw, rational, su[k, 0], su[k, 1], sx[k, 0], sx[k, 1],
+                                        sx[k, 2], zero, u0, u1, v0, v1, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
+                                        bu, bv, tmp, skl, res)
+                if not d0 <= screen:
+                    worst = np.nan
+                    break
+                if d0 > worst:
+                    worst = d0
+            if worst <= screen:
+                dev[c] = worst
+                bounded[c] = True
+                done = True
+        if not done:
+            worst = 0.0
+            for k in range(2 * nb):
+                d = _surface_distance1(pu, pv, ku, kv, pw, rational, su[k, 0], su[k, 1], sx[k, 0], sx[k, 1],
+                                       sx[k, 2], two, u0, u1, v0, v1, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
+                                       bu, bv, tmp, skl, res)
+                if np.isnan(d) or np.isnan(worst):
+                    worst = np.nan
+                elif k == 0 or d > worst:
+                    worst = d
+            dev[c] = worst
+            bounded[c] = False

@@ -11,7 +11,7 @@ from ..geom.nurbs import _homogeneous, read_only
 from ..geom.predicates import PolygonIndex
 from ..model import TriMesh, TrimmedFace
 from .domain import MAX_VALUES, adaptive_values, unique_values
-from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CF, DUMMY_CI, cell_points_kernel, cell_samples_kernel,
+from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CF, DUMMY_CI, cell_deviation_kernel, cell_points_kernel,
                             inside_grid_kernel)
 from .grid import triangulate_domain
 from .repair import remove_polygon_loops, repair_face
@@ -306,7 +306,8 @@ def _worst_cell_ratio(face: TrimmedFace, us, vs, tolerance: float, polys, cache=
             and (polys is None or cache.polygon_index(polys) is known[5])):
         dev, diag = known[3], known[4]      # refine_cells' first round checked this grid (the same numbers)
     else:
-        dev, diag, diag_max = _cell_deviation(face.surface, us, vs, tolerance, cache)[:3]
+        # deviations within the tolerance may be bounds: only r > 1 (set by the cells over it) counts
+        dev, diag, diag_max = _cell_deviation(face.surface, us, vs, tolerance, cache, exact=False)[:3]
         if polys is not None:
             near, interior = _near_trim(us, vs, polys if cache is None else cache.polygon_index(polys))
             dev = np.where(near, dev, 0.0)
@@ -328,7 +329,8 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
     # the twist of the cells: split along the better diagonal, refine rows/columns where it fails;
     # the same for a diagonal longer than max_edge (split across its longer side)
     for round_ in range(6):
-        dev, diag, diag_max, side_u, side_v = _cell_deviation(s, us, vs, tolerance, cache)
+        # deviations within the tolerance may be bounds within it: only the cells over it use the values
+        dev, diag, diag_max, side_u, side_v = _cell_deviation(s, us, vs, tolerance, cache, exact=False)
         if polys is not None:
             # cells crossed by the trim count too (one cell dilation); in the band along the trim
             # the CDT may use either diagonal: both must be short enough (its triangles that leave
@@ -498,12 +500,13 @@ def _split_from_fits(d: np.ndarray, tolerance: float | None, prefer_main: bool |
     return np.where(switch, not pref, pref)
 
 
-def _cell_deviation(surface, us, vs, tolerance=None, cache=None):
+def _cell_deviation(surface, us, vs, tolerance=None, cache=None, exact: bool = True):
     """Per cell: deviation bound of its better split, that diagonal's length, the longer diagonal,
     longest u side, longest v side. With a `_CellCache` (and a tolerance), what an earlier call
-    computed for the same cell is taken from it (the same numbers)."""
+    computed for the same cell is taken from it (the same numbers); exact=False: deviations at most
+    the tolerance may come as upper bounds at most the tolerance (`_CellCache.deviation`)."""
     if cache is not None and tolerance is not None:
-        return cache.deviation(us, vs, tolerance)
+        return cache.deviation(us, vs, tolerance, exact)
     ki, kj = np.meshgrid(np.arange(len(us) - 1), np.arange(len(vs) - 1), indexing="ij")
     pm = None if tolerance is None else _prefer_main(surface, us, vs)
     out = _cell_split(surface, us, vs, ki.ravel(), kj.ravel(), tolerance, pm)[1:]
@@ -531,6 +534,7 @@ class _CellCache:
         self.p = np.zeros((0, 5, 3))
         self.d = np.zeros((0, 2))           # distances of the two diagonals' midpoints
         self.dev = np.zeros((0, 2))         # deviation of the main / anti split (NaN: not yet)
+        self.bound = np.zeros((0, 2))       # an upper bound of it (the screen of `deviation(exact=False)`)
         self._loops = None                  # (face, PolygonIndex of its `_loop_polys`)
         self._index = None                  # (polygons, their PolygonIndex)
         #: refine_cells' first grid: (us, vs, tolerance, deviation, diagonal (masked by the trim), index)
@@ -585,13 +589,17 @@ class _CellCache:
             self.p = np.concatenate([self.p, p])
             self.d = np.concatenate([self.d, d])
             self.dev = np.concatenate([self.dev, np.full((len(new), 2), np.nan)])
+            self.bound = np.concatenate([self.bound, np.full((len(new), 2), np.nan)])
             codes = np.concatenate((self.codes, code[new]))
             allrows = np.concatenate((self.rows, rows[new]))
             order = np.argsort(codes, kind="stable")
             self.codes, self.rows = codes[order], allrows[order]
         return rows
 
-    def deviation(self, us, vs, tolerance):
+    def deviation(self, us, vs, tolerance, exact: bool = True):
+        """`_cell_deviation`; with exact=False a cell whose deviation is certainly at most the tolerance may
+        get an upper bound of it, at most the tolerance, instead (`cell_deviation_kernel`'s screen): where
+        only "over the tolerance or not" and the values over it count (refine_cells, _worst_cell_ratio)."""
         rows = self._cells(us, vs)
         d = self.d[rows]
         # _prefer_main: the same sum over the same cells in the same order
@@ -603,15 +611,20 @@ class _CellCache:
                   | ((d_pref > 0.9 * tolerance) & (d_other < 0.98 * d_pref)))
         main = np.where(switch, not pref, pref)
         col = np.where(main, 0, 1)
-        need = np.isnan(self.dev[rows, col])
+        dev = self.dev[rows, col]
+        if not exact:       # a bound known to be within the tolerance serves
+            bnd = self.bound[rows, col]
+            dev = np.where(np.isnan(dev) & (bnd <= tolerance), bnd, dev)
+        need = np.isnan(dev)
         if need.any():
             r, m = rows[need], main[need]
-            nb = len(_BARY)
-            tuv, tx = np.empty((len(r), 2, nb, 2)), np.empty((len(r), 2, nb, 3))
-            cell_samples_kernel(_BARY, self.uv, self.p, r, m, tuv, tx)
-            dev = surface_distance(self.surface, tuv.reshape(-1, 2), tx.reshape(-1, 3)).reshape(len(r), -1).max(axis=1)
-            self.dev[r, np.where(m, 0, 1)] = dev
-        dev = self.dev[rows, col]
+            got, bounded = np.empty(len(r)), np.empty(len(r), dtype=np.bool_)
+            cell_deviation_kernel(*self._surf, _BARY, self.uv, self.p, r, m, 0.0 if exact else float(tolerance),
+                                  got, bounded)
+            c = np.where(m, 0, 1)
+            self.dev[r[~bounded], c[~bounded]] = got[~bounded]
+            self.bound[r[bounded], c[bounded]] = got[bounded]
+            dev[need] = got
         p = self.p[rows]
         diag, diag_max, side_u, side_v = _cell_lengths(p, main)
         shape = (len(us) - 1, len(vs) - 1)
