@@ -151,24 +151,41 @@ def _raster_in(dil, rgeo, u, v):
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
-def _iso_point(axis, rational, pu, pv, pw, dimw, lspan, lbasis, mspan, mbasis, tmp, pts, l, k):
-    """pts[l, k] = the point of line l at the moving parameter's sample k (spans and bases given)."""
+def _iso_point(axis, rational, pu, pv, pw, dimw, lspan, lbasis, mspan, mbasis, tmp, pts, l, k, net, tk, stamp, cur):
+    """pts[l, k] = the point of line l at the moving parameter's sample k (spans and bases given).
+    With `net` (axis 0), pw[l] is line l's net (`line_net_kernel`): the v contraction done already.
+    Axis 1: the v contraction of sample k is the same for the lines of one u span: kept in tk[span, k]
+    (valid while stamp[span, k] == cur, the caller's count of the moving samples' bases)."""
     if axis == 0:
         su = mspan[0, k]
         sv = lspan[0, l]
     else:
         su = lspan[0, l]
         sv = mspan[0, k]
-    for r in range(pu + 1):
-        for dd_ in range(dimw):
-            tmp[r, dd_] = 0.0
-        for s_ in range(pv + 1):
-            bb = lbasis[0, l, s_] if axis == 0 else mbasis[0, k, s_]
-            if bb != 0.0:
-                row = su - pu + r
-                col = sv - pv + s_
+    if net:
+        for r in range(pu + 1):
+            for dd_ in range(dimw):
+                tmp[r, dd_] = pw[l, su - pu + r, dd_]
+    elif axis == 1 and stamp[su, k] == cur:
+        for r in range(pu + 1):
+            for dd_ in range(dimw):
+                tmp[r, dd_] = tk[su, k, r, dd_]
+    else:
+        for r in range(pu + 1):
+            for dd_ in range(dimw):
+                tmp[r, dd_] = 0.0
+            for s_ in range(pv + 1):
+                bb = lbasis[0, l, s_] if axis == 0 else mbasis[0, k, s_]
+                if bb != 0.0:
+                    row = su - pu + r
+                    col = sv - pv + s_
+                    for dd_ in range(dimw):
+                        tmp[r, dd_] += bb * pw[row, col, dd_]
+        if axis == 1:
+            for r in range(pu + 1):
                 for dd_ in range(dimw):
-                    tmp[r, dd_] += bb * pw[row, col, dd_]
+                    tk[su, k, r, dd_] = tmp[r, dd_]
+            stamp[su, k] = cur
     w0 = 1.0
     for dd_ in range(dimw):
         acc = 0.0
@@ -199,7 +216,9 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
     xr0, xr1 = iso_f[0], iso_f[1]
     straight = iso_f.shape[0] > 2 and iso_f[2] >= 0.0
     thr = iso_f[2] if straight else 0.0
-    nu_ctrl, nv_ctrl, dimw = pw.shape
+    # net: pw holds the lines' nets (`line_net_kernel`, axis 0), (L, nu, dimw)
+    net = iso_i.shape[0] > 5 and iso_i[5] != 0
+    nu_ctrl, nv_ctrl, dimw = ku.shape[0] - pu - 1, kv.shape[0] - pv - 1, pw.shape[2]
     if axis == 0:
         pf, kf, nf, pm, km, nm = pv, kv, nv_ctrl, pu, ku, nu_ctrl
     else:
@@ -223,7 +242,12 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
     prev_ok = np.zeros(n_lines, dtype=np.bool_)     # pts[l, m - 1] holds the point at prev_x on line l
     prev_x = np.nan
     w = np.empty(n_lines, dtype=np.bool_)
+    nt = nu_ctrl if axis == 1 and not net else 1
+    tk = np.empty((nt, m, pu + 1, dimw))            # axis 1: v contractions per (u span, sample)
+    stamp = np.full((nt, m), -1, dtype=np.int64)
+    cur = 0
     for i in range(n):
+        cur += 1
         d = b[i] - a[i]
         for k in range(m):
             xs[0, k] = min(max(a[i] + d * t[k], xr0), xr1)
@@ -264,7 +288,8 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
             for k in range(k0, m):
                 if straight and 0 < k < m - 1:
                     continue
-                _iso_point(axis, rational, pu, pv, pw, dimw, lspan, lbasis, mspan, mbasis, tmp, pts, l, k)
+                _iso_point(axis, rational, pu, pv, pw, dimw, lspan, lbasis, mspan, mbasis, tmp, pts, l, k, net, tk,
+                           stamp, cur)
             a0, a1, a2 = pts[l, 0, 0], pts[l, 0, 1], pts[l, 0, 2]
             ab0, ab1, ab2 = pts[l, m - 1, 0] - a0, pts[l, m - 1, 1] - a1, pts[l, m - 1, 2] - a2
             den = (ab0 * ab0 + ab2 * ab2) + ab1 * ab1
@@ -287,7 +312,8 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
                 if not w[l]:
                     continue
                 for k in range(1, m - 1):
-                    _iso_point(axis, rational, pu, pv, pw, dimw, lspan, lbasis, mspan, mbasis, tmp, pts, l, k)
+                    _iso_point(axis, rational, pu, pv, pw, dimw, lspan, lbasis, mspan, mbasis, tmp, pts, l, k, net, tk,
+                           stamp, cur)
                 ab0, ab1, ab2 = (pts[l, m - 1, 0] - pts[l, 0, 0], pts[l, m - 1, 1] - pts[l, 0, 1],
                                  pts[l, m - 1, 2] - pts[l, 0, 2])
                 worst = _chord_worst(pts, l, m, (ab0 * ab0 + ab2 * ab2) + ab1 * ab1)
@@ -1062,3 +1088,73 @@ def cell_deviation_kernel(pu, pv, ku, kv, pw, rational, bary, uv, p, rows, main,
                     worst = d
             dev[c] = worst
             bounded[c] = False
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _nanmax2(a, b):
+    """np.maximum(a, b) (NaN if either is NaN)."""
+    if np.isnan(a) or np.isnan(b):
+        return np.nan
+    return a if a >= b else b
+
+
+@njit(cache=True, nogil=True)
+def cell_check_kernel(d, p, devs, bounds, rows, pref, tolerance, exact, main, dev, diag, diag_max, side_u, side_v):
+    """`face._CellCache.deviation` after the cells are known, per cell c of row rows[c]: the split
+    (`_split_from_fits` of its midpoint distances d[row] with the face's preference `pref`), its
+    deviation from devs[row] (or, unless `exact`, a bound within the tolerance from bounds[row]; NaN:
+    not yet computed) and the lengths of `face._cell_lengths` (the same operations in the same order)."""
+    for c in range(rows.shape[0]):
+        r = rows[c]
+        d_main, d_anti = d[r, 0], d[r, 1]
+        if pref:
+            d_pref, d_other = d_main, d_anti
+        else:
+            d_pref, d_other = d_anti, d_main
+        switch = (((d_pref > 0.5 * tolerance) and (d_other < 0.8 * d_pref))
+                  or ((d_pref > 0.9 * tolerance) and (d_other < 0.98 * d_pref)))
+        m = (not pref) if switch else pref
+        main[c] = m
+        col = 0 if m else 1
+        v = devs[r, col]
+        if not exact and np.isnan(v) and bounds[r, col] <= tolerance:
+            v = bounds[r, col]
+        dev[c] = v
+        # _cell_lengths: corners (0, 2), (1, 3) the diagonals, (0, 1), (3, 2) the u sides, (0, 3), (1, 2) the v sides
+        n0 = _corner_dist(p, r, 0, 2)
+        n1 = _corner_dist(p, r, 1, 3)
+        diag[c] = n0 if m else n1
+        diag_max[c] = _nanmax2(n0, n1)
+        side_u[c] = _nanmax2(_corner_dist(p, r, 0, 1), _corner_dist(p, r, 3, 2))
+        side_v[c] = _nanmax2(_corner_dist(p, r, 0, 3), _corner_dist(p, r, 1, 2))
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _corner_dist(p, r, i, j):
+    """np.sqrt(np.add.reduce(q * q)) of q = p[r, j] - p[r, i] (the sum left to right)."""
+    q0 = p[r, j, 0] - p[r, i, 0]
+    q1 = p[r, j, 1] - p[r, i, 1]
+    q2 = p[r, j, 2] - p[r, i, 2]
+    return np.sqrt((q0 * q0 + q1 * q1) + q2 * q2)
+
+
+@njit(cache=True, nogil=True)
+def line_net_kernel(pv, kv, lines, pw, out):
+    """out[l, i] = sum_s N_s(lines[l]) pw[i, span - pv + s] (zero basis values skipped): the control points of
+    the iso-line v = lines[l], the v contraction `_iso_point` does per point for axis 0, with the same
+    operations in the same order (so its points are the same numbers)."""
+    n_lines = lines.shape[0]
+    nv_ctrl = kv.shape[0] - pv - 1
+    lspan = np.empty((1, n_lines), dtype=np.int64)
+    lbasis = np.empty((1, n_lines, pv + 1))
+    _moving_basis(pv, kv, nv_ctrl, lines.reshape(1, n_lines), lspan, lbasis)
+    for l in range(n_lines):
+        sv = lspan[0, l]
+        for i in range(pw.shape[0]):
+            for dd_ in range(pw.shape[2]):
+                out[l, i, dd_] = 0.0
+            for s_ in range(pv + 1):
+                bb = lbasis[0, l, s_]
+                if bb != 0.0:
+                    for dd_ in range(pw.shape[2]):
+                        out[l, i, dd_] += bb * pw[i, sv - pv + s_, dd_]

@@ -11,8 +11,8 @@ from ..geom.nurbs import _homogeneous, read_only
 from ..geom.predicates import PolygonIndex
 from ..model import TriMesh, TrimmedFace
 from .domain import MAX_VALUES, adaptive_values, unique_values
-from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CF, DUMMY_CI, cell_deviation_kernel, cell_points_kernel,
-                            inside_grid_kernel)
+from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CF, DUMMY_CI, cell_check_kernel, cell_deviation_kernel,
+                            cell_points_kernel, inside_grid_kernel, line_net_kernel)
 from .grid import triangulate_domain
 from .repair import remove_polygon_loops, repair_face
 from .slivers import collapse_boundary_slivers
@@ -148,11 +148,17 @@ class IsoLines:
     def _make_family(self) -> tuple:
         r = self.raster
         s = self.surface
-        iso_i = np.array([self.axis, r is not None, s.degree_u, s.degree_v, s.weights is not None], dtype=np.int64)
+        pw = self._pw
+        if self.axis == 0:      # the lines' own nets: the v contraction once per line, not per point
+            pw = np.empty((len(self._lines_c), pw.shape[0], pw.shape[2]))
+            line_net_kernel(s.degree_v, self._kv, self._lines_c, self._pw, pw)
+            pw = read_only(pw)
+        iso_i = np.array([self.axis, r is not None, s.degree_u, s.degree_v, s.weights is not None, self.axis == 0],
+                         dtype=np.int64)
         iso_f = np.array([self._xr[0], self._xr[1], self.straight_bound()], dtype=np.float64)
         rgeo = np.zeros(4) if r is None else np.r_[r.lo, r.step].astype(np.float64)
         return (0, iso_i, iso_f, self._lines_c, read_only(self.lines), DUMMY_BOOL if r is None else r.dil, rgeo,
-                self._ku, self._kv, self._pw, DUMMY_CI, DUMMY_CF, DUMMY_1D, DUMMY_1D, DUMMY_1D, DUMMY_1D, DUMMY_1D)
+                self._ku, self._kv, pw, DUMMY_CI, DUMMY_CF, DUMMY_1D, DUMMY_1D, DUMMY_1D, DUMMY_1D, DUMMY_1D)
 
     def straight_bound(self) -> float:
         """-1, or when every line is straight (degree 1 along it, one knot span: a segment, rational or
@@ -601,20 +607,14 @@ class _CellCache:
         get an upper bound of it, at most the tolerance, instead (`cell_deviation_kernel`'s screen): where
         only "over the tolerance or not" and the values over it count (refine_cells, _worst_cell_ratio)."""
         rows = self._cells(us, vs)
-        d = self.d[rows]
         # _prefer_main: the same sum over the same cells in the same order
-        tot = d.sum(axis=0)
+        tot = self.d[rows].sum(axis=0)
         pref = bool(tot[0] <= tot[1])
-        d_main, d_anti = d[:, 0], d[:, 1]
-        d_pref, d_other = (d_main, d_anti) if pref else (d_anti, d_main)
-        switch = (((d_pref > 0.5 * tolerance) & (d_other < 0.8 * d_pref))
-                  | ((d_pref > 0.9 * tolerance) & (d_other < 0.98 * d_pref)))
-        main = np.where(switch, not pref, pref)
-        col = np.where(main, 0, 1)
-        dev = self.dev[rows, col]
-        if not exact:       # a bound known to be within the tolerance serves
-            bnd = self.bound[rows, col]
-            dev = np.where(np.isnan(dev) & (bnd <= tolerance), bnd, dev)
+        k = len(rows)
+        main, dev = np.empty(k, dtype=np.bool_), np.empty(k)
+        diag, diag_max, side_u, side_v = np.empty(k), np.empty(k), np.empty(k), np.empty(k)
+        cell_check_kernel(self.d, self.p, self.dev, self.bound, rows, pref, float(tolerance), bool(exact), main, dev,
+                          diag, diag_max, side_u, side_v)
         need = np.isnan(dev)
         if need.any():
             r, m = rows[need], main[need]
@@ -625,8 +625,6 @@ class _CellCache:
             self.dev[r[~bounded], c[~bounded]] = got[~bounded]
             self.bound[r[bounded], c[bounded]] = got[bounded]
             dev[need] = got
-        p = self.p[rows]
-        diag, diag_max, side_u, side_v = _cell_lengths(p, main)
         shape = (len(us) - 1, len(vs) - 1)
         return tuple(a.reshape(shape) for a in (dev, diag, diag_max, side_u, side_v))
 
