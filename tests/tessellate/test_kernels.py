@@ -167,3 +167,28 @@ def test_cell_cache_screen_changes_no_decision(t20):
             # an exact request afterwards gets the exact values from the same cache
             assert np.array_equal(_cell_deviation(s, us, vs, tol, cache)[0], exact[0])
     assert n_bounded > 50 and n_over > 50
+
+
+def test_refine_round_bulges_equal_numpy(t20):
+    # refine_round_kernel's side bulges of the bad cells (which direction gets a mid-line) are those of
+    # face._side_bulge, the numpy reference
+    from trimsurf.tessellate.face import _CellCache, _side_bulge
+    from trimsurf.tessellate import _line_kernels as lk
+    from numba import njit
+
+    @njit
+    def bulge(pu, pv, ku, kv, pw, rational, us, vs, bi, bj, cu, cv):
+        lk._side_bulge_cells(pu, pv, ku, kv, pw, rational, us, vs, bi, bj, cu, cv)
+
+    n = 0
+    for face in _faces(t20)[:6]:
+        s = face.surface
+        (u0, u1), (v0, v1) = s.domain
+        us, vs = np.linspace(u0, u1, 6), np.linspace(v0, v1, 5)
+        bi, bj = (a.ravel() for a in np.meshgrid(np.arange(5), np.arange(4), indexing="ij"))
+        su, sv = _side_bulge(s, us, vs, bi, bj)
+        cu, cv = np.empty(len(bi), dtype=bool), np.empty(len(bi), dtype=bool)
+        bulge(*_CellCache(s)._surf, us, vs, bi, bj, cu, cv)
+        assert np.array_equal(cu, su >= 0.5 * sv) and np.array_equal(cv, sv >= 0.5 * su)
+        n += int(np.sum(cu != cv))
+    assert n > 0

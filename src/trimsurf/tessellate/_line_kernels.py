@@ -1158,3 +1158,146 @@ def line_net_kernel(pv, kv, lines, pw, out):
                 if bb != 0.0:
                     for dd_ in range(pw.shape[2]):
                         out[l, i, dd_] += bb * pw[i, sv - pv + s_, dd_]
+
+
+@njit(cache=True, nogil=True)
+def refine_round_kernel(pu, pv, ku, kv, pw, rational, us, vs, dev, diag, diag_max, side_u, side_v, near, interior,
+                        has_polys, tolerance, max_edge, aspect, min_across, local_fix, split_u, split_v):
+    """One round of `face.refine_cells` after the cells' numbers (dev, diag, diag_max, side_u, side_v, grids
+    (nu, nv)) and the trim band (near, interior) are known, with the same decisions: dev and diag are
+    masked by the band in place (as refine_cells masks them); split_u[i] / split_v[j] say which columns /
+    rows get a mid-line. Returns False when the refinement stops (nothing to split).
+
+    The bad cells' side bulges are `face._side_bulge`'s (the same points and distances)."""
+    nu, nv = dev.shape
+    bad = np.zeros((nu, nv), dtype=np.bool_)
+    long = np.zeros((nu, nv), dtype=np.bool_)
+    n_bad = 0
+    any_long = False
+    for i in range(nu):
+        for j in range(nv):
+            if has_polys:
+                if not near[i, j]:
+                    dev[i, j] = 0.0
+                    diag[i, j] = 0.0
+                elif not interior[i, j]:
+                    diag[i, j] = diag_max[i, j]
+            b = dev[i, j] > tolerance
+            bad[i, j] = b
+            n_bad += b
+            lg = (diag[i, j] > max_edge) and not b
+            if aspect > 0 and not b and not lg:
+                a, c = side_u[i, j], side_v[i, j]
+                thin = False
+                if not (np.isnan(a) or np.isnan(c)):
+                    mx = a if a >= c else c
+                    mn = c if a >= c else a
+                    if mn > 0:
+                        r = mx / mn
+                        thin = np.isfinite(r) and r > aspect
+                across = nu if a < c else nv
+                thin = thin and across >= min_across
+                if has_polys:
+                    thin = thin and near[i, j]
+                lg = thin
+            long[i, j] = lg
+            any_long = any_long or lg
+    if n_bad == 0 and not any_long:
+        return False
+    for i in range(nu):
+        split_u[i] = False
+    for j in range(nv):
+        split_v[j] = False
+    if n_bad:
+        bi = np.empty(n_bad, dtype=np.int64)
+        bj = np.empty(n_bad, dtype=np.int64)
+        k = 0
+        for i in range(nu):
+            for j in range(nv):
+                if bad[i, j]:
+                    bi[k], bj[k] = i, j
+                    k += 1
+        cu = np.empty(n_bad, dtype=np.bool_)
+        cv = np.empty(n_bad, dtype=np.bool_)
+        _side_bulge_cells(pu, pv, ku, kv, pw, rational, us, vs, bi, bj, cu, cv)
+        n_col = np.zeros(nu, dtype=np.int64)
+        n_row = np.zeros(nv, dtype=np.int64)
+        for i in range(nu):
+            for j in range(nv):
+                if near[i, j] or not has_polys:
+                    n_col[i] += 1
+                    n_row[j] += 1
+        col_bad = np.zeros(nu, dtype=np.int64)
+        row_bad = np.zeros(nv, dtype=np.int64)
+        for k in range(n_bad):
+            if cu[k]:
+                col_bad[bi[k]] += 1
+            if cv[k]:
+                row_bad[bj[k]] += 1
+        n_split = 0
+        for k in range(n_bad):
+            few = dev[bi[k], bj[k]] <= local_fix * tolerance
+            lim_c = 0.25 * n_col[bi[k]]
+            lim_r = 0.25 * n_row[bj[k]]
+            if cu[k] and (not few or col_bad[bi[k]] >= (lim_c if lim_c > 2 else 2)):
+                split_u[bi[k]] = True
+                n_split += 1
+            if cv[k] and (not few or row_bad[bj[k]] >= (lim_r if lim_r > 2 else 2)):
+                split_v[bj[k]] = True
+                n_split += 1
+        if n_split == 0 and not any_long:
+            return False
+    for i in range(nu):
+        for j in range(nv):
+            if long[i, j]:
+                if side_u[i, j] >= side_v[i, j]:
+                    split_u[i] = True
+                elif side_u[i, j] < side_v[i, j]:
+                    split_v[j] = True
+    return True
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _side_bulge_cells(pu, pv, ku, kv, pw, rational, us, vs, bi, bj, cu, cv):
+    """`face._side_bulge` of cells (bi, bj), then which get a u mid-line (cu: su >= 0.5 sv) and a v one
+    (cv: sv >= 0.5 su) as refine_cells decides it."""
+    u_lo, u_hi = ku[pu], ku[ku.shape[0] - pu - 1]
+    v_lo, v_hi = kv[pv], kv[kv.shape[0] - pv - 1]
+    ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(pu, pv, pw.shape[2])
+    res = np.empty((3, 3))
+    one = np.ones(1, dtype=np.int64)[0]
+    zero = one - one
+    uv = np.empty((8, 2))
+    p = np.empty((8, 3))
+    d = np.empty(4)
+    for c in range(bi.shape[0]):
+        u0, u1, v0, v1 = us[bi[c]], us[bi[c] + 1], vs[bj[c]], vs[bj[c] + 1]
+        um, vm = 0.5 * (u0 + u1), 0.5 * (v0 + v1)
+        uv[0, 0], uv[0, 1] = u0, v0
+        uv[1, 0], uv[1, 1] = u1, v0
+        uv[2, 0], uv[2, 1] = u1, v1
+        uv[3, 0], uv[3, 1] = u0, v1
+        uv[4, 0], uv[4, 1] = um, v0
+        uv[5, 0], uv[5, 1] = um, v1
+        uv[6, 0], uv[6, 1] = u0, vm
+        uv[7, 0], uv[7, 1] = u1, vm
+        for k in range(4):
+            uu = min(max(uv[k, 0], u_lo), u_hi)
+            vv = min(max(uv[k, 1], v_lo), v_hi)
+            _surface_point01(pu, pv, ku, kv, pw, rational, uu, vv, zero, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
+                             bu, bv, tmp, skl, res)
+            for q in range(3):
+                p[k, q] = res[0, q]
+        for h in range(4):
+            # side midpoints: (0, 1), (3, 2), (0, 3), (1, 2) against the surface from (um v0, um v1, u0 vm, u1 vm)
+            ia, ib = (0, 1) if h == 0 else ((3, 2) if h == 1 else ((0, 3) if h == 2 else (1, 2)))
+            x0 = 0.5 * (p[ia, 0] + p[ib, 0])
+            x1 = 0.5 * (p[ia, 1] + p[ib, 1])
+            x2 = 0.5 * (p[ia, 2] + p[ib, 2])
+            d[h] = _surface_distance1(pu, pv, ku, kv, pw, rational, uv[4 + h, 0], uv[4 + h, 1], x0, x1, x2, one,
+                                      u_lo, u_hi, v_lo, v_hi, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp,
+                                      skl, res)
+        su = _nanmax2(d[0], d[1])
+        sv = _nanmax2(d[2], d[3])
+        cu[c] = su >= 0.5 * sv
+        cv[c] = sv >= 0.5 * su

@@ -12,7 +12,8 @@ from ..geom.predicates import PolygonIndex
 from ..model import TriMesh, TrimmedFace
 from .domain import MAX_VALUES, adaptive_values, unique_values
 from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CF, DUMMY_CI, cell_check_kernel, cell_deviation_kernel,
-                            cell_points_kernel, inside_grid_kernel, line_net_kernel)
+                            cell_points_kernel, inside_grid_kernel, line_net_kernel,
+                            refine_round_kernel)
 from .grid import triangulate_domain
 from .repair import remove_polygon_loops, repair_face
 from .slivers import collapse_boundary_slivers
@@ -334,6 +335,7 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
         polys = cache.loop_index(face)
     # the twist of the cells: split along the better diagonal, refine rows/columns where it fails;
     # the same for a diagonal longer than max_edge (split across its longer side)
+    asp = float(aspect) if aspect else 0.0
     for round_ in range(6):
         # deviations within the tolerance may be bounds within it: only the cells over it use the values
         dev, diag, diag_max, side_u, side_v = _cell_deviation(s, us, vs, tolerance, cache, exact=False)
@@ -342,53 +344,28 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
             # the CDT may use either diagonal: both must be short enough (its triangles that leave
             # the tolerance get an interior point in mesh_face_from_chunks)
             near, interior = _near_trim(us, vs, polys)
-            dev = np.where(near, dev, 0.0)
-            diag = np.where(near & ~interior, diag_max, np.where(near, diag, 0.0))
-        if round_ == 0 and cache is not None:      # for _worst_cell_ratio of the same grid
-            cache.checked = (us, vs, tolerance, dev, diag, polys)
-        bad = dev > tolerance
-        long = (diag > max_edge) & ~bad
-        if aspect:
-            # cells much longer one way than the other: their two triangles' smallest angle is
-            # about atan(1 / aspect); halve them across the long side
-            with np.errstate(divide="ignore", invalid="ignore"):
-                ratio = np.maximum(side_u, side_v) / np.minimum(side_u, side_v)
-            thin = np.isfinite(ratio) & (ratio > aspect) & ~bad
-            # only where the short side is set by the deviation (several cells across), not by the
-            # width of a narrow face (a fillet): lines along its length would end on its neighbours'
-            # edges as extra trim points, fans of thin triangles there
-            across = np.where(side_u < side_v, len(us) - 1, len(vs) - 1)
-            thin &= across >= MIN_ACROSS
-            if polys is not None:
-                thin &= near
-            long |= thin
-        if not bad.any() and not long.any():
-            break
-        bi, bj = np.nonzero(bad)
-        if len(bi):
-            # a bad cell is halved across the direction(s) whose sides bulge most (both where they are
-            # alike, e.g. the twist): a mid-line in both directions through every bad cell overshoots
-            su, sv = _side_bulge(s, us, vs, bi, bj)
-            cu = su >= 0.5 * sv
-            cv = sv >= 0.5 * su
-            # a line through a column (row) where only a few cells leave the tolerance by a little
-            # costs the whole column; those cells get an interior point instead (mesh_face_from_chunks)
-            few = dev[bi, bj] <= LOCAL_FIX * tolerance
-            n_col = (near if polys is not None else np.ones_like(bad)).sum(axis=1)
-            n_row = (near if polys is not None else np.ones_like(bad)).sum(axis=0)
-            col_bad = np.bincount(bi[cu], minlength=bad.shape[0])
-            row_bad = np.bincount(bj[cv], minlength=bad.shape[1])
-            cu &= ~few | (col_bad[bi] >= np.maximum(2, 0.25 * n_col[bi]))
-            cv &= ~few | (row_bad[bj] >= np.maximum(2, 0.25 * n_row[bj]))
-            bi_u, bj_v = bi[cu], bj[cv]
-            if not len(bi_u) and not len(bj_v) and not long.any():
-                break
         else:
-            bi_u, bj_v = bi, bj
-        li, lj = np.nonzero(long & (side_u >= side_v))
-        mi, mj = np.nonzero(long & (side_u < side_v))
-        us = np.unique(np.r_[us, 0.5 * (us[bi_u] + us[bi_u + 1]), 0.5 * (us[li] + us[li + 1])])
-        vs = np.unique(np.r_[vs, 0.5 * (vs[bj_v] + vs[bj_v + 1]), 0.5 * (vs[mj] + vs[mj + 1])])
+            near = interior = np.zeros(dev.shape, dtype=np.bool_)
+        # the round's decisions (refine_round_kernel, which masks dev and diag by the band in place):
+        # bad cells (over the tolerance) are halved across the direction(s) whose sides bulge most (both
+        # where they are alike, e.g. the twist): a mid-line in both directions through every bad cell
+        # overshoots; a line through a column (row) where only a few cells leave the tolerance by a
+        # little (at most LOCAL_FIX) costs the whole column: those cells get an interior point instead
+        # (mesh_face_from_chunks); cells with a diagonal over max_edge, or much longer one way than the
+        # other (their two triangles' smallest angle is about atan(1 / aspect)) are halved across the
+        # long side, the latter only where the short side's direction has at least MIN_ACROSS cells
+        # (not by the width of a narrow face, a fillet: lines along its length would end on its
+        # neighbours' edges as extra trim points, fans of thin triangles there)
+        split_u, split_v = np.empty(len(us) - 1, dtype=np.bool_), np.empty(len(vs) - 1, dtype=np.bool_)
+        go = refine_round_kernel(*cache._surf, us, vs, dev, diag, diag_max, side_u, side_v, near, interior,
+                                 polys is not None, float(tolerance), float(max_edge), asp, MIN_ACROSS,
+                                 LOCAL_FIX, split_u, split_v)
+        if round_ == 0:      # for _worst_cell_ratio of the same grid
+            cache.checked = (us, vs, tolerance, dev, diag, polys)
+        if not go:
+            break
+        us = np.unique(np.r_[us, (0.5 * (us[:-1] + us[1:]))[split_u]])
+        vs = np.unique(np.r_[vs, (0.5 * (vs[:-1] + vs[1:]))[split_v]])
         if (len(us) - 1) * (len(vs) - 1) > MAX_CELLS:
             raise InputError(f"{face.name or 'face'}: refining the grid would make {len(us) - 1} x {len(vs) - 1} "
                              f"cells (more than {MAX_CELLS}): tolerance {tolerance:.3g} or max edge "
@@ -398,7 +375,8 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
 
 def _side_bulge(surface, us, vs, ki, kj) -> tuple[np.ndarray, np.ndarray]:
     """Per cell (ki, kj): how far its u sides and its v sides bulge from their chords (the larger of
-    the two opposite sides, at the side's parameter midpoint)."""
+    the two opposite sides, at the side's parameter midpoint). The numpy reference of what
+    `refine_round_kernel` computes for the bad cells (`_line_kernels._side_bulge_cells`)."""
     u0, u1, v0, v1 = us[ki], us[ki + 1], vs[kj], vs[kj + 1]
     um, vm = 0.5 * (u0 + u1), 0.5 * (v0 + v1)
     uv = np.stack([np.column_stack([u0, v0]), np.column_stack([u1, v0]), np.column_stack([u1, v1]),
