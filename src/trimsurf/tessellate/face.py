@@ -512,13 +512,13 @@ class _CellCache:
         self._surf = (surface.degree_u, surface.degree_v, read_only(surface.knots_u), read_only(surface.knots_v),
                       _homogeneous(surface.control_points, surface.weights), surface.weights is not None)
         self.ids = ({}, {})                 # per direction: (x0, x1) interval -> id
-        self.codes = np.zeros(0, dtype=np.int64)
-        self.rows = np.zeros(0, dtype=np.int64)
-        self.uv = np.zeros((0, 5, 2))
-        self.p = np.zeros((0, 5, 3))
-        self.d = np.zeros((0, 2))           # distances of the two diagonals' midpoints
-        self.dev = np.zeros((0, 2))         # deviation of the main / anti split (NaN: not yet)
-        self.bound = np.zeros((0, 2))       # an upper bound of it (the screen of `deviation(exact=False)`)
+        self._table = np.full((0, 0), -1, dtype=np.int64)     # (u id, v id) -> row (-1: not yet)
+        self.n = 0                          # rows in use of the buffers below (capacity doubles)
+        self._uv = np.empty((0, 5, 2))
+        self._p = np.empty((0, 5, 3))
+        self._d = np.empty((0, 2))          # distances of the two diagonals' midpoints
+        self._dev = np.empty((0, 2))        # deviation of the main / anti split (NaN: not yet)
+        self._bound = np.empty((0, 2))      # an upper bound of it (the screen of `deviation(exact=False)`)
         self._loops = None                  # (face, PolygonIndex of its `_loop_polys`)
         self._index = None                  # (polygons, their PolygonIndex)
         #: refine_cells' first grid: (us, vs, tolerance, deviation, diagonal (masked by the trim), index)
@@ -544,6 +544,24 @@ class _CellCache:
             self._index = (polys, PolygonIndex(polys))
         return self._index[1]
 
+    uv = property(lambda self: self._uv[:self.n])
+    p = property(lambda self: self._p[:self.n])
+    d = property(lambda self: self._d[:self.n])
+    dev = property(lambda self: self._dev[:self.n])
+    bound = property(lambda self: self._bound[:self.n])
+
+    def _reserve(self, n):
+        cap = len(self._p)
+        if n <= cap:
+            return
+        cap = max(n, 2 * cap, 64)
+        for name, shape, fill in (("_uv", (5, 2), None), ("_p", (5, 3), None), ("_d", (2,), None),
+                                  ("_dev", (2,), np.nan), ("_bound", (2,), np.nan)):
+            old = getattr(self, name)
+            new = np.empty((cap,) + shape) if fill is None else np.full((cap,) + shape, fill)
+            new[:self.n] = old[:self.n]
+            setattr(self, name, new)
+
     def _interval_ids(self, axis, x):
         ids = self.ids[axis]
         return np.array([ids.setdefault((a, b), len(ids)) for a, b in zip(x[:-1].tolist(), x[1:].tolist())],
@@ -553,31 +571,27 @@ class _CellCache:
         """Rows of the grid's cells (computing the new ones' points and midpoint distances), in
         `_cell_split`'s order (ki, kj = meshgrid(..., indexing="ij"), raveled)."""
         iu, iv = self._interval_ids(0, us), self._interval_ids(1, vs)
-        code = (iu[:, None] * (1 << 31) + iv[None, :]).ravel()
-        pos = np.searchsorted(self.codes, code)
-        pos_c = np.minimum(pos, max(len(self.codes) - 1, 0))
-        known = (len(self.codes) > 0) & (self.codes[pos_c] == code) if len(self.codes) else np.zeros(len(code), bool)
-        rows = np.where(known, self.rows[pos_c] if len(self.rows) else 0, -1)
-        new = np.flatnonzero(~known)
+        t = self._table
+        if t.shape[0] < len(self.ids[0]) or t.shape[1] < len(self.ids[1]):
+            t = np.full((max(len(self.ids[0]), 2 * t.shape[0]), max(len(self.ids[1]), 2 * t.shape[1])), -1,
+                        dtype=np.int64)
+            t[:self._table.shape[0], :self._table.shape[1]] = self._table
+            self._table = t
+        rows = t[iu[:, None], iv[None, :]].ravel()
+        new = np.flatnonzero(rows < 0)
         if len(new):
             nv = len(vs) - 1
             ki, kj = new // nv, new % nv        # meshgrid(..., indexing="ij") raveled
-            k = len(new)
-            uv, p, cuv, mids = np.empty((k, 5, 2)), np.empty((k, 5, 3)), np.empty((2 * k, 2)), np.empty((2 * k, 3))
+            k, first = len(new), self.n
+            self._reserve(first + k)
+            cuv, mids = np.empty((2 * k, 2)), np.empty((2 * k, 3))
             cell_points_kernel(*self._surf, np.ascontiguousarray(us, dtype=np.float64),
-                               np.ascontiguousarray(vs, dtype=np.float64), ki, kj, uv, p, cuv, mids)
-            d = surface_distance(self.surface, cuv, mids, steps=1).reshape(-1, 2)
-            first = len(self.p)
-            rows[new] = first + np.arange(len(new))
-            self.uv = np.concatenate([self.uv, uv])
-            self.p = np.concatenate([self.p, p])
-            self.d = np.concatenate([self.d, d])
-            self.dev = np.concatenate([self.dev, np.full((len(new), 2), np.nan)])
-            self.bound = np.concatenate([self.bound, np.full((len(new), 2), np.nan)])
-            codes = np.concatenate((self.codes, code[new]))
-            allrows = np.concatenate((self.rows, rows[new]))
-            order = np.argsort(codes, kind="stable")
-            self.codes, self.rows = codes[order], allrows[order]
+                               np.ascontiguousarray(vs, dtype=np.float64), ki, kj, self._uv[first:first + k],
+                               self._p[first:first + k], cuv, mids)
+            self._d[first:first + k] = surface_distance(self.surface, cuv, mids, steps=1).reshape(-1, 2)
+            rows[new] = first + np.arange(k)
+            t[iu[ki], iv[kj]] = rows[new]
+            self.n = first + k
         return rows
 
     def deviation(self, us, vs, tolerance, exact: bool = True):
