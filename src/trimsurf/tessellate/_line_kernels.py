@@ -1034,10 +1034,12 @@ def cell_deviation_kernel(pu, pv, ku, kv, pw, rational, bary, uv, p, rows, main,
     along (1, 3) (triangles 0 1 3, 1 2 3); the sample points as np.einsum("bk,nskd->nsbd", bary, ...)
     computes them (the same sums in the same order).
 
-    With screen > 0, a cell whose samples all lie within `screen` of the surface point at their
-    interpolated parameters gets that largest start distance instead (bounded[c] True): an upper
-    bound of its deviation (`surface_distance` keeps the smallest distance met, the start one
-    included), enough where only "at most screen" counts; its steps are not taken."""
+    With screen > 0, a sample within `screen` of the surface point at its interpolated parameters
+    takes no steps: that start distance bounds its value (`surface_distance` keeps the smallest
+    distance met, the start one included). A cell over the screen gets its exact value (the samples
+    left at their bounds are below the screen, so below the largest); a cell within it the largest of
+    its bounds and values (bounded[c] True): an upper bound of its deviation within the screen, enough
+    where only "at most screen" counts."""
     nb = bary.shape[0]
     u0, u1 = ku[pu], ku[ku.shape[0] - pu - 1]
     v0, v1 = kv[pv], kv[kv.shape[0] - pv - 1]
@@ -1062,20 +1064,33 @@ def cell_deviation_kernel(pu, pv, ku, kv, pw, rational, bary, uv, p, rows, main,
                     sx[k, q] = (bary[b, 0] * p[r, t0, q] + bary[b, 1] * p[r, t1, q]) + bary[b, 2] * p[r, t2, q]
         done = False
         if screen > 0:
-            worst = 0.0
+            # per sample: a start distance within the screen bounds it (no steps); the others get their
+            # steps. Over the screen, the cell's largest value is exact (the bounded samples are below);
+            # within it, the largest of bounds and values bounds the cell's deviation
+            bnd = 0.0
+            ex = 0.0
             for k in range(2 * nb):
                 d0 = _surface_distance1(pu, pv, ku, kv, pw, rational, su[k, 0], su[k, 1], sx[k, 0], sx[k, 1],
                                         sx[k, 2], zero, u0, u1, v0, v1, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
                                         bu, bv, tmp, skl, res)
-                if not d0 <= screen:
-                    worst = np.nan
-                    break
-                if d0 > worst:
-                    worst = d0
-            if worst <= screen:
-                dev[c] = worst
+                if d0 <= screen:
+                    if d0 > bnd:
+                        bnd = d0
+                    continue
+                dk = _surface_distance1(pu, pv, ku, kv, pw, rational, su[k, 0], su[k, 1], sx[k, 0], sx[k, 1],
+                                        sx[k, 2], two, u0, u1, v0, v1, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
+                                        bu, bv, tmp, skl, res)
+                if np.isnan(dk) or np.isnan(ex):
+                    ex = np.nan
+                elif dk > ex:
+                    ex = dk
+            if np.isnan(ex) or ex > screen:
+                dev[c] = ex
+                bounded[c] = False
+            else:
+                dev[c] = bnd if bnd >= ex else ex
                 bounded[c] = True
-                done = True
+            done = True
         if not done:
             worst = 0.0
             for k in range(2 * nb):
