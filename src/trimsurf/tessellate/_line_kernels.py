@@ -960,16 +960,17 @@ def inside_grid_kernel(xs, ys, a, b, dil, ero):
 
 
 @njit(cache=True, nogil=True)
-def cell_points_kernel(pu, pv, ku, kv, pw, rational, us, vs, ki, kj, uv, p, cuv, mids):
-    """Of grid cells (ki, kj) of the grid us x vs, as `face._CellCache._cells` computes them with numpy:
-    uv (n, 5, 2) the four corners (u0 v0, u1 v0, u1 v1, u0 v1) and the centre, p (n, 5, 3) their points
-    (`NurbsSurface.evaluate`: the parameters clamped into the domain), and the two diagonals' midpoints
-    mids (2 n, 3) with their start parameters cuv (2 n, 2) (the centre) for `surface_distance`."""
+def cell_points_kernel(pu, pv, ku, kv, pw, rational, us, vs, ki, kj, uv, p, d):
+    """Of grid cells (ki, kj) of the grid us x vs, as `face._CellCache` computed them with numpy: uv (n, 5, 2)
+    the four corners (u0 v0, u1 v0, u1 v1, u0 v1) and the centre, p (n, 5, 3) their points
+    (`NurbsSurface.evaluate`: the parameters clamped into the domain), and d (n, 2) the distances of the
+    two diagonals' midpoints from the surface (`surface_distance` with one step from the centre)."""
     u_lo, u_hi = ku[pu], ku[ku.shape[0] - pu - 1]
     v_lo, v_hi = kv[pv], kv[kv.shape[0] - pv - 1]
     ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(pu, pv, pw.shape[2])
     res = np.empty((3, 3))
-    nd0 = np.zeros(1, dtype=np.int64)[0]      # a run-time 0 (no compiled version per literal)
+    one = np.ones(1, dtype=np.int64)[0]     # run-time values (no compiled version per literal)
+    nd0 = one - one
     for c in range(ki.shape[0]):
         u0, u1, v0, v1 = us[ki[c]], us[ki[c] + 1], vs[kj[c]], vs[kj[c] + 1]
         uv[c, 0, 0], uv[c, 0, 1] = u0, v0
@@ -985,11 +986,11 @@ def cell_points_kernel(pu, pv, ku, kv, pw, rational, us, vs, ki, kj, uv, p, cuv,
             for q in range(3):
                 p[c, k, q] = res[0, q]
         for h in range(2):
-            cuv[2 * c + h, 0] = uv[c, 4, 0]
-            cuv[2 * c + h, 1] = uv[c, 4, 1]
-        for q in range(3):
-            mids[2 * c, q] = 0.5 * (p[c, 0, q] + p[c, 2, q])
-            mids[2 * c + 1, q] = 0.5 * (p[c, 1, q] + p[c, 3, q])
+            ia, ib = (0, 2) if h == 0 else (1, 3)
+            d[c, h] = _surface_distance1(pu, pv, ku, kv, pw, rational, uv[c, 4, 0], uv[c, 4, 1],
+                                         0.5 * (p[c, ia, 0] + p[c, ib, 0]), 0.5 * (p[c, ia, 1] + p[c, ib, 1]),
+                                         0.5 * (p[c, ia, 2] + p[c, ib, 2]), one, u_lo, u_hi, v_lo, v_hi, ndu_u, ndu_v,
+                                         a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
@@ -1114,11 +1115,18 @@ def _nanmax2(a, b):
 
 
 @njit(cache=True, nogil=True)
-def cell_check_kernel(d, p, devs, bounds, rows, pref, tolerance, exact, main, dev, diag, diag_max, side_u, side_v):
+def cell_check_kernel(d, p, devs, bounds, rows, tolerance, exact, main, dev, diag, diag_max, side_u, side_v):
     """`face._CellCache.deviation` after the cells are known, per cell c of row rows[c]: the split
-    (`_split_from_fits` of its midpoint distances d[row] with the face's preference `pref`), its
-    deviation from devs[row] (or, unless `exact`, a bound within the tolerance from bounds[row]; NaN:
-    not yet computed) and the lengths of `face._cell_lengths` (the same operations in the same order)."""
+    (`_split_from_fits` of its midpoint distances d[row] with the face's preference, `_prefer_main`:
+    the sums over the cells in order, as numpy sums a column), its deviation from devs[row] (or,
+    unless `exact`, a bound within the tolerance from bounds[row]; NaN: not yet computed) and the
+    lengths of `face._cell_lengths` (the same operations in the same order)."""
+    t0 = 0.0
+    t1 = 0.0
+    for c in range(rows.shape[0]):
+        t0 += d[rows[c], 0]
+        t1 += d[rows[c], 1]
+    pref = t0 <= t1
     for c in range(rows.shape[0]):
         r = rows[c]
         d_main, d_anti = d[r, 0], d[r, 1]

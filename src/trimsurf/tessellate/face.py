@@ -58,6 +58,28 @@ def check_parameters(tolerance, max_edge) -> tuple[float, float]:
     return out[0], out[1]
 
 
+def _linspace(a, b, n: int) -> np.ndarray:
+    """np.linspace(a, b, n) for n >= 2 with its arithmetic (arange * step + a, the end exact; the same
+    array) without its wrappers (several calls per face).
+
+    >>> bool(np.array_equal(_linspace(0.1, 0.7, 24), np.linspace(0.1, 0.7, 24)))
+    True
+    """
+    if n < 2:
+        return np.linspace(a, b, n)
+    a, b = float(a), float(b)
+    step = (b - a) / (n - 1)
+    y = np.arange(n, dtype=np.float64)
+    if step == 0.0:             # as np.linspace for a zero (subnormal) step
+        y /= n - 1
+        y *= b - a
+    else:
+        y *= step
+    y += a
+    y[-1] = b
+    return y
+
+
 def _loop_polys(face: TrimmedFace, n: int = 6) -> list:
     return [loop.polyline(n) for loop in face.loops]
 
@@ -80,8 +102,8 @@ def _inside_raster(polys: list, lo: np.ndarray, hi: np.ndarray, n: int = 96, ind
     """A lookup uv (k, 2) -> inside the trim (bool), from an n x n raster of the grid box, dilated by one
     pixel (only which lines count when domain values are chosen depends on it). `index`: the
     `PolygonIndex` of `polys` when the caller has it."""
-    gu = np.linspace(lo[0], hi[0], n)
-    gv = np.linspace(lo[1], hi[1], n)
+    gu = _linspace(lo[0], hi[0], n)
+    gv = _linspace(lo[1], hi[1], n)
     if index is None:
         index = PolygonIndex(polys)
     dil = np.empty((n, n), dtype=np.bool_)
@@ -157,7 +179,7 @@ class IsoLines:
         iso_i = np.array([self.axis, r is not None, s.degree_u, s.degree_v, s.weights is not None, self.axis == 0],
                          dtype=np.int64)
         iso_f = np.array([self._xr[0], self._xr[1], self.straight_bound()], dtype=np.float64)
-        rgeo = np.zeros(4) if r is None else np.r_[r.lo, r.step].astype(np.float64)
+        rgeo = np.zeros(4) if r is None else np.concatenate((r.lo, r.step)).astype(np.float64)
         return (0, iso_i, iso_f, self._lines_c, read_only(self.lines), DUMMY_BOOL if r is None else r.dil, rgeo,
                 self._ku, self._kv, pw, DUMMY_CI, DUMMY_CF, DUMMY_1D, DUMMY_1D, DUMMY_1D, DUMMY_1D, DUMMY_1D)
 
@@ -232,11 +254,11 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
     if polys is not None:       # refine_cells and _worst_cell_ratio index the same trim polygons
         cache.seed(face, polys)
         raster = _inside_raster(polys, lo, hi, index=cache.polygon_index(polys))
+    kin = (_knots_in(s.knots_u, lo[0], hi[0]), _knots_in(s.knots_v, lo[1], hi[1]))     # interior knots in the box
     lines = {}
     for axis in (0, 1):
         o = 1 - axis
-        knots_o = s.knots_v if axis == 0 else s.knots_u
-        lines[axis] = unique_values(np.concatenate((np.linspace(lo[o], hi[o], n_lines), _knots_in(knots_o, lo[o], hi[o]))))
+        lines[axis] = unique_values(np.concatenate((_linspace(lo[o], hi[o], n_lines), kin[o])))
 
     families = {}
 
@@ -246,10 +268,8 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
             # the cells of the whole grid are bounded too (MAX_CELLS): the v lines by what the u lines leave
             limit = MAX_VALUES if axis == 0 else max(1, min(MAX_VALUES, MAX_CELLS // max(len(out[0]) - 1, 1)))
             if axis not in families:    # the line families (and their compiled form) serve both placements
-                knots = s.knots_u if axis == 0 else s.knots_v
                 ev = IsoLines(s, axis, lines[axis], raster)
-                families[axis] = (ev, unique_values(np.concatenate((np.linspace(lo[axis], hi[axis], 17),
-                                                                     _knots_in(knots, lo[axis], hi[axis])))))
+                families[axis] = (ev, unique_values(np.concatenate((_linspace(lo[axis], hi[axis], 17), kin[axis]))))
             evaluate, init = families[axis]
             weights_fn = None if raster is None else evaluate.weights
             # grid size max_edge / sqrt(2): the cell diagonals (triangle edges) stay within max_edge
@@ -364,8 +384,8 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
             cache.checked = (us, vs, tolerance, dev, diag, polys)
         if not go:
             break
-        us = np.unique(np.r_[us, (0.5 * (us[:-1] + us[1:]))[split_u]])
-        vs = np.unique(np.r_[vs, (0.5 * (vs[:-1] + vs[1:]))[split_v]])
+        us = unique_values(np.concatenate((us, (0.5 * (us[:-1] + us[1:]))[split_u])))
+        vs = unique_values(np.concatenate((vs, (0.5 * (vs[:-1] + vs[1:]))[split_v])))
         if (len(us) - 1) * (len(vs) - 1) > MAX_CELLS:
             raise InputError(f"{face.name or 'face'}: refining the grid would make {len(us) - 1} x {len(vs) - 1} "
                              f"cells (more than {MAX_CELLS}): tolerance {tolerance:.3g} or max edge "
@@ -584,11 +604,9 @@ class _CellCache:
             ki, kj = new // nv, new % nv        # meshgrid(..., indexing="ij") raveled
             k, first = len(new), self.n
             self._reserve(first + k)
-            cuv, mids = np.empty((2 * k, 2)), np.empty((2 * k, 3))
             cell_points_kernel(*self._surf, np.ascontiguousarray(us, dtype=np.float64),
                                np.ascontiguousarray(vs, dtype=np.float64), ki, kj, self._uv[first:first + k],
-                               self._p[first:first + k], cuv, mids)
-            self._d[first:first + k] = surface_distance(self.surface, cuv, mids, steps=1).reshape(-1, 2)
+                               self._p[first:first + k], self._d[first:first + k])
             rows[new] = first + np.arange(k)
             t[iu[ki], iv[kj]] = rows[new]
             self.n = first + k
@@ -599,13 +617,10 @@ class _CellCache:
         get an upper bound of it, at most the tolerance, instead (`cell_deviation_kernel`'s screen): where
         only "over the tolerance or not" and the values over it count (refine_cells, _worst_cell_ratio)."""
         rows = self._cells(us, vs)
-        # _prefer_main: the same sum over the same cells in the same order
-        tot = self.d[rows].sum(axis=0)
-        pref = bool(tot[0] <= tot[1])
         k = len(rows)
-        main, dev = np.empty(k, dtype=np.bool_), np.empty(k)
-        diag, diag_max, side_u, side_v = np.empty(k), np.empty(k), np.empty(k), np.empty(k)
-        cell_check_kernel(self.d, self.p, self.dev, self.bound, rows, pref, float(tolerance), bool(exact), main, dev,
+        main = np.empty(k, dtype=np.bool_)
+        dev, diag, diag_max, side_u, side_v = np.empty((5, k))
+        cell_check_kernel(self._d, self._p, self._dev, self._bound, rows, float(tolerance), bool(exact), main, dev,
                           diag, diag_max, side_u, side_v)
         need = np.isnan(dev)
         if need.any():
