@@ -151,3 +151,21 @@ def test_straight_lines_give_the_sampled_values(shared_data, tol_scale, edge_sca
                 continue
             assert np.array_equal(got, domain.adaptive_values(_Plain(fam), lo[axis], hi[axis], weights_fn=wf, **kw))
     assert n_straight >= 30
+
+
+def test_loop_polylines_equal_model(t20, shared_data):
+    # the face's loops sampled in one compiled call are Loop.polylines' points (the grid box and the
+    # trim polygons of face_domain_values depend on them bit for bit)
+    from trimsurf.tessellate.face import _loop_polylines
+
+    faces = _faces(t20) + list(read_shell(shared_data / "cad" / "occt__screw.step").faces)
+    n = 0
+    for face in faces:
+        if not face.loops:
+            continue
+        a, b = _loop_polylines(face, 32, 6)
+        for loop, pa, pb in zip(face.loops, a, b):
+            ra, rb = loop.polylines(32, 6)
+            assert np.array_equal(pa, ra) and np.array_equal(pb, rb)
+            n += len(loop.segments)
+    assert n > 30

@@ -13,7 +13,7 @@ from ..model import TriMesh, TrimmedFace
 from .domain import MAX_VALUES, adaptive_values, unique_values
 from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CF, DUMMY_CI, cell_check_kernel, cell_deviation_kernel,
                             cell_points_kernel, inside_grid_kernel, line_net_kernel,
-                            refine_round_kernel)
+                            loop_polylines_kernel, refine_round_kernel)
 from .grid import triangulate_domain
 from .repair import remove_polygon_loops, repair_face
 from .slivers import collapse_boundary_slivers
@@ -82,6 +82,36 @@ def _linspace(a, b, n: int) -> np.ndarray:
 
 def _loop_polys(face: TrimmedFace, n: int = 6) -> list:
     return [loop.polyline(n) for loop in face.loops]
+
+
+def _loop_polylines(face: TrimmedFace, n_a: int, n_b: int) -> tuple[list, list]:
+    """[loop.polylines(n_a, n_b)[0] for each loop], [... [1] ...]: the same points, all segments in one
+    compiled call (`loop_polylines_kernel`)."""
+    si, knots, pws, sf = [], [], [], []
+    ko = po = 0
+    counts = []
+    for loop in face.loops:
+        counts.append(len(loop.segments))
+        for seg in loop.segments:
+            c = seg.curve
+            k = np.asarray(c.knots, dtype=np.float64)
+            pw = _homogeneous(c.control_points, c.weights)
+            si.append((c.degree, ko, len(k), po, pw.shape[0], pw.shape[1], c.weights is not None))
+            sf.append((seg.t0, seg.t1))
+            knots.append(k)
+            pws.append(pw.ravel())
+            ko += len(k)
+            po += pw.size
+    m = len(si)
+    out_a, out_b = np.empty((m * (n_a - 1), 2)), np.empty((m * (n_b - 1), 2))
+    loop_polylines_kernel(np.array(si, dtype=np.int64), np.array(sf, dtype=np.float64),
+                          read_only(np.concatenate(knots)), read_only(np.concatenate(pws)), n_a, n_b, out_a, out_b)
+    a, b, j = [], [], 0
+    for c in counts:
+        a.append(out_a[j * (n_a - 1):(j + c) * (n_a - 1)])
+        b.append(out_b[j * (n_b - 1):(j + c) * (n_b - 1)])
+        j += c
+    return a, b
 
 
 def grid_box(face: TrimmedFace, polys: list | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -247,7 +277,7 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
     # the loops sampled for the grid box (32 per segment) and as trim polygons (`_loop_polys`, 6) at once
     box_polys, polys = None, None
     if face.loops:
-        box_polys, polys = (list(q) for q in zip(*(loop.polylines(32, 6) for loop in face.loops)))
+        box_polys, polys = _loop_polylines(face, 32, 6)
     lo, hi = grid_box(face, box_polys)
     cache = _CellCache(s)
     raster = None
