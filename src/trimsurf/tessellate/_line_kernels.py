@@ -971,6 +971,9 @@ def cell_points_kernel(pu, pv, ku, kv, pw, rational, us, vs, ki, kj, uv, p, d):
     res = np.empty((3, 3))
     one = np.ones(1, dtype=np.int64)[0]     # run-time values (no compiled version per literal)
     nd0 = one - one
+    # the grid's nodes are corners of up to four cells: each evaluated once (the same point each time)
+    node = np.empty((us.shape[0], vs.shape[0], 3))
+    have = np.zeros((us.shape[0], vs.shape[0]), dtype=np.bool_)
     for c in range(ki.shape[0]):
         u0, u1, v0, v1 = us[ki[c]], us[ki[c] + 1], vs[kj[c]], vs[kj[c] + 1]
         uv[c, 0, 0], uv[c, 0, 1] = u0, v0
@@ -979,12 +982,23 @@ def cell_points_kernel(pu, pv, ku, kv, pw, rational, us, vs, ki, kj, uv, p, d):
         uv[c, 3, 0], uv[c, 3, 1] = u0, v1
         uv[c, 4, 0], uv[c, 4, 1] = 0.5 * (u0 + u1), 0.5 * (v0 + v1)
         for k in range(5):
+            if k < 4:
+                gi = ki[c] + (1 if k == 1 or k == 2 else 0)
+                gj = kj[c] + (1 if k >= 2 else 0)
+                if have[gi, gj]:
+                    for q in range(3):
+                        p[c, k, q] = node[gi, gj, q]
+                    continue
             uu = min(max(uv[c, k, 0], u_lo), u_hi)
             vv = min(max(uv[c, k, 1], v_lo), v_hi)
             _surface_point01(pu, pv, ku, kv, pw, rational, uu, vv, nd0, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
                              bu, bv, tmp, skl, res)
             for q in range(3):
                 p[c, k, q] = res[0, q]
+            if k < 4:
+                have[gi, gj] = True
+                for q in range(3):
+                    node[gi, gj, q] = res[0, q]
         for h in range(2):
             ia, ib = (0, 2) if h == 0 else (1, 3)
             d[c, h] = _surface_distance1(pu, pv, ku, kv, pw, rational, uv[c, 4, 0], uv[c, 4, 1],
