@@ -333,6 +333,8 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
         try:
             alt = place(tolerance / (1.05 * r) if r > 1.0 else tolerance,
                         max_edge / (1.002 * rd) if rd > 1.0 else max_edge)
+            if (len(alt[0]) - 1) * (len(alt[1]) - 1) >= (len(best[0]) - 1) * (len(best[1]) - 1):
+                return best         # refining only adds lines: the alternative cannot have fewer cells
             alt = refine_cells(face, alt[0], alt[1], tolerance=tolerance, max_edge=max_edge, cache=cache)
         except InputError:          # the alternative would exceed the cell budget: keep the first
             return best
