@@ -162,14 +162,47 @@ def _iso_point(axis, rational, pu, pv, pw, dimw, lspan, lbasis, mspan, mbasis, t
     else:
         su = lspan[0, l]
         sv = mspan[0, k]
-    if net:
-        for r in range(pu + 1):
-            for dd_ in range(dimw):
-                tmp[r, dd_] = pw[l, su - pu + r, dd_]
-    elif axis == 1 and stamp[su, k] == cur:
-        for r in range(pu + 1):
-            for dd_ in range(dimw):
-                tmp[r, dd_] = tk[su, k, r, dd_]
+    if net:     # the sums below straight from the line's net (the same products and sums)
+        base = su - pu
+        w0 = 1.0
+        for dd_ in range(dimw):
+            acc = 0.0
+            for r in range(pu + 1):
+                acc += mbasis[0, k, r] * pw[l, base + r, dd_]
+            if dd_ < 3:
+                pts[l, k, dd_] = acc
+            else:
+                w0 = acc
+        if rational:
+            for dd_ in range(dimw - 1):
+                pts[l, k, dd_] = pts[l, k, dd_] / w0
+        return
+    if axis == 1:   # the v contraction of (span, sample) once, kept in tk; the sums from it
+        if stamp[su, k] != cur:
+            for r in range(pu + 1):
+                for dd_ in range(dimw):
+                    tk[su, k, r, dd_] = 0.0
+                for s_ in range(pv + 1):
+                    bb = mbasis[0, k, s_]
+                    if bb != 0.0:
+                        row = su - pu + r
+                        col = sv - pv + s_
+                        for dd_ in range(dimw):
+                            tk[su, k, r, dd_] += bb * pw[row, col, dd_]
+            stamp[su, k] = cur
+        w0 = 1.0
+        for dd_ in range(dimw):
+            acc = 0.0
+            for r in range(pu + 1):
+                acc += lbasis[0, l, r] * tk[su, k, r, dd_]
+            if dd_ < 3:
+                pts[l, k, dd_] = acc
+            else:
+                w0 = acc
+        if rational:
+            for dd_ in range(dimw - 1):
+                pts[l, k, dd_] = pts[l, k, dd_] / w0
+        return
     else:
         for r in range(pu + 1):
             for dd_ in range(dimw):
@@ -181,11 +214,6 @@ def _iso_point(axis, rational, pu, pv, pw, dimw, lspan, lbasis, mspan, mbasis, t
                     col = sv - pv + s_
                     for dd_ in range(dimw):
                         tmp[r, dd_] += bb * pw[row, col, dd_]
-        if axis == 1:
-            for r in range(pu + 1):
-                for dd_ in range(dimw):
-                    tk[su, k, r, dd_] = tmp[r, dd_]
-            stamp[su, k] = cur
     w0 = 1.0
     for dd_ in range(dimw):
         acc = 0.0
