@@ -380,6 +380,8 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
     diagonal is longer than max_edge or whose sides differ by more than `aspect` (None: no limit);
     returns the refined (us, vs)."""
     s = face.surface
+    us = np.ascontiguousarray(us, dtype=np.float64)
+    vs = np.ascontiguousarray(vs, dtype=np.float64)
     if cache is None:   # the rounds share most cells: each cell's surface work once (the same numbers)
         cache = _CellCache(s)
     polys = None
