@@ -170,15 +170,10 @@ def test_cell_cache_screen_changes_no_decision(t20):
 
 
 def test_refine_round_bulges_equal_numpy(t20):
-    # refine_round_kernel's side bulges of the bad cells (which direction gets a mid-line) are those of
-    # face._side_bulge, the numpy reference
-    from trimsurf.tessellate.face import _CellCache, _side_bulge
-    from trimsurf.tessellate import _line_kernels as lk
-    from numba import njit
-
-    @njit
-    def bulge(pu, pv, ku, kv, pw, rational, us, vs, bi, bj, cu, cv):
-        lk._side_bulge_cells(pu, pv, ku, kv, pw, rational, us, vs, bi, bj, cu, cv)
+    # the side bulges of refine_cells' bad cells (which direction gets a mid-line; `cell_surface_kernel`
+    # op 2) are those of face._side_bulge, the numpy reference
+    from trimsurf.tessellate._line_kernels import cell_surface_kernel
+    from trimsurf.tessellate.face import _BARY, _CellCache, _side_bulge
 
     n = 0
     for face in _faces(t20)[:6]:
@@ -188,7 +183,8 @@ def test_refine_round_bulges_equal_numpy(t20):
         bi, bj = (a.ravel() for a in np.meshgrid(np.arange(5), np.arange(4), indexing="ij"))
         su, sv = _side_bulge(s, us, vs, bi, bj)
         cu, cv = np.empty(len(bi), dtype=bool), np.empty(len(bi), dtype=bool)
-        bulge(*_CellCache(s)._surf, us, vs, bi, bj, cu, cv)
+        cell_surface_kernel(2, *_CellCache(s)._surf, us, vs, bi, bj, np.zeros(0, bool), _BARY, np.zeros((0, 5, 2)),
+                            np.zeros((0, 5, 3)), 0.0, np.zeros(0), cu, cv, np.zeros((0, 2)))
         assert np.array_equal(cu, su >= 0.5 * sv) and np.array_equal(cv, sv >= 0.5 * su)
         n += int(np.sum(cu != cv))
     assert n > 0

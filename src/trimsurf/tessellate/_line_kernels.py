@@ -987,54 +987,6 @@ def inside_grid_kernel(xs, ys, a, b, dil, ero):
             ero[i, j] = hi_
 
 
-@njit(cache=True, nogil=True)
-def cell_points_kernel(pu, pv, ku, kv, pw, rational, us, vs, ki, kj, uv, p, d):
-    """Of grid cells (ki, kj) of the grid us x vs, as `face._CellCache` computed them with numpy: uv (n, 5, 2)
-    the four corners (u0 v0, u1 v0, u1 v1, u0 v1) and the centre, p (n, 5, 3) their points
-    (`NurbsSurface.evaluate`: the parameters clamped into the domain), and d (n, 2) the distances of the
-    two diagonals' midpoints from the surface (`surface_distance` with one step from the centre)."""
-    u_lo, u_hi = ku[pu], ku[ku.shape[0] - pu - 1]
-    v_lo, v_hi = kv[pv], kv[kv.shape[0] - pv - 1]
-    ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(pu, pv, pw.shape[2])
-    res = np.empty((3, 3))
-    one = np.ones(1, dtype=np.int64)[0]     # run-time values (no compiled version per literal)
-    nd0 = one - one
-    # the grid's nodes are corners of up to four cells: each evaluated once (the same point each time)
-    node = np.empty((us.shape[0], vs.shape[0], 3))
-    have = np.zeros((us.shape[0], vs.shape[0]), dtype=np.bool_)
-    for c in range(ki.shape[0]):
-        u0, u1, v0, v1 = us[ki[c]], us[ki[c] + 1], vs[kj[c]], vs[kj[c] + 1]
-        uv[c, 0, 0], uv[c, 0, 1] = u0, v0
-        uv[c, 1, 0], uv[c, 1, 1] = u1, v0
-        uv[c, 2, 0], uv[c, 2, 1] = u1, v1
-        uv[c, 3, 0], uv[c, 3, 1] = u0, v1
-        uv[c, 4, 0], uv[c, 4, 1] = 0.5 * (u0 + u1), 0.5 * (v0 + v1)
-        for k in range(5):
-            if k < 4:
-                gi = ki[c] + (1 if k == 1 or k == 2 else 0)
-                gj = kj[c] + (1 if k >= 2 else 0)
-                if have[gi, gj]:
-                    for q in range(3):
-                        p[c, k, q] = node[gi, gj, q]
-                    continue
-            uu = min(max(uv[c, k, 0], u_lo), u_hi)
-            vv = min(max(uv[c, k, 1], v_lo), v_hi)
-            _surface_point01(pu, pv, ku, kv, pw, rational, uu, vv, nd0, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
-                             bu, bv, tmp, skl, res)
-            for q in range(3):
-                p[c, k, q] = res[0, q]
-            if k < 4:
-                have[gi, gj] = True
-                for q in range(3):
-                    node[gi, gj, q] = res[0, q]
-        for h in range(2):
-            ia, ib = (0, 2) if h == 0 else (1, 3)
-            d[c, h] = _surface_distance1(pu, pv, ku, kv, pw, rational, uv[c, 4, 0], uv[c, 4, 1],
-                                         0.5 * (p[c, ia, 0] + p[c, ib, 0]), 0.5 * (p[c, ia, 1] + p[c, ib, 1]),
-                                         0.5 * (p[c, ia, 2] + p[c, ib, 2]), one, u_lo, u_hi, v_lo, v_hi, ndu_u, ndu_v,
-                                         a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
-
-
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _surface_distance1(pu, pv, ku, kv, pw, rational, u, v, x0, x1, x2, steps, u0, u1, v0, v1,
                        ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res):
@@ -1070,32 +1022,114 @@ def _surface_distance1(pu, pv, ku, kv, pw, rational, u, v, x0, x1, x2, steps, u0
 
 
 @njit(cache=True, nogil=True)
-def cell_deviation_kernel(pu, pv, ku, kv, pw, rational, bary, uv, p, rows, main, screen, dev, bounded):
-    """Deviation of the split cells rows[c]: the largest `surface_distance` (2 Gauss-Newton steps) of
-    their two triangles' sample points, as `face._CellCache.deviation` computed it with numpy (np.max:
-    NaN if one is NaN). Cell rows[c] is split along (0, 2) if main[c] (triangles 0 1 2, 0 2 3), else
-    along (1, 3) (triangles 0 1 3, 1 2 3); the sample points as np.einsum("bk,nskd->nsbd", bary, ...)
-    computes them (the same sums in the same order).
+def cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, us, vs, ia, ib, flags, bary, uv, p, screen, out_f, out_b,
+                        out_b2, out_d):
+    """The surface work of `face._CellCache` and `face.refine_cells` in one compiled function (one copy of
+    the surface kernels compiled: the cold start), every surface point and distance as
+    `_surface_distance1` (`surface_distance`, `NurbsSurface.evaluate`) computes it:
 
-    With screen > 0, a sample within `screen` of the surface point at its interpolated parameters
-    takes no steps: that start distance bounds its value (`surface_distance` keeps the smallest
-    distance met, the start one included). A cell over the screen gets its exact value (the samples
-    left at their bounds are below the screen, so below the largest); a cell within it the largest of
-    its bounds and values (bounded[c] True): an upper bound of its deviation within the screen, enough
-    where only "at most screen" counts."""
-    nb = bary.shape[0]
-    u0, u1 = ku[pu], ku[ku.shape[0] - pu - 1]
-    v0, v1 = kv[pv], kv[kv.shape[0] - pv - 1]
+    op 0, cells (ki, kj) = (ia, ib) of the grid us x vs: uv (n, 5, 2) the four corners (u0 v0, u1 v0,
+    u1 v1, u0 v1) and the centre, p (n, 5, 3) their points (each grid node evaluated once), out_d (n, 2)
+    the two diagonals' midpoints' distances (one step from the centre), as the numpy code computed them.
+
+    op 1, the deviation of the split cells rows = ia (uv, p: the cache's): the largest `surface_distance`
+    (2 Gauss-Newton steps) of their two triangles' sample points into out_f (np.max: NaN if one is NaN).
+    Cell rows[c] is split along (0, 2) if flags[c] (triangles 0 1 2, 0 2 3), else along (1, 3) (triangles
+    0 1 3, 1 2 3); the sample points as np.einsum("bk,nskd->nsbd", bary, ...) computes them. With
+    screen > 0, a sample within `screen` of the surface point at its interpolated parameters takes no
+    steps: that start distance bounds its value (`surface_distance` keeps the smallest distance met,
+    the start one included). A cell over the screen gets its exact value (the samples left at their
+    bounds are below the screen, so below the largest); a cell within it the largest of its bounds and
+    values (out_b[c] True): an upper bound of its deviation within the screen, enough where only "at
+    most screen" counts.
+
+    op 2, `face._side_bulge` of the cells (bi, bj) = (ia, ib): whether each gets a u mid-line (out_b:
+    su >= 0.5 sv) and a v one (out_b2: sv >= 0.5 su), as refine_cells decides it."""
+    u_lo, u_hi = ku[pu], ku[ku.shape[0] - pu - 1]
+    v_lo, v_hi = kv[pv], kv[kv.shape[0] - pv - 1]
     ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(pu, pv, pw.shape[2])
     res = np.empty((3, 3))
+    two = np.full(1, 2, dtype=np.int64)[0]      # run-time values (no compiled version per literal)
+    one = two - 1
+    zero = two - two
+    nb = bary.shape[0]
+    n = ia.shape[0]
+    if op == 0:
+        # the grid's nodes are corners of up to four cells: each evaluated once (the same point each time)
+        node = np.empty((us.shape[0], vs.shape[0], 3))
+        have = np.zeros((us.shape[0], vs.shape[0]), dtype=np.bool_)
+        gi = 0
+        gj = 0
+        for c in range(n):
+            u0, u1, v0, v1 = us[ia[c]], us[ia[c] + 1], vs[ib[c]], vs[ib[c] + 1]
+            uv[c, 0, 0], uv[c, 0, 1] = u0, v0
+            uv[c, 1, 0], uv[c, 1, 1] = u1, v0
+            uv[c, 2, 0], uv[c, 2, 1] = u1, v1
+            uv[c, 3, 0], uv[c, 3, 1] = u0, v1
+            uv[c, 4, 0], uv[c, 4, 1] = 0.5 * (u0 + u1), 0.5 * (v0 + v1)
+            for k in range(5):
+                if k < 4:
+                    gi = ia[c] + (1 if k == 1 or k == 2 else 0)
+                    gj = ib[c] + (1 if k >= 2 else 0)
+                    if have[gi, gj]:
+                        for q in range(3):
+                            p[c, k, q] = node[gi, gj, q]
+                        continue
+                _surface_distance1(pu, pv, ku, kv, pw, rational, uv[c, k, 0], uv[c, k, 1], 0.0, 0.0, 0.0, zero,
+                                   u_lo, u_hi, v_lo, v_hi, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp,
+                                   skl, res)
+                for q in range(3):
+                    p[c, k, q] = res[0, q]
+                if k < 4:
+                    have[gi, gj] = True
+                    for q in range(3):
+                        node[gi, gj, q] = res[0, q]
+            for h in range(2):
+                i0, i1 = (0, 2) if h == 0 else (1, 3)
+                out_d[c, h] = _surface_distance1(pu, pv, ku, kv, pw, rational, uv[c, 4, 0], uv[c, 4, 1],
+                                                 0.5 * (p[c, i0, 0] + p[c, i1, 0]), 0.5 * (p[c, i0, 1] + p[c, i1, 1]),
+                                                 0.5 * (p[c, i0, 2] + p[c, i1, 2]), one, u_lo, u_hi, v_lo, v_hi,
+                                                 ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
+        return
+    if op == 2:
+        q8 = np.empty((8, 2))
+        pc = np.empty((4, 3))
+        dd = np.empty(4)
+        for c in range(n):
+            u0, u1, v0, v1 = us[ia[c]], us[ia[c] + 1], vs[ib[c]], vs[ib[c] + 1]
+            um, vm = 0.5 * (u0 + u1), 0.5 * (v0 + v1)
+            q8[0, 0], q8[0, 1] = u0, v0
+            q8[1, 0], q8[1, 1] = u1, v0
+            q8[2, 0], q8[2, 1] = u1, v1
+            q8[3, 0], q8[3, 1] = u0, v1
+            q8[4, 0], q8[4, 1] = um, v0
+            q8[5, 0], q8[5, 1] = um, v1
+            q8[6, 0], q8[6, 1] = u0, vm
+            q8[7, 0], q8[7, 1] = u1, vm
+            for k in range(4):
+                _surface_distance1(pu, pv, ku, kv, pw, rational, q8[k, 0], q8[k, 1], 0.0, 0.0, 0.0, zero,
+                                   u_lo, u_hi, v_lo, v_hi, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp,
+                                   skl, res)
+                for q in range(3):
+                    pc[k, q] = res[0, q]
+            for h in range(4):
+                # side midpoints (0, 1), (3, 2), (0, 3), (1, 2) from (um v0, um v1, u0 vm, u1 vm)
+                i0, i1 = (0, 1) if h == 0 else ((3, 2) if h == 1 else ((0, 3) if h == 2 else (1, 2)))
+                dd[h] = _surface_distance1(pu, pv, ku, kv, pw, rational, q8[4 + h, 0], q8[4 + h, 1],
+                                           0.5 * (pc[i0, 0] + pc[i1, 0]), 0.5 * (pc[i0, 1] + pc[i1, 1]),
+                                           0.5 * (pc[i0, 2] + pc[i1, 2]), one, u_lo, u_hi, v_lo, v_hi, ndu_u, ndu_v,
+                                           a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
+            su_ = _nanmax2(dd[0], dd[1])
+            sv_ = _nanmax2(dd[2], dd[3])
+            out_b[c] = su_ >= 0.5 * sv_
+            out_b2[c] = sv_ >= 0.5 * su_
+        return
     su = np.empty((2 * nb, 2))
     sx = np.empty((2 * nb, 3))
-    two = np.full(1, 2, dtype=np.int64)[0]
-    zero = two - two
-    for c in range(rows.shape[0]):
-        r = rows[c]
+    for c in range(n):
+        r = ia[c]
         for s in range(2):
-            if main[c]:
+            if flags[c]:
                 t0, t1, t2 = (0, 1, 2) if s == 0 else (0, 2, 3)
             else:
                 t0, t1, t2 = (0, 1, 3) if s == 0 else (1, 2, 3)
@@ -1105,47 +1139,30 @@ def cell_deviation_kernel(pu, pv, ku, kv, pw, rational, bary, uv, p, rows, main,
                     su[k, q] = (bary[b, 0] * uv[r, t0, q] + bary[b, 1] * uv[r, t1, q]) + bary[b, 2] * uv[r, t2, q]
                 for q in range(3):
                     sx[k, q] = (bary[b, 0] * p[r, t0, q] + bary[b, 1] * p[r, t1, q]) + bary[b, 2] * p[r, t2, q]
-        done = False
-        if screen > 0:
-            # per sample: a start distance within the screen bounds it (no steps); the others get their
-            # steps. Over the screen, the cell's largest value is exact (the bounded samples are below);
-            # within it, the largest of bounds and values bounds the cell's deviation
-            bnd = 0.0
-            ex = 0.0
-            for k in range(2 * nb):
+        bnd = 0.0
+        ex = 0.0
+        for k in range(2 * nb):
+            if screen > 0:
                 d0 = _surface_distance1(pu, pv, ku, kv, pw, rational, su[k, 0], su[k, 1], sx[k, 0], sx[k, 1],
-                                        sx[k, 2], zero, u0, u1, v0, v1, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
-                                        bu, bv, tmp, skl, res)
+                                        sx[k, 2], zero, u_lo, u_hi, v_lo, v_hi, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v,
+                                        r_v, bu, bv, tmp, skl, res)
                 if d0 <= screen:
                     if d0 > bnd:
                         bnd = d0
                     continue
-                dk = _surface_distance1(pu, pv, ku, kv, pw, rational, su[k, 0], su[k, 1], sx[k, 0], sx[k, 1],
-                                        sx[k, 2], two, u0, u1, v0, v1, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
-                                        bu, bv, tmp, skl, res)
-                if np.isnan(dk) or np.isnan(ex):
-                    ex = np.nan
-                elif dk > ex:
-                    ex = dk
-            if np.isnan(ex) or ex > screen:
-                dev[c] = ex
-                bounded[c] = False
-            else:
-                dev[c] = bnd if bnd >= ex else ex
-                bounded[c] = True
-            done = True
-        if not done:
-            worst = 0.0
-            for k in range(2 * nb):
-                d = _surface_distance1(pu, pv, ku, kv, pw, rational, su[k, 0], su[k, 1], sx[k, 0], sx[k, 1],
-                                       sx[k, 2], two, u0, u1, v0, v1, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
-                                       bu, bv, tmp, skl, res)
-                if np.isnan(d) or np.isnan(worst):
-                    worst = np.nan
-                elif k == 0 or d > worst:
-                    worst = d
-            dev[c] = worst
-            bounded[c] = False
+            dk = _surface_distance1(pu, pv, ku, kv, pw, rational, su[k, 0], su[k, 1], sx[k, 0], sx[k, 1],
+                                    sx[k, 2], two, u_lo, u_hi, v_lo, v_hi, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
+                                    bu, bv, tmp, skl, res)
+            if np.isnan(dk) or np.isnan(ex):
+                ex = np.nan
+            elif k == 0 or dk > ex:
+                ex = dk
+        if screen > 0 and not (np.isnan(ex) or ex > screen):
+            out_f[c] = bnd if bnd >= ex else ex
+            out_b[c] = True
+        else:
+            out_f[c] = ex
+            out_b[c] = False
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -1226,65 +1243,66 @@ def line_net_kernel(pv, kv, lines, pw, out):
 
 
 @njit(cache=True, nogil=True)
-def refine_round_kernel(pu, pv, ku, kv, pw, rational, us, vs, dev, diag, diag_max, side_u, side_v, near, interior,
-                        has_polys, tolerance, max_edge, aspect, min_across, local_fix, split_u, split_v):
+def refine_round_kernel(op, dev, diag, diag_max, side_u, side_v, near, interior, has_polys, tolerance, max_edge,
+                        aspect, min_across, local_fix, long, bi, bj, cu, cv, split_u, split_v):
     """One round of `face.refine_cells` after the cells' numbers (dev, diag, diag_max, side_u, side_v, grids
-    (nu, nv)) and the trim band (near, interior) are known, with the same decisions: dev and diag are
-    masked by the band in place (as refine_cells masks them); split_u[i] / split_v[j] say which columns /
-    rows get a mid-line. Returns False when the refinement stops (nothing to split).
+    (nu, nv)) and the trim band (near, interior) are known, with the same decisions, in two calls:
 
-    The bad cells' side bulges are `face._side_bulge`'s (the same points and distances)."""
+    op 0: dev and diag masked by the band in place (as refine_cells masks them), the cells to halve
+    across their long side into `long`; returns (go, bi, bj): go False when nothing is to split, the
+    bad cells (over the tolerance) in row-major order.
+    op 1, with the bad cells' side bulges cu, cv (`cell_surface_kernel` op 2): split_u[i] / split_v[j],
+    the columns / rows that get a mid-line; returns (go, -, -)."""
     nu, nv = dev.shape
-    bad = np.zeros((nu, nv), dtype=np.bool_)
-    long = np.zeros((nu, nv), dtype=np.bool_)
-    n_bad = 0
+    if op == 0:
+        n_bad = 0
+        any_long = False
+        for i in range(nu):
+            for j in range(nv):
+                if has_polys:
+                    if not near[i, j]:
+                        dev[i, j] = 0.0
+                        diag[i, j] = 0.0
+                    elif not interior[i, j]:
+                        diag[i, j] = diag_max[i, j]
+                b = dev[i, j] > tolerance
+                n_bad += b
+                lg = (diag[i, j] > max_edge) and not b
+                if aspect > 0 and not b and not lg:
+                    a, c = side_u[i, j], side_v[i, j]
+                    thin = False
+                    if not (np.isnan(a) or np.isnan(c)):
+                        mx = a if a >= c else c
+                        mn = c if a >= c else a
+                        if mn > 0:
+                            r = mx / mn
+                            thin = np.isfinite(r) and r > aspect
+                    across = nu if a < c else nv
+                    thin = thin and across >= min_across
+                    if has_polys:
+                        thin = thin and near[i, j]
+                    lg = thin
+                long[i, j] = lg
+                any_long = any_long or lg
+        obi = np.empty(n_bad, dtype=np.int64)
+        obj = np.empty(n_bad, dtype=np.int64)
+        k = 0
+        for i in range(nu):
+            for j in range(nv):
+                if dev[i, j] > tolerance:
+                    obi[k], obj[k] = i, j
+                    k += 1
+        return n_bad > 0 or any_long, obi, obj
     any_long = False
     for i in range(nu):
         for j in range(nv):
-            if has_polys:
-                if not near[i, j]:
-                    dev[i, j] = 0.0
-                    diag[i, j] = 0.0
-                elif not interior[i, j]:
-                    diag[i, j] = diag_max[i, j]
-            b = dev[i, j] > tolerance
-            bad[i, j] = b
-            n_bad += b
-            lg = (diag[i, j] > max_edge) and not b
-            if aspect > 0 and not b and not lg:
-                a, c = side_u[i, j], side_v[i, j]
-                thin = False
-                if not (np.isnan(a) or np.isnan(c)):
-                    mx = a if a >= c else c
-                    mn = c if a >= c else a
-                    if mn > 0:
-                        r = mx / mn
-                        thin = np.isfinite(r) and r > aspect
-                across = nu if a < c else nv
-                thin = thin and across >= min_across
-                if has_polys:
-                    thin = thin and near[i, j]
-                lg = thin
-            long[i, j] = lg
-            any_long = any_long or lg
-    if n_bad == 0 and not any_long:
-        return False
+            any_long = any_long or long[i, j]
     for i in range(nu):
         split_u[i] = False
     for j in range(nv):
         split_v[j] = False
+    n_bad = bi.shape[0]
     if n_bad:
-        bi = np.empty(n_bad, dtype=np.int64)
-        bj = np.empty(n_bad, dtype=np.int64)
-        k = 0
-        for i in range(nu):
-            for j in range(nv):
-                if bad[i, j]:
-                    bi[k], bj[k] = i, j
-                    k += 1
-        cu = np.empty(n_bad, dtype=np.bool_)
-        cv = np.empty(n_bad, dtype=np.bool_)
-        _side_bulge_cells(pu, pv, ku, kv, pw, rational, us, vs, bi, bj, cu, cv)
         n_col = np.zeros(nu, dtype=np.int64)
         n_row = np.zeros(nv, dtype=np.int64)
         for i in range(nu):
@@ -1311,7 +1329,7 @@ def refine_round_kernel(pu, pv, ku, kv, pw, rational, us, vs, dev, diag, diag_ma
                 split_v[bj[k]] = True
                 n_split += 1
         if n_split == 0 and not any_long:
-            return False
+            return False, bi, bj
     for i in range(nu):
         for j in range(nv):
             if long[i, j]:
@@ -1319,53 +1337,7 @@ def refine_round_kernel(pu, pv, ku, kv, pw, rational, us, vs, dev, diag, diag_ma
                     split_u[i] = True
                 elif side_u[i, j] < side_v[i, j]:
                     split_v[j] = True
-    return True
-
-
-@njit(cache=True, nogil=True, no_cpython_wrapper=True)
-def _side_bulge_cells(pu, pv, ku, kv, pw, rational, us, vs, bi, bj, cu, cv):
-    """`face._side_bulge` of cells (bi, bj), then which get a u mid-line (cu: su >= 0.5 sv) and a v one
-    (cv: sv >= 0.5 su) as refine_cells decides it."""
-    u_lo, u_hi = ku[pu], ku[ku.shape[0] - pu - 1]
-    v_lo, v_hi = kv[pv], kv[kv.shape[0] - pv - 1]
-    ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(pu, pv, pw.shape[2])
-    res = np.empty((3, 3))
-    one = np.ones(1, dtype=np.int64)[0]
-    zero = one - one
-    uv = np.empty((8, 2))
-    p = np.empty((8, 3))
-    d = np.empty(4)
-    for c in range(bi.shape[0]):
-        u0, u1, v0, v1 = us[bi[c]], us[bi[c] + 1], vs[bj[c]], vs[bj[c] + 1]
-        um, vm = 0.5 * (u0 + u1), 0.5 * (v0 + v1)
-        uv[0, 0], uv[0, 1] = u0, v0
-        uv[1, 0], uv[1, 1] = u1, v0
-        uv[2, 0], uv[2, 1] = u1, v1
-        uv[3, 0], uv[3, 1] = u0, v1
-        uv[4, 0], uv[4, 1] = um, v0
-        uv[5, 0], uv[5, 1] = um, v1
-        uv[6, 0], uv[6, 1] = u0, vm
-        uv[7, 0], uv[7, 1] = u1, vm
-        for k in range(4):
-            uu = min(max(uv[k, 0], u_lo), u_hi)
-            vv = min(max(uv[k, 1], v_lo), v_hi)
-            _surface_point01(pu, pv, ku, kv, pw, rational, uu, vv, zero, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
-                             bu, bv, tmp, skl, res)
-            for q in range(3):
-                p[k, q] = res[0, q]
-        for h in range(4):
-            # side midpoints: (0, 1), (3, 2), (0, 3), (1, 2) against the surface from (um v0, um v1, u0 vm, u1 vm)
-            ia, ib = (0, 1) if h == 0 else ((3, 2) if h == 1 else ((0, 3) if h == 2 else (1, 2)))
-            x0 = 0.5 * (p[ia, 0] + p[ib, 0])
-            x1 = 0.5 * (p[ia, 1] + p[ib, 1])
-            x2 = 0.5 * (p[ia, 2] + p[ib, 2])
-            d[h] = _surface_distance1(pu, pv, ku, kv, pw, rational, uv[4 + h, 0], uv[4 + h, 1], x0, x1, x2, one,
-                                      u_lo, u_hi, v_lo, v_hi, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp,
-                                      skl, res)
-        su = _nanmax2(d[0], d[1])
-        sv = _nanmax2(d[2], d[3])
-        cu[c] = su >= 0.5 * sv
-        cv[c] = sv >= 0.5 * su
+    return True, bi, bj
 
 
 @njit(cache=True, nogil=True)

@@ -11,9 +11,8 @@ from ..geom.nurbs import _homogeneous, read_only
 from ..geom.predicates import PolygonIndex
 from ..model import TriMesh, TrimmedFace
 from .domain import MAX_VALUES, adaptive_values, unique_values
-from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CF, DUMMY_CI, cell_check_kernel, cell_deviation_kernel,
-                            cell_points_kernel, inside_grid_kernel, line_net_kernel,
-                            loop_polylines_kernel, refine_round_kernel)
+from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CF, DUMMY_CI, cell_check_kernel, cell_surface_kernel,
+                            inside_grid_kernel, line_net_kernel, loop_polylines_kernel, refine_round_kernel)
 from .grid import triangulate_domain
 from .repair import remove_polygon_loops, repair_face
 from .slivers import collapse_boundary_slivers
@@ -41,6 +40,9 @@ MAX_CELLS = 250_000
 #: centroids of the three corner sub-triangles
 _BARY = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.5],
                   [2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]])
+# empty arguments of the compiled cell kernels' unused members (one compiled signature for all their uses)
+_NO_I, _NO_B, _NO_F = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.bool_), np.zeros(0)
+_NO_UV, _NO_P, _NO_D = np.zeros((0, 5, 2)), np.zeros((0, 5, 3)), np.zeros((0, 2))
 
 
 
@@ -411,12 +413,19 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
         # (not by the width of a narrow face, a fillet: lines along its length would end on its
         # neighbours' edges as extra trim points, fans of thin triangles there)
         split_u, split_v = np.empty(len(us) - 1, dtype=np.bool_), np.empty(len(vs) - 1, dtype=np.bool_)
-        go = refine_round_kernel(*cache._surf, us, vs, dev, diag, diag_max, side_u, side_v, near, interior,
-                                 polys is not None, float(tolerance), float(max_edge), asp, MIN_ACROSS,
-                                 LOCAL_FIX, split_u, split_v)
+        long = np.empty(dev.shape, dtype=np.bool_)
+        args = (dev, diag, diag_max, side_u, side_v, near, interior, polys is not None, float(tolerance),
+                float(max_edge), asp, MIN_ACROSS, LOCAL_FIX, long)
+        go, bi, bj = refine_round_kernel(0, *args, _NO_I, _NO_I, _NO_B, _NO_B, split_u, split_v)
         if round_ == 0:      # for _worst_cell_ratio of the same grid
             cache.checked = (us, vs, tolerance, dev, diag, polys)
         if not go:
+            break
+        cu, cv = np.empty(len(bi), dtype=np.bool_), np.empty(len(bi), dtype=np.bool_)
+        if len(bi):         # the bad cells' side bulges (`_side_bulge`)
+            cell_surface_kernel(2, *cache._surf, us, vs, bi, bj, _NO_B, _BARY, _NO_UV, _NO_P, 0.0, _NO_F, cu, cv,
+                                _NO_D)
+        if not refine_round_kernel(1, *args, bi, bj, cu, cv, split_u, split_v)[0]:
             break
         us = unique_values(np.concatenate((us, (0.5 * (us[:-1] + us[1:]))[split_u])))
         vs = unique_values(np.concatenate((vs, (0.5 * (vs[:-1] + vs[1:]))[split_v])))
@@ -430,7 +439,7 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
 def _side_bulge(surface, us, vs, ki, kj) -> tuple[np.ndarray, np.ndarray]:
     """Per cell (ki, kj): how far its u sides and its v sides bulge from their chords (the larger of
     the two opposite sides, at the side's parameter midpoint). The numpy reference of what
-    `refine_round_kernel` computes for the bad cells (`_line_kernels._side_bulge_cells`)."""
+    `cell_surface_kernel` (op 2) computes for refine_cells' bad cells."""
     u0, u1, v0, v1 = us[ki], us[ki + 1], vs[kj], vs[kj + 1]
     um, vm = 0.5 * (u0 + u1), 0.5 * (v0 + v1)
     uv = np.stack([np.column_stack([u0, v0]), np.column_stack([u1, v0]), np.column_stack([u1, v1]),
@@ -638,9 +647,10 @@ class _CellCache:
             ki, kj = new // nv, new % nv        # meshgrid(..., indexing="ij") raveled
             k, first = len(new), self.n
             self._reserve(first + k)
-            cell_points_kernel(*self._surf, np.ascontiguousarray(us, dtype=np.float64),
-                               np.ascontiguousarray(vs, dtype=np.float64), ki, kj, self._uv[first:first + k],
-                               self._p[first:first + k], self._d[first:first + k])
+            cell_surface_kernel(0, *self._surf, np.ascontiguousarray(us, dtype=np.float64),
+                                np.ascontiguousarray(vs, dtype=np.float64), ki, kj, _NO_B, _BARY,
+                                self._uv[first:first + k], self._p[first:first + k], 0.0, _NO_F, _NO_B, _NO_B,
+                                self._d[first:first + k])
             rows[new] = first + np.arange(k)
             t[iu[ki], iv[kj]] = rows[new]
             self.n = first + k
@@ -648,7 +658,7 @@ class _CellCache:
 
     def deviation(self, us, vs, tolerance, exact: bool = True):
         """`_cell_deviation`; with exact=False a cell whose deviation is certainly at most the tolerance may
-        get an upper bound of it, at most the tolerance, instead (`cell_deviation_kernel`'s screen): where
+        get an upper bound of it, at most the tolerance, instead (`cell_surface_kernel`'s screen): where
         only "over the tolerance or not" and the values over it count (refine_cells, _worst_cell_ratio)."""
         rows = self._cells(us, vs)
         k = len(rows)
@@ -660,8 +670,8 @@ class _CellCache:
         if need.any():
             r, m = rows[need], main[need]
             got, bounded = np.empty(len(r)), np.empty(len(r), dtype=np.bool_)
-            cell_deviation_kernel(*self._surf, _BARY, self.uv, self.p, r, m, 0.0 if exact else float(tolerance),
-                                  got, bounded)
+            cell_surface_kernel(1, *self._surf, _NO_F, _NO_F, r, _NO_I, m, _BARY, self._uv, self._p,
+                                0.0 if exact else float(tolerance), got, bounded, _NO_B, _NO_D)
             c = np.where(m, 0, 1)
             self.dev[r[~bounded], c[~bounded]] = got[~bounded]
             self.bound[r[bounded], c[bounded]] = got[bounded]
