@@ -669,21 +669,25 @@ def refine_deviation(devs: list, states: list, *, rel: float = 0.01, tol_rel: fl
         if st.two_sided:
             _sample_more(devs, states, info, i, np.flatnonzero(info[i][1]), tol_rel, surface_only=True)
 
-    def bounds(i):
+    def bounds(i, k=None):
         st = states[i]
         beta, ok, kap, _ = info[i]
-        return st.tri_max + beta / np.maximum(1.0 - kap * st.tri_max, 0.5) / st.density ** 2
+        return st.tri_max + beta / np.maximum(1.0 - kap * st.tri_max, 0.5) / (st.density if k is None else k) ** 2
 
+    first = {i: states[i].density.copy() for i in live}
     while True:
         g = max(float(np.nanmax([d.max_two_sided, 0.0])) for d in devs if d is not None)
-        todo = {i: np.flatnonzero((bounds(i) > (1.0 + rel) * g) & (states[i].density < max_density)) for i in live}
+        target = (1.0 + rel) * g
+        todo = {i: np.flatnonzero((bounds(i) > target) & (states[i].density < max_density)) for i in live}
         todo = {i: c for i, c in todo.items() if len(c)}
         if not todo:
             break
         for i, cand in todo.items():
-            prev = states[i].density[cand].copy()
-            states[i].density[cand] = np.minimum(2 * prev, max_density)
-            _sample_more(devs, states, info, i, cand, tol_rel, prev=prev)
+            st = states[i]
+            beta, _, kap = info[i][:3]
+            prev = st.density[cand].copy()
+            st.density[cand] = _smallest_density(st.tri_max[cand], beta[cand], kap[cand], prev, target, max_density)
+            _sample_more(devs, states, info, i, cand, tol_rel, prev=prev, first=first[i][cand])
     overall = -np.inf
     for i in live:
         b = float(np.max(bounds(i), initial=0.0))
@@ -692,13 +696,33 @@ def refine_deviation(devs: list, states: list, *, rel: float = 0.01, tol_rel: fl
     return devs, float(overall)
 
 
-def _sample_more(devs, states, info, i, cand, tol_rel, surface_only=False, prev=None) -> None:
+def _smallest_density(dmax: np.ndarray, beta: np.ndarray, kap: np.ndarray, k: np.ndarray, target: float,
+                      max_density: int) -> np.ndarray:
+    """Per triangle, the smallest division count k' > k (at most `max_density`) whose bound
+    ``dmax + beta / (max(1 - kap dmax, 0.5) k'^2)`` (`refine_deviation`'s B_t with the current largest
+    sample D_t = `dmax`) is at most `target`: ``ceil(sqrt(beta / (den (target - dmax))))``, then checked
+    with the bound's own expression (and raised by one where rounding left it above)."""
+    den = np.maximum(1.0 - kap * dmax, 0.5)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        need = np.sqrt(beta / (den * (target - dmax)))
+    need = np.where(np.isfinite(need) & (target > dmax), np.minimum(need, max_density), max_density)
+    kk = np.clip(np.ceil(need).astype(np.int64), k + 1, max_density)
+    for _ in range(3):
+        low = (dmax + beta / den / kk ** 2 > target) & (kk < max_density)
+        if not low.any():
+            break
+        kk[low] += 1
+    return kk
+
+
+def _sample_more(devs, states, info, i, cand, tol_rel, surface_only=False, prev=None, first=None) -> None:
     """Sample triangles `cand` of face state i at their current density, both directions (or the surface
     -> mesh side only), and fold the values into the state and the Deviation.
 
-    `prev` (per triangle of `cand`): the density each was sampled with before. Where the density doubled,
-    the nodes of the previous grid (every index even) were measured already, both directions (the surface
-    side at every node but the corners, which are measured again), and are not measured again."""
+    `prev` (per triangle of `cand`): the density each was sampled with before, `first` the first pass's.
+    The nodes of the new grid that are nodes of either (i / k = j / k_prev: every index times k_prev a
+    multiple of k) were measured already, both directions (the surface side at every node but the
+    corners, which are measured again), and are not measured again."""
     st = states[i]
     if not len(cand):
         return
@@ -711,15 +735,17 @@ def _sample_more(devs, states, info, i, cand, tol_rel, surface_only=False, prev=
         dev.where_target_to_mesh
     n1, n2 = dev.n_mesh_samples, dev.n_target_samples
     kp = np.zeros(len(cand), dtype=np.int64) if prev is None else np.asarray(prev, dtype=np.int64)
-    groups = np.unique(np.column_stack([st.density[cand], kp]), axis=0)
-    for k, k_prev in groups.tolist():
-        tri = cand[(st.density[cand] == k) & (kp == k_prev)]
+    k1 = np.zeros(len(cand), dtype=np.int64) if first is None else np.asarray(first, dtype=np.int64)
+    groups = np.unique(np.column_stack([st.density[cand], kp, k1]), axis=0)
+    for k, k_prev, k_first in groups.tolist():
+        tri = cand[(st.density[cand] == k) & (kp == k_prev) & (k1 == k_first)]
         w_all = _bary_grid(int(k))
         if surface_only:        # a corner's surface point is its foot: no farther from the mesh than the corner
             w_all = w_all[w_all.max(axis=1) < 1.0]
         seen = np.zeros(len(w_all), dtype=bool)
-        if k == 2 * k_prev:     # the previous grid's nodes: measured already
-            seen = np.all(np.rint(w_all * k).astype(np.int64) % 2 == 0, axis=1)
+        idx = np.rint(w_all * k).astype(np.int64)
+        for kq in {k_prev, k_first} - {0}:     # the earlier grids' nodes: measured already
+            seen |= np.all(idx * kq % k == 0, axis=1)
         corner = w_all.max(axis=1) >= 1.0
         for side in (0, 1):
             if side == 0 and surface_only:
