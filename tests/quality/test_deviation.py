@@ -198,3 +198,56 @@ def test_refine_measures_no_node_twice(monkeypatch):
     assert dist.min() > 1e-9                      # no node of the first pass projected again
     assert exact * (1 - 0.01) <= d.max_mesh_to_target <= exact + 1e-12
     assert d.max_bound >= exact
+
+
+def test_smallest_density_is_the_smallest_that_meets_the_bound():
+    """The refinement's division count: the bound D + beta / (max(1 - kappa D, 0.5) k'^2) meets the target
+    at k', and at k' - 1 it does not (unless k' - 1 is the count already sampled, or k' the cap)."""
+    from trimsurf.quality.deviation import _smallest_density
+
+    rng = np.random.default_rng(7)
+    n = 4000
+    dmax = rng.uniform(0.0, 1.0, n)
+    target = 1.0
+    beta = rng.uniform(0.0, 1.0, n) ** 3 * 50.0
+    kap = rng.uniform(-2.0, 2.0, n)
+    k = rng.integers(1, 20, n)
+    kk = _smallest_density(dmax, beta, kap, k, target, 32)
+
+    def bound(q):
+        return dmax + beta / np.maximum(1.0 - kap * dmax, 0.5) / q.astype(float) ** 2
+
+    assert np.all(kk > k) and np.all(kk <= 32)
+    assert np.all((bound(kk) <= target) | (kk == 32))
+    below = kk - 1 > k
+    assert below.any() and np.all(bound(kk - 1)[below] > target)
+    # not a doubling: most counts are no multiple of the one before
+    assert np.mean(kk % k != 0) > 0.3
+
+
+def test_refine_meets_its_stopping_rule_with_fewer_nodes_than_doubling(monkeypatch):
+    """Skeptical: after `refine` every triangle's bound at the count it was last sampled with is within
+    1 % of the reported maximum (or at the cap), the reported maximum is within 1 % of the exact value
+    and the bound holds it, with counts other than doublings and fewer projected nodes than the doubling
+    schedule (the same code with k' = 2k) needs on the same mesh."""
+    import trimsurf.quality.deviation as dev
+
+    s = sphere_patch()
+    m = lattice_mesh(s, 9)
+    exact = _analytic_sphere_deviation(m).max()
+
+    def run():
+        d, st = dev._surface_deviation(m, s, density=2, n_domain=16, two_sided=False, tol_rel=1e-10,
+                                       trim_tol_uv=None, adaptive=True)
+        (d,), _ = dev.refine_deviation([d], [st], rel=0.01)
+        return d, st
+
+    d, st = run()
+    assert exact * (1 - 0.01) <= d.max_mesh_to_target <= exact + 1e-12
+    assert exact <= d.max_bound <= 1.01 * d.max_two_sided + 1e-12
+    assert set(np.unique(st.density).tolist()) - {2, 4, 8, 16, 32}     # counts other than doublings
+    monkeypatch.setattr(dev, "_smallest_density", lambda dmax, beta, kap, k, target, cap: np.minimum(2 * k, cap))
+    d2, st2 = run()
+    assert set(np.unique(st2.density).tolist()) <= {2, 4, 8, 16, 32}
+    assert exact <= d2.max_bound <= 1.01 * d2.max_two_sided + 1e-12
+    assert d.n_mesh_samples < d2.n_mesh_samples

@@ -610,7 +610,7 @@ def refine_deviation(devs: list, states: list, *, rel: float = 0.01, tol_rel: fl
     """Resample, more densely, every triangle that could hide a deviation above the overall maximum.
 
     Each triangle t is sampled on a barycentric grid of k divisions per edge
-    (k = the starting density, then doubled), both directions: mesh points
+    (k = the starting density, then as below), both directions: mesh points
     projected onto the surface, and surface points over the triangle's own
     (u, v) footprint (the barycentric combination of its corners' feet)
     measured to the face's mesh; D_t is its largest sample. Between the
@@ -625,7 +625,12 @@ def refine_deviation(devs: list, states: list, *, rel: float = 0.01, tol_rel: fl
     and its (u, v) centre (`_curvature_bound`), and the bound is
     ``B_t = D_t + beta_t / ((1 - kappa_t D_t) k^2)``. Triangles with B_t above
     ``(1 + rel) G`` (G the largest sample over all faces so far) are sampled
-    again at 2 k, until none is left or k reaches `max_density`.
+    again at the smallest k' > k whose bound with the current D_t meets
+    ``(1 + rel) G`` (`_smallest_density`; at most `max_density`), until none is
+    left: the same stopping rule as doubling, with fewer nodes (the grids are
+    not nested, so the maximum may come out lower than doubling's, still
+    within ``rel`` of the bound). Nodes of the previous grid and of the first
+    pass's that the new grid repeats are not measured again.
 
     What the result bounds: the maximum stays a sampled figure, within ``rel``
     of the bound; ``max(B_t)`` (returned, and each Deviation's ``max_bound``)
