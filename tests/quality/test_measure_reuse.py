@@ -74,7 +74,7 @@ def test_skip_below_changes_no_distance_at_or_above_the_threshold(monkeypatch):
             assert np.count_nonzero(above) <= n_search < 0.8 * len(pts)
 
 
-def _plain_project_once(pts, uv0, w, n_tri, face, tol_rel, below=None):
+def _plain_project_once(pts, uv0, on_edge, face, tol_rel, below=None):
     return D.project_to_face(pts, face, tol_rel=tol_rel, uv0=uv0).distance
 
 

@@ -742,6 +742,7 @@ def _sample_more(devs, states, info, i, cand, tol_rel, surface_only=False, prev=
     kp = np.zeros(len(cand), dtype=np.int64) if prev is None else np.asarray(prev, dtype=np.int64)
     k1 = np.zeros(len(cand), dtype=np.int64) if first is None else np.asarray(first, dtype=np.int64)
     groups = np.unique(np.column_stack([st.density[cand], kp, k1]), axis=0)
+    parts = ([], [])            # per side: (triangles, their new nodes) of each (k, k_prev, k_first) group
     for k, k_prev, k_first in groups.tolist():
         tri = cand[(st.density[cand] == k) & (kp == k_prev) & (k1 == k_first)]
         w_all = _bary_grid(int(k))
@@ -753,47 +754,50 @@ def _sample_more(devs, states, info, i, cand, tol_rel, surface_only=False, prev=
             seen |= np.all(idx * kq % k == 0, axis=1)
         corner = w_all.max(axis=1) >= 1.0
         for side in (0, 1):
-            if side == 0 and surface_only:
-                continue
-            if side == 1 and not st.two_sided:
+            if (side == 0 and surface_only) or (side == 1 and not st.two_sided):
                 continue
             w = w_all[~seen | (corner if side == 1 else False)]
-            nw = len(w)
-            if not nw:
-                continue
-            if side == 1:
-                mx2, where2, n2 = _sample_surface_side(st, ok, tri, w, mx2, where2, n2)
-                continue
-            rows = np.repeat(tri, nw)
-            ww = np.tile(w, (len(tri), 1))
-            pts = np.einsum("kj,kjd->kd", ww, st.mesh.vertices[t[rows]])
-            uv0 = np.einsum("kj,kjd->kd", ww, st.vert_uv[t[rows]])
-            uv0 = np.where(np.isfinite(uv0), uv0, np.nan)
-            good = np.all(np.isfinite(uv0), axis=1)
-            if not good.all():
-                uv0 = None
-            # a node below both its triangle's largest value so far and the face's largest mesh sample
-            # changes neither: the projection may stop at its warm-started run (`skip_below`)
-            below = np.repeat(np.minimum(st.tri_max[tri], mx), nw) if np.isfinite(mx) else None
-            d = _project_once(pts, uv0, w, len(tri), st.face, tol_rel, below)
-            per = d.reshape(len(tri), nw).max(axis=1)
-            st.tri_max[tri] = np.maximum(st.tri_max[tri], per)
-            j = int(np.argmax(d))
-            if d[j] > mx:
-                mx, where = float(d[j]), pts[j].copy()
-            n1 += len(d)
+            if len(w):
+                parts[side].append((tri, w))
+    # every group's nodes in one batch per side (one projection call, one mesh search): the mesh side
+    # first, each node's threshold from its triangle's values before this call's surface side, as before
+    if parts[0]:
+        rows = np.concatenate([np.repeat(tri, len(w)) for tri, w in parts[0]])
+        ww = np.concatenate([np.tile(w, (len(tri), 1)) for tri, w in parts[0]])
+        on_edge = np.concatenate([np.tile(np.any(w == 0.0, axis=1), len(tri)) for tri, w in parts[0]])
+        pts = np.einsum("kj,kjd->kd", ww, st.mesh.vertices[t[rows]])
+        uv0 = np.einsum("kj,kjd->kd", ww, st.vert_uv[t[rows]])
+        good = np.all(np.isfinite(uv0), axis=1)
+        # a node below both its triangle's largest value so far and the face's largest mesh sample
+        # changes neither: the projection may stop at its warm-started run (`skip_below`)
+        below = np.minimum(st.tri_max[rows], mx) if np.isfinite(mx) else None
+        d = np.empty(len(rows))
+        for sel, start in ((good, True), (~good, False)):
+            if sel.all():
+                d = _project_once(pts, uv0 if start else None, on_edge, st.face, tol_rel, below if start else None)
+                break
+            if sel.any():
+                d[sel] = _project_once(pts[sel], uv0[sel] if start else None, on_edge[sel], st.face, tol_rel,
+                                       below[sel] if start and below is not None else None)
+        np.maximum.at(st.tri_max, rows, d)
+        j = int(np.argmax(d))
+        if d[j] > mx:
+            mx, where = float(d[j]), pts[j].copy()
+        n1 += len(d)
+    if parts[1]:
+        mx2, where2, n2 = _sample_surface_side(st, ok, parts[1], mx2, where2, n2)
     devs[i] = replace(dev, max_mesh_to_target=mx, where_mesh_to_target=where, max_target_to_mesh=mx2,
                       where_target_to_mesh=where2, n_mesh_samples=n1, n_target_samples=n2,
                       max_two_sided=float(np.nanmax([mx, mx2])))
 
 
-def _project_once(pts: np.ndarray, uv0: np.ndarray | None, w: np.ndarray, n_tri: int, face, tol_rel: float,
+def _project_once(pts: np.ndarray, uv0: np.ndarray | None, on_edge: np.ndarray, face, tol_rel: float,
                   below: np.ndarray | None = None):
     """``project_to_face(pts, face, uv0=uv0, skip_below=below).distance`` with each distinct (point, start)
     projected once (its threshold the smallest of its repeats').
 
-    `pts` are the nodes `w` (nw, 3) of `n_tri` triangles, triangle by triangle. A node on an edge (a zero
-    weight) of two triangles sampled at the same density is the same point with the same start (the
+    `pts` are barycentric grid nodes of triangles, `on_edge` those with a zero weight. A node on an edge
+    of two triangles sampled at the same density is the same point with the same start (the
     same two corners, the same integer / k weights: the same sums bit for bit), and the projection is
     a function of each point and its start alone (`geom.projection`: point by point), so its repeat
     takes the first one's distance: the values are those of projecting every node. With `below`, a
@@ -802,7 +806,6 @@ def _project_once(pts: np.ndarray, uv0: np.ndarray | None, w: np.ndarray, n_tri:
     same."""
     if uv0 is None:
         below = None
-    on_edge = np.tile(np.any(w == 0.0, axis=1), n_tri)
     idx = np.flatnonzero(on_edge)
     if len(idx) < 2:
         return project_to_face(pts, face, tol_rel=tol_rel, uv0=uv0, skip_below=below).distance
@@ -831,17 +834,17 @@ def _project_once(pts: np.ndarray, uv0: np.ndarray | None, w: np.ndarray, n_tri:
     return d
 
 
-def _sample_surface_side(st, ok, tri, w, mx2, where2, n2):
-    """Surface -> mesh samples at barycentric nodes `w` of the (u, v) footprints of triangles `tri` (those
-    with `ok` footprints); folds them into ``st.tri_max`` and returns the updated (max, where, count)."""
-    sel = ok[tri]
-    if not sel.any():
-        return mx2, where2, n2
+def _sample_surface_side(st, ok, parts, mx2, where2, n2):
+    """Surface -> mesh samples at barycentric nodes w of the (u, v) footprints of triangles tri, for each
+    (tri, w) of `parts` (those with `ok` footprints), in one batch; folds them into ``st.tri_max`` and
+    returns the updated (max, where, count)."""
     t = st.mesh.triangles
-    nw = len(w)
-    tri2 = tri[sel]
-    rows2 = np.repeat(tri2, nw)
-    ww2 = np.tile(w, (len(tri2), 1))
+    parts = [(tri[ok[tri]], w) for tri, w in parts]
+    parts = [(tri, w) for tri, w in parts if len(tri)]
+    if not parts:
+        return mx2, where2, n2
+    rows2 = np.concatenate([np.repeat(tri, len(w)) for tri, w in parts])
+    ww2 = np.concatenate([np.tile(w, (len(tri), 1)) for tri, w in parts])
     uv = np.einsum("kj,kjd->kd", ww2, st.vert_uv[t[rows2]])
     q = st.face.surface.evaluate(uv)
     # a footprint point outside the trimmed region (a chord of a curved border) is no point of the face
@@ -852,8 +855,7 @@ def _sample_surface_side(st, ok, tri, w, mx2, where2, n2):
         near = _closest(q, st.loc, hint=rows2).distance     # the footprint's own triangle bounds the search
     d2 = np.where(inside, near, 0.0)
     d2 = _drop_outside(st.face, uv, d2, cache=st.fine)
-    per = d2.reshape(len(tri2), nw).max(axis=1)
-    st.tri_max[tri2] = np.maximum(st.tri_max[tri2], per)
+    np.maximum.at(st.tri_max, rows2, d2)
     j = int(np.argmax(d2))
     if d2[j] > (mx2 if np.isfinite(mx2) else -np.inf):
         mx2, where2 = float(d2[j]), q[j].copy()
