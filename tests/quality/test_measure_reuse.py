@@ -148,3 +148,17 @@ def test_seed_grid_kernel_is_the_numpy_expression():
         np.testing.assert_array_equal(s2_, spread)
     # the octant's v = 0 line is a pole: spread 0 there
     assert s2_.min() == 0.0
+
+
+def test_measure_at_a_density_without_centroid_nodes(screw):
+    """`measure_mesh(density=2)`: no grid node at the centroids, so `flipped_against_normal` projects them
+    itself (regression: the face state's trim-polygon list landed in its centroid field, positionally,
+    and the flip check failed on a (0,) array); its figures obey the same stopping rule."""
+    from trimsurf.tessellate.measure import measure_mesh
+
+    shell, res = screw
+    m2 = measure_mesh(res.mesh, shell, density=2)
+    m3 = measure_mesh(res.mesh, shell)
+    assert m2["flipped"] == m3["flipped"] == 0
+    assert m2["max_deviation"] <= m2["max_deviation_bound"] <= 1.01 * m2["max_deviation"]
+    assert abs(m2["max_deviation"] / m3["max_deviation"] - 1.0) < 0.01

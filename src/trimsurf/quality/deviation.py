@@ -231,7 +231,7 @@ def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, tw
     per_tri = samples.per_triangle_max(mesh, d)
     if adaptive:
         state = _FaceState(mesh, face, vert_uv, per_tri.copy(), np.full(mesh.n_triangles, int(density)),
-                           two_sided, loop_polygons(face) if face.loops else None, loc, fine)
+                           two_sided, loop_polygons(face) if face.loops else None, loc, fine=fine)
         if density % 3 == 0:    # the centroid (1, 1, 1) / 3 is a node of the grid: kept for `flipped_against_normal`
             k = density // 3
             cen = np.flatnonzero((samples.kind == 2) & np.all(np.rint(samples.barycentric * density) == k, axis=1))
