@@ -24,7 +24,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model import TriMesh
+from ..geom._nurbs_kernels import surface_derivatives_kernel
+from ..geom.nurbs import _clip, _homogeneous, read_only, unit_normals
+from ..model import NurbsSurface, TriMesh
 from ._collapse import collapse_sets
 
 __all__ = ["reduce_seams"]
@@ -75,32 +77,122 @@ def _by_face(face_of: np.ndarray):
     return [(f[a], order[a:b]) for a, b in zip(cut[:-1].tolist(), cut[1:].tolist())]
 
 
+_ARGS: dict = {}     # id(surface) -> (surface, the kernel's arguments)
+
+
+def _kernel_args(surface):
+    """The compiled surface kernel's arguments of `surface` (as `geom.surface_derivatives` prepares them),
+    built once per surface (the entry keeps the surface alive, so an id is never reused while cached)."""
+    hit = _ARGS.get(id(surface))
+    if hit is not None and hit[0] is surface:
+        return hit[1]
+    pu, pv = int(surface.degree_u), int(surface.degree_v)
+    ku = read_only(np.asarray(surface.knots_u, dtype=np.float64))
+    kv = read_only(np.asarray(surface.knots_v, dtype=np.float64))
+    args = (pu, pv, ku, kv, _homogeneous(surface.control_points, surface.weights), surface.weights is not None,
+            ku[pu], ku[-pu - 1], kv[pv], kv[-pv - 1])
+    if len(_ARGS) > 4096:
+        _ARGS.clear()
+    _ARGS[id(surface)] = (surface, args)
+    return args
+
+
+def _derivatives(surface, uv: np.ndarray, nd: int) -> np.ndarray:
+    """`surface.derivatives(uv, nd)` (the same kernel, the same values) without the per-call checks:
+    `uv` is a finite float64 (n, 2) array (the caller checks once for all its faces)."""
+    pu, pv, ku, kv, pw, rational, u0, u1, v0, v1 = _kernel_args(surface)
+    out = np.zeros((nd + 1, nd + 1, uv.shape[0], 3))
+    surface_derivatives_kernel(pu, pv, ku, kv, pw, rational, _clip(uv[:, 0], u0, u1), _clip(uv[:, 1], v0, v1),
+                               nd, out)
+    return out
+
+
+def _fast(surfaces, face_of, pts) -> bool:
+    """The direct kernel path applies: NURBS surfaces and finite parameters (else the public methods,
+    which raise on bad parameters)."""
+    return (all(type(surfaces[int(f)]) is NurbsSurface for f in np.unique(face_of).tolist())
+            and bool(np.isfinite(pts).all()))
+
+
 def _per_face_dev(surfaces, face_of, uv3, x3):
     """max |S(uv(b)) - x(b)| over the centroid and edge midpoints of each triangle: one evaluation per face."""
     pts = np.einsum("bj,rjk->rbk", _BARY, uv3)
     ref = np.einsum("bj,rjk->rbk", _BARY, x3)
     s = np.empty(ref.shape)
-    for f, r in _by_face(face_of):
-        s[r] = surfaces[int(f)].evaluate(pts[r].reshape(-1, 2)).reshape(len(r), -1, 3)
+    groups = _by_face(face_of)
+    if _fast(surfaces, face_of, pts):
+        for f, r in groups:
+            s[r] = _derivatives(surfaces[int(f)], pts[r].reshape(-1, 2), 0)[0, 0].reshape(len(r), -1, 3)
+    else:
+        for f, r in groups:
+            s[r] = surfaces[int(f)].evaluate(pts[r].reshape(-1, 2)).reshape(len(r), -1, 3)
     return np.linalg.norm(s - ref, axis=2).max(axis=1) if len(face_of) else np.empty(0)
 
 
-def _against_normal(faces, face_of, uv3, tri_normals, bary=_ORIENT_BARY):
+def _oriented_normals(faces, face_of, pts, corner_key=None) -> np.ndarray:
+    """`faces[f].oriented_normals` at the points `pts` (p, 2) of faces `face_of` (p,), in one batch.
+
+    The same kernel and arithmetic per point as the public method (so the same values). With
+    `corner_key` (p,) int64 (-1: none), points with one key and bit-equal parameters are evaluated once.
+    """
+    out = np.empty((len(pts), 3))
+    if not len(pts):
+        return out
+    surfaces = [None if f is None else f.surface for f in faces]
+    if not _fast(surfaces, face_of, pts):
+        for f, r in _by_face(face_of):
+            out[r] = np.asarray(faces[int(f)].oriented_normals(pts[r]), dtype=np.float64)
+        return out
+    src = np.arange(len(pts))
+    if corner_key is not None:
+        has = np.flatnonzero(corner_key >= 0)
+        if len(has):
+            _, first, inv = np.unique(corner_key[has], return_index=True, return_inverse=True)
+            rep = has[first][inv.ravel()]
+            bits = np.ascontiguousarray(pts).view(np.int64)
+            same = (bits[rep] == bits[has]).all(axis=1)
+            src[has[same]] = rep[same]
+    ev = np.flatnonzero(src == np.arange(len(pts)))
+    su, sv = [], []
+    groups = _by_face(face_of[ev])
+    for f, r in groups:
+        d = _derivatives(surfaces[int(f)], pts[ev[r]], 1)
+        su.append(d[1, 0])
+        sv.append(d[0, 1])
+    n = unit_normals(np.concatenate(su), np.concatenate(sv))
+    pos = np.empty(len(ev), dtype=np.int64)
+    k = 0
+    for f, r in groups:
+        pos[r] = np.arange(k, k + len(r))
+        if not faces[int(f)].same_sense:
+            n[k:k + len(r)] = -n[k:k + len(r)]
+        k += len(r)
+    slot = np.empty(len(pts), dtype=np.int64)
+    slot[ev] = pos
+    return n[slot[src]]
+
+
+def _against_normal(faces, face_of, uv3, tri_normals, bary=_ORIENT_BARY, corners=None):
     """Per triangle: its 3D normal points against its face's oriented surface normal at a sample point.
 
     Sample points (`bary`): by default the (u, v) centroid and the three corners;
     points where the surface normal is undefined (a pole) are skipped. One
-    evaluation per face.
+    evaluation per face. `corners` (r, 3) int64: the triangles' vertices, with the default `bary`:
+    a vertex's corner on one face is evaluated once (where its (u, v) is the same).
     """
     if not len(face_of):
         return np.zeros(0, dtype=bool)
     # the sample points and the tests of all triangles at once; the normals per face (its surface)
     pts = np.einsum("bj,rjk->rbk", bary, uv3)
-    ns = np.empty(pts.shape[:2] + (3,))
+    key = None
+    if corners is not None and bary is _ORIENT_BARY:
+        nf = int(face_of.max()) + 1
+        key = np.full(pts.shape[:2], -1, dtype=np.int64)
+        key[:, 1:] = corners * nf + face_of[:, None]
+        key = key.ravel()
     with np.errstate(all="ignore"):
-        for f, r in _by_face(face_of):
-            ns[r] = np.asarray(faces[int(f)].oriented_normals(pts[r].reshape(-1, 2)),
-                               dtype=np.float64).reshape(len(r), -1, 3)
+        ns = _oriented_normals(faces, np.repeat(face_of, pts.shape[1]), pts.reshape(-1, 2),
+                               key).reshape(pts.shape[:2] + (3,))
         dot = np.einsum("rbk,rk->rb", ns, tri_normals)
         valid = np.isfinite(dot) & (np.linalg.norm(ns, axis=2) > 0.5)
     return np.any(valid & ~(dot > 0), axis=1)
@@ -186,9 +278,20 @@ class _State:
                 self._rows[k] = r
 
     def seam(self):
-        """Seam edges (k, 2) of the alive triangles."""
-        a = self.alive
-        return _seam_graph(TriMesh(self.V, self.T[a], face_id=self.fid[a]))
+        """Seam edges (k, 2) of the alive triangles.
+
+        Only the triangles with two corners on more than one face can hold a seam edge (and they hold
+        every triangle of such an edge): the edges of those alone, in the same (sorted) order.
+        """
+        t, f = self.T[self.alive], self.fid[self.alive]
+        nv = len(self.V)
+        lo = np.full(nv, np.iinfo(np.int64).max)
+        hi = np.full(nv, -1, dtype=np.int64)
+        fr = np.repeat(f, 3)
+        np.minimum.at(lo, t.ravel(), fr)
+        np.maximum.at(hi, t.ravel(), fr)
+        sel = np.count_nonzero((lo != hi)[t], axis=1) >= 2
+        return _seam_graph(TriMesh(self.V, t[sel], face_id=f[sel]))
 
     def round(self, seam, cands, chord_tol, skip, uv_check: bool = True, interior: bool = False) -> int:
         """Try the directed collapses `cands` (v into u, in order) whose stars do not overlap; apply the good.
@@ -209,13 +312,6 @@ class _State:
         both = np.r_[seam, seam[:, ::-1]]
         both = both[np.argsort(both[:, 0], kind="stable")]
         first = np.searchsorted(both[:, 0], np.arange(nv))
-        # vertex -> alive triangles (CSR)
-        ia = np.flatnonzero(alive)
-        flat = T[ia].ravel()
-        order = np.argsort(flat, kind="stable")
-        vstart = np.searchsorted(flat[order], np.arange(nv + 1))
-        vtri = ia[order // 3].tolist()
-        vstart = vstart.tolist()
         Tl = self.rows()
         fl = self.fid_list
         # the cheap tests of every candidate at once: v on the seam between two neighbours, u one of
@@ -238,6 +334,16 @@ class _State:
             far = np.linalg.norm(pv - (pu + sp[:, None] * d), axis=1) > chord_tol
             skip.update(map(tuple, c[ok & far].tolist()))
             ok &= ~far
+        # vertex -> alive triangles (CSR), complete for the vertices of the candidates left (their
+        # triangles are those of the alive triangles at one of them, in increasing order)
+        need = np.zeros(nv, dtype=bool)
+        need[c[ok].ravel()] = True
+        ia = np.flatnonzero(alive)
+        ia = ia[need[T[ia]].any(axis=1)]
+        flat = T[ia].ravel()
+        order = np.argsort(flat, kind="stable")
+        vstart = np.searchsorted(flat[order], np.arange(nv + 1)).tolist()
+        vtri = ia[order // 3].tolist()
         locked = bytearray(nv)
         sel = []        # (v, u, moved, gone)
         for v, u in c[ok].tolist():
@@ -409,8 +515,9 @@ class _State:
         idx = np.flatnonzero(self.alive)
         d = idx[self._dirty[idx]]
         if len(d):
-            self._flip[d] = _against_normal(self.faces, self.fid[d], self.cuv[d], _normals(self.V, self.T[d]),
-                                            bary=_ORIENT_BARY)
+            td = self.T[d]
+            self._flip[d] = _against_normal(self.faces, self.fid[d], self.cuv[d], _normals(self.V, td),
+                                            bary=_ORIENT_BARY, corners=td)
             self._dirty[d] = False
         return idx[self._flip[idx]]
 
