@@ -172,6 +172,64 @@ def _oriented_normals(faces, face_of, pts, corner_key=None) -> np.ndarray:
     return n[slot[src]]
 
 
+_PLANAR: dict = {}   # id(surface) -> (surface, (unit normal, cone half-angle) or None)
+
+
+def _planar_cone(surface):
+    """(n0, alpha): every normal S_u x S_v that the kernel computes on a flat bilinear surface lies within
+    alpha radians of the unit vector n0 (rounding included); None when the surface is not a non-rational
+    degree (1, 1) NURBS or the bound is not small (0.01 rad).
+
+    On each cell of a degree (1, 1) net, S_u x S_v is a non-negative combination of the four cross
+    products of the cell's edge vectors (u edges x v edges), so it lies in the cone they span; the
+    kernel's rounding adds at most 128 eps |P|max (|D_u|max + |D_v|max) / |c|min to its direction.
+    """
+    hit = _PLANAR.get(id(surface))
+    if hit is not None and hit[0] is surface:
+        return hit[1]
+    out = None
+    if (type(surface) is NurbsSurface and surface.weights is None and int(surface.degree_u) == 1
+            and int(surface.degree_v) == 1):
+        P = np.asarray(surface.control_points, dtype=np.float64)
+        du, dv = P[1:, :] - P[:-1, :], P[:, 1:] - P[:, :-1]          # (nu-1, nv, 3), (nu, nv-1, 3)
+        c = np.concatenate([np.cross(du[:, a:du.shape[1] - 1 + a], dv[b:dv.shape[0] - 1 + b, :]).reshape(-1, 3)
+                            for a in (0, 1) for b in (0, 1)])
+        lc = np.linalg.norm(c, axis=1)
+        total = c.sum(axis=0)
+        ln = float(np.linalg.norm(total))
+        if len(c) and np.all(np.isfinite(c)) and ln > 0 and float(lc.min()) > 0:
+            n0 = total / ln
+            cos = np.clip((c @ n0) / lc, -1.0, 1.0)
+            if float(cos.min()) > 0.99:
+                alpha = float(np.arccos(cos.min()))
+                alpha += 128 * np.finfo(float).eps * float(np.abs(P).max()) * (
+                    float(np.linalg.norm(du, axis=2).max()) + float(np.linalg.norm(dv, axis=2).max())) / float(lc.min())
+                if alpha < 0.01:
+                    out = (n0, alpha)
+    if len(_PLANAR) > 4096:
+        _PLANAR.clear()
+    _PLANAR[id(surface)] = (surface, out)
+    return out
+
+
+def _surely_along(faces, face_of, tri_normals) -> np.ndarray:
+    """Per triangle: on a flat face (`_planar_cone`) and within 87 degrees of its oriented normal, so the
+    surface normal the kernel computes at any point of the face is finite with a positive dot product
+    with the triangle's normal or undefined: never against it (its samples need no evaluation)."""
+    out = np.zeros(len(face_of), dtype=bool)
+    for f, r in _by_face(face_of):
+        face = faces[int(f)]
+        cone = _planar_cone(face.surface)
+        if cone is None:
+            continue
+        n0 = cone[0] if face.same_sense else -cone[0]
+        t = tri_normals[r]
+        lt = np.linalg.norm(t, axis=1)
+        with np.errstate(all="ignore"):
+            out[r] = (lt > 0) & ((t @ n0) > 0.05 * lt)
+    return out
+
+
 def _against_normal(faces, face_of, uv3, tri_normals, bary=_ORIENT_BARY, corners=None):
     """Per triangle: its 3D normal points against its face's oriented surface normal at a sample point.
 
@@ -182,6 +240,14 @@ def _against_normal(faces, face_of, uv3, tri_normals, bary=_ORIENT_BARY, corners
     """
     if not len(face_of):
         return np.zeros(0, dtype=bool)
+    sure = _surely_along(faces, face_of, tri_normals)
+    if sure.any():
+        res = np.zeros(len(face_of), dtype=bool)
+        rest = np.flatnonzero(~sure)
+        if len(rest):
+            res[rest] = _against_normal(faces, face_of[rest], uv3[rest], tri_normals[rest], bary,
+                                        None if corners is None else corners[rest])
+        return res
     # the sample points and the tests of all triangles at once; the normals per face (its surface)
     pts = np.einsum("bj,rjk->rbk", bary, uv3)
     key = None
