@@ -14,6 +14,8 @@ are those of their two boundary edges, and their own edges are never candidates.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy import sparse
 from scipy.sparse import csgraph
@@ -74,15 +76,24 @@ def _triangulate_polygon(V: np.ndarray, poly: list, corners: list) -> list:
 
     P = V[poly]
     o = P.mean(axis=0)
-    nrm = np.cross(V[corners[1]] - V[corners[0]], V[corners[2]] - V[corners[0]])
-    nrm /= max(np.linalg.norm(nrm), 1e-300)
-    e1 = V[corners[1]] - V[corners[0]]
-    e1 /= max(np.linalg.norm(e1), 1e-300)
-    e2 = np.cross(nrm, e1)
+    # the plane's frame in scalars: the same operations as np.cross and np.linalg.norm (x.dot(x)) of
+    # 3-vectors, so the same values, without their per-call overhead (one call per split triangle)
+    p0, p1, p2 = V[corners[0]].tolist(), V[corners[1]].tolist(), V[corners[2]].tolist()
+    a0, a1, a2 = p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]
+    b0, b1, b2 = p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]
+    nrm = np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+    nrm /= max(math.sqrt(nrm.dot(nrm)), 1e-300)
+    e1 = np.array([a0, a1, a2])
+    e1 /= max(math.sqrt(e1.dot(e1)), 1e-300)
+    (n0, n1, n2), (c0, c1, c2) = nrm.tolist(), e1.tolist()
+    e2 = np.array([n1 * c2 - n2 * c1, n2 * c0 - n0 * c2, n0 * c1 - n1 * c0])
     xy = np.column_stack([(P - o) @ e1, (P - o) @ e2])
     # Triangle crashes (segmentation fault) on repeated vertices: fans instead
     scale = float(np.ptp(xy, axis=0).max()) if m else 0.0
-    if scale <= 0 or len(np.unique(np.round(xy / scale, 12), axis=0)) != m:
+    if scale <= 0:
+        return _sequential_fans(poly, corners)
+    r = np.round(xy / scale, 12).tolist()
+    if len({(x, y) for x, y in r}) != m:         # (as np.unique(axis=0): -0.0 equals 0.0)
         return _sequential_fans(poly, corners)
     seg = np.column_stack([np.arange(m), (np.arange(m) + 1) % m])
     try:
