@@ -48,8 +48,14 @@ _ORIENT_BARY = np.array([[1 / 3, 1 / 3, 1 / 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]
 
 
 def _normals(V, T):
+    """np.cross(p1 - p0, p2 - p0) of the triangles (the same operations, without np.cross's overhead)."""
     p = V[T]
-    return np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    a, b = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    out = np.empty(a.shape)
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
 
 
 def _seam_graph(mesh: TriMesh):
