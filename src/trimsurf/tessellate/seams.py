@@ -116,8 +116,7 @@ def _derivatives(surface, uv: np.ndarray, nd: int) -> np.ndarray:
 def _fast(surfaces, face_of, pts) -> bool:
     """The direct kernel path applies: NURBS surfaces and finite parameters (else the public methods,
     which raise on bad parameters)."""
-    return (all(type(surfaces[int(f)]) is NurbsSurface for f in np.unique(face_of).tolist())
-            and bool(np.isfinite(pts).all()))
+    return all(s is None or type(s) is NurbsSurface for s in surfaces) and bool(np.isfinite(pts).all())
 
 
 def _per_face_dev(surfaces, face_of, uv3, x3):
@@ -182,36 +181,45 @@ _PLANAR: dict = {}   # id(surface) -> (surface, (unit normal, cone half-angle) o
 
 
 def _planar_cone(surface):
-    """(n0, alpha): every normal S_u x S_v that the kernel computes on a flat bilinear surface lies within
-    alpha radians of the unit vector n0 (rounding included); None when the surface is not a non-rational
-    degree (1, 1) NURBS or the bound is not small (0.01 rad).
+    """(n0, alpha): every normal S_u x S_v that the kernel computes on a flat non-rational NURBS surface
+    lies within alpha radians of the unit vector n0 (rounding included); None when the surface is
+    rational or the bound is not small (0.01 rad).
 
-    On each cell of a degree (1, 1) net, S_u x S_v is a non-negative combination of the four cross
-    products of the cell's edge vectors (u edges x v edges), so it lies in the cone they span; the
-    kernel's rounding adds at most 128 eps |P|max (|D_u|max + |D_v|max) / |c|min to its direction.
+    S_u is a combination with non-negative weights (B-spline basis functions of degree p - 1 and q
+    times p / knot spans) of the net's u differences, S_v likewise of its v differences, so
+    S_u x S_v is a non-negative combination of the cross products of a u difference with a v
+    difference and lies in the cone they span; the kernel's rounding adds at most
+    1024 eps |P|max (|D_u|max + |D_v|max) (the spans' max/min weight ratios) / |c|min to its direction.
     """
     hit = _PLANAR.get(id(surface))
     if hit is not None and hit[0] is surface:
         return hit[1]
     out = None
-    if (type(surface) is NurbsSurface and surface.weights is None and int(surface.degree_u) == 1
-            and int(surface.degree_v) == 1):
+    if type(surface) is NurbsSurface and surface.weights is None:
         P = np.asarray(surface.control_points, dtype=np.float64)
-        du, dv = P[1:, :] - P[:-1, :], P[:, 1:] - P[:, :-1]          # (nu-1, nv, 3), (nu, nv-1, 3)
-        c = np.concatenate([np.cross(du[:, a:du.shape[1] - 1 + a], dv[b:dv.shape[0] - 1 + b, :]).reshape(-1, 3)
-                            for a in (0, 1) for b in (0, 1)])
-        lc = np.linalg.norm(c, axis=1)
-        total = c.sum(axis=0)
-        ln = float(np.linalg.norm(total))
-        if len(c) and np.all(np.isfinite(c)) and ln > 0 and float(lc.min()) > 0:
-            n0 = total / ln
-            cos = np.clip((c @ n0) / lc, -1.0, 1.0)
-            if float(cos.min()) > 0.99:
-                alpha = float(np.arccos(cos.min()))
-                alpha += 128 * np.finfo(float).eps * float(np.abs(P).max()) * (
-                    float(np.linalg.norm(du, axis=2).max()) + float(np.linalg.norm(dv, axis=2).max())) / float(lc.min())
-                if alpha < 0.01:
-                    out = (n0, alpha)
+        pu, pv = int(surface.degree_u), int(surface.degree_v)
+        ku, kv = np.asarray(surface.knots_u, dtype=np.float64), np.asarray(surface.knots_v, dtype=np.float64)
+        nu, nv = P.shape[:2]
+        su = ku[pu + 1:pu + nu] - ku[1:nu]          # u_{i+p+1} - u_{i+1}, i < nu - 1
+        sv = kv[pv + 1:pv + nv] - kv[1:nv]
+        du = (P[1:, :] - P[:-1, :]).reshape(-1, 3)
+        dv = (P[:, 1:] - P[:, :-1]).reshape(-1, 3)
+        if (pu >= 1 and pv >= 1 and len(du) and len(dv) and len(du) * len(dv) <= 40000
+                and np.all(su > 0) and np.all(sv > 0) and np.all(np.isfinite(P))):
+            c = np.cross(du[:, None, :], dv[None, :, :]).reshape(-1, 3)
+            lc = np.linalg.norm(c, axis=1)
+            total = c.sum(axis=0)
+            ln = float(np.linalg.norm(total))
+            if ln > 0 and float(lc.min()) > 0:
+                n0 = total / ln
+                cos = np.clip((c @ n0) / lc, -1.0, 1.0)
+                if float(cos.min()) > 0.99:
+                    rho = float(su.max() / su.min()) * float(sv.max() / sv.min())
+                    alpha = float(np.arccos(cos.min())) + 1024 * np.finfo(float).eps * float(np.abs(P).max()) * (
+                        float(np.linalg.norm(du, axis=1).max()) + float(np.linalg.norm(dv, axis=1).max())
+                    ) * rho / float(lc.min())
+                    if alpha < 0.01:
+                        out = (n0, alpha)
     if len(_PLANAR) > 4096:
         _PLANAR.clear()
     _PLANAR[id(surface)] = (surface, out)

@@ -75,7 +75,7 @@ def _triangulate_polygon(V: np.ndarray, poly: list, corners: list) -> list:
     import triangle as tr
 
     P = V[poly]
-    o = P.mean(axis=0)
+    o = np.add.reduce(P, axis=0) / m          # P.mean(axis=0): the same sum and division
     # the plane's frame in scalars: the same operations as np.cross and np.linalg.norm (x.dot(x)) of
     # 3-vectors, so the same values, without their per-call overhead (one call per split triangle)
     p0, p1, p2 = V[corners[0]].tolist(), V[corners[1]].tolist(), V[corners[2]].tolist()
@@ -87,9 +87,12 @@ def _triangulate_polygon(V: np.ndarray, poly: list, corners: list) -> list:
     e1 /= max(math.sqrt(e1.dot(e1)), 1e-300)
     (n0, n1, n2), (c0, c1, c2) = nrm.tolist(), e1.tolist()
     e2 = np.array([n1 * c2 - n2 * c1, n2 * c0 - n0 * c2, n0 * c1 - n1 * c0])
-    xy = np.column_stack([(P - o) @ e1, (P - o) @ e2])
+    d = P - o
+    xy = np.empty((m, 2))
+    xy[:, 0] = d @ e1
+    xy[:, 1] = d @ e2
     # Triangle crashes (segmentation fault) on repeated vertices: fans instead
-    scale = float(np.ptp(xy, axis=0).max()) if m else 0.0
+    scale = float((xy.max(axis=0) - xy.min(axis=0)).max())      # np.ptp(xy, axis=0).max()
     if scale <= 0:
         return _sequential_fans(poly, corners)
     r = np.round(xy / scale, 12).tolist()
