@@ -497,40 +497,52 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
 
 
 def _assemble_conforming(face_meshes: dict, n_shared: int) -> TriMesh:
-    """One mesh: shared (chunk) vertices by their global id, face-interior vertices appended."""
+    """One mesh: shared (chunk) vertices by their global id, face-interior vertices appended.
+
+    Faces in increasing order; a shared vertex takes its position from the first face that has it
+    (within that face, its last point with that id). All faces' arrays are joined once and indexed
+    together (no per-face numpy passes).
+    """
+    order = sorted(face_meshes)
+    if not order:
+        return (TriMesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64), face_id=np.zeros(0, np.int64)),
+                np.zeros((0, 2), dtype=np.int64), np.zeros(0), np.zeros((0, 3, 2)))
+    fms = [face_meshes[i] for i in order]
+    nvs = np.array([len(fm.vid) for fm in fms], dtype=np.int64)
+    nts = np.array([len(fm.triangles) for fm in fms], dtype=np.int64)
+    voff = np.r_[0, np.cumsum(nvs)[:-1]]
+    toff = np.r_[0, np.cumsum(nts)[:-1]]
+    vid = np.concatenate([fm.vid for fm in fms])
+    xyz = np.concatenate([fm.xyz for fm in fms])
+    uv = np.concatenate([fm.uv for fm in fms])
+    tri_local = np.concatenate([fm.triangles for fm in fms]).astype(np.int64, copy=False)
+    tri_face = np.repeat(np.arange(len(fms)), nts)
+    tri_all = tri_local + voff[tri_face][:, None]
+    own = vid < 0
+    gid = vid.astype(np.int64, copy=True)
+    gid[own] = n_shared + np.arange(int(own.sum()))
+    # a shared vertex's position: the first face that has it, its last point there
+    sh = np.flatnonzero(~own)
     verts = np.zeros((n_shared, 3))
-    seen = np.zeros(n_shared, dtype=bool)
-    tris, fids, extra, quads, devs, cuvs = [], [], [], [], [], []
-    nxt = n_shared
-    n_tri = 0
-    for i in sorted(face_meshes):
-        fm = face_meshes[i]
-        gid = fm.vid.copy()
-        own = gid < 0
-        k = int(own.sum())
-        gid[own] = nxt + np.arange(k)
-        nxt += k
-        extra.append(fm.xyz[own])
-        sh = ~own
-        new = sh & ~seen[np.where(sh, gid, 0)]
-        verts[gid[new]] = fm.xyz[new]
-        seen[gid[sh]] = True
-        t = gid[fm.triangles]
-        ok = (t[:, 0] != t[:, 1]) & (t[:, 1] != t[:, 2]) & (t[:, 0] != t[:, 2])
-        tris.append(t[ok])
-        devs.append(fm.tri_dev[ok])
-        cuvs.append(fm.uv[fm.triangles[ok]])
-        fids.append(np.full(int(ok.sum()), i, dtype=np.int64))
-        new_index = np.where(ok, n_tri + np.cumsum(ok) - 1, -1)
-        if len(fm.quads):
-            q = new_index[fm.quads]
-            quads.append(q[(q >= 0).all(axis=1)])
-        n_tri += int(ok.sum())
-    allv = np.concatenate([verts] + extra) if extra else verts
-    tri = np.concatenate(tris) if tris else np.zeros((0, 3), np.int64)
-    fid = np.concatenate(fids) if fids else np.zeros(0, np.int64)
+    if len(sh):
+        vface = np.repeat(np.arange(len(fms)), nvs)[sh]
+        pick = np.lexsort((-sh, vface, gid[sh]))
+        g = gid[sh][pick]
+        first = np.r_[True, g[1:] != g[:-1]]
+        verts[g[first]] = xyz[sh[pick[first]]]
+    t = gid[tri_all]
+    ok = (t[:, 0] != t[:, 1]) & (t[:, 1] != t[:, 2]) & (t[:, 0] != t[:, 2])
+    tri = t[ok]
+    fid = np.asarray(order, dtype=np.int64)[tri_face[ok]]
+    dev = np.concatenate([fm.tri_dev for fm in fms])[ok]
+    cuv = uv[tri_all[ok]]
+    new_index = np.where(ok, np.cumsum(ok) - 1, -1)
+    quads = [fm.quads + toff[k] for k, fm in enumerate(fms) if len(fm.quads)]
+    if quads:
+        q = new_index[np.concatenate(quads).astype(np.int64)]
+        q = q[(q >= 0).all(axis=1)]
+    else:
+        q = np.zeros((0, 2), dtype=np.int64)
+    allv = np.concatenate([verts, xyz[own]])
     used, inv = np.unique(tri, return_inverse=True)
-    q = np.concatenate(quads).astype(np.int64) if quads else np.zeros((0, 2), dtype=np.int64)
-    dev = np.concatenate(devs) if devs else np.zeros(0)
-    cuv = np.concatenate(cuvs) if cuvs else np.zeros((0, 3, 2))
     return TriMesh(allv[used], inv.reshape(-1, 3), face_id=fid), q, dev, cuv
