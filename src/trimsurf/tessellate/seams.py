@@ -376,7 +376,8 @@ class _State:
     def round(self, seam, cands, chord_tol, skip, uv_check: bool = True, interior: bool = False) -> int:
         """Try the directed collapses `cands` (v into u, in order) whose stars do not overlap; apply the good.
 
-        Collapses that fail a check are added to `skip` (never tried again).
+        `cands`: (k, 2) int array-like. Collapses that fail a check are added to `skip` (never tried
+        again; a set of keys v * len(V) + u).
         ``uv_check=False`` (the flip pass) drops the (u, v) orientation test (the 3D one stays), and
         lets a triangle already flipped turn by more than 60 degrees: where
         two trims of a face are closer than the tolerance their chords in (u, v) and in
@@ -396,7 +397,9 @@ class _State:
         fl = self.fid_list
         # the cheap tests of every candidate at once: v on the seam between two neighbours, u one of
         # them, v within chord_tol of the new seam chord (u, w)
-        c = np.asarray([x for x in cands if x not in skip], dtype=np.int64).reshape(-1, 2)
+        c = np.asarray(cands, dtype=np.int64).reshape(-1, 2)
+        if skip and len(c):
+            c = c[~np.isin(c[:, 0] * nv + c[:, 1], np.fromiter(skip, dtype=np.int64, count=len(skip)))]
         cv, cu = c[:, 0], c[:, 1]
         if interior:
             ok = deg[cv] == 0
@@ -412,7 +415,7 @@ class _State:
             den = np.einsum("ij,ij->i", d, d)
             sp = np.clip(np.einsum("ij,ij->i", pv - pu, d) / np.where(den > 0, den, 1.0), 0.0, 1.0)
             far = np.linalg.norm(pv - (pu + sp[:, None] * d), axis=1) > chord_tol
-            skip.update(map(tuple, c[ok & far].tolist()))
+            skip.update((c[ok & far, 0] * nv + c[ok & far, 1]).tolist())
             ok &= ~far
         # vertex -> alive triangles (CSR), complete for the vertices of the candidates left (their
         # triangles are those of the alive triangles at one of them, in increasing order)
@@ -433,14 +436,14 @@ class _State:
             if any(locked[x] for x in star):
                 continue
             if len({fl[k] for k in tv}) != (1 if interior else 2) or (interior and len(star) != len(tv) + 1):
-                skip.add((v, u))     # (interior: a closed fan has as many neighbours as triangles)
+                skip.add(v * nv + u)     # (interior: a closed fan has as many neighbours as triangles)
                 continue
             # link condition: u and v share exactly two neighbours (the two opposite vertices)
             if len(common) != 2:
-                skip.add((v, u))
+                skip.add(v * nv + u)
                 continue
             if len(gone) != 2:
-                skip.add((v, u))
+                skip.add(v * nv + u)
                 continue
             sel.append((v, u, moved, gone))
             for x in star:
@@ -450,7 +453,7 @@ class _State:
         ok = self._check(sel, uv_check, exempt_flipped=not uv_check)
         for (v, u, _, _), good in zip(sel, ok):
             if not good:
-                skip.add((v, u))
+                skip.add(v * nv + u)
         return int(np.count_nonzero(ok))
 
     def _check(self, sel, uv_check: bool = True, exempt_flipped: bool = False) -> np.ndarray:
@@ -656,8 +659,8 @@ def reduce_seams(mesh: TriMesh, tolerance: float, *, tri_dev=None, max_edge: flo
         e = e[length[e] < limit]
         if not len(e):
             break
-        pairs = np.stack([seam[e], seam[e, ::-1]], axis=1).reshape(-1, 2).tolist()
-        n_round = st.round(seam, [(a, b) for a, b in pairs], 0.25 * tolerance, skip)
+        pairs = np.stack([seam[e], seam[e, ::-1]], axis=1).reshape(-1, 2)
+        n_round = st.round(seam, pairs, 0.25 * tolerance, skip)
         total += n_round
         if not n_round:
             break
@@ -687,8 +690,8 @@ def reduce_seams(mesh: TriMesh, tolerance: float, *, tri_dev=None, max_edge: flo
             if len(bad):
                 e = np.stack([st.T[bad], np.roll(st.T[bad], -1, axis=1)], axis=2).reshape(-1, 2)
                 e = e[np.argsort(np.linalg.norm(V[e[:, 0]] - V[e[:, 1]], axis=1), kind="stable")]
-                cands = np.stack([e, e[:, ::-1]], axis=1).reshape(-1, 2).tolist()
-                n_in = st.round(st.seam(), [(a, b) for a, b in cands], tolerance, skip_in, uv_check=False,
+                cands = np.stack([e, e[:, ::-1]], axis=1).reshape(-1, 2)
+                n_in = st.round(st.seam(), cands, tolerance, skip_in, uv_check=False,
                                 interior=True)
                 if n_in:
                     bad = st.flipped()
