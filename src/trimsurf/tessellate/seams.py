@@ -344,6 +344,7 @@ class _State:
         self._dirty = np.ones(len(self.T), dtype=bool)
         self.fid_list = self.fid.tolist()
         self._rows = None                   # T as lists (`rows`), kept up to date by _check and flip_edges
+        self._multi = None                  # vertices on more than one face (`seam`)
 
     def rows(self) -> list:
         """The triangles as a list of [a, b, c] (T.tolist(), converted once, changed rows updated)."""
@@ -361,16 +362,21 @@ class _State:
         """Seam edges (k, 2) of the alive triangles.
 
         Only the triangles with two corners on more than one face can hold a seam edge (and they hold
-        every triangle of such an edge): the edges of those alone, in the same (sorted) order.
+        every triangle of such an edge): the edges of those alone, in the same (sorted) order. The
+        vertices on more than one face are found once: no step adds a face to a vertex (a seam collapse
+        moves v onto u, which has both of v's faces; an interior one and a diagonal swap stay in one
+        face), so the first set holds every later one, which is all the selection needs.
         """
         t, f = self.T[self.alive], self.fid[self.alive]
-        nv = len(self.V)
-        lo = np.full(nv, np.iinfo(np.int64).max)
-        hi = np.full(nv, -1, dtype=np.int64)
-        fr = np.repeat(f, 3)
-        np.minimum.at(lo, t.ravel(), fr)
-        np.maximum.at(hi, t.ravel(), fr)
-        sel = np.count_nonzero((lo != hi)[t], axis=1) >= 2
+        if self._multi is None:
+            nv = len(self.V)
+            lo = np.full(nv, np.iinfo(np.int64).max)
+            hi = np.full(nv, -1, dtype=np.int64)
+            fr = np.repeat(f, 3)
+            np.minimum.at(lo, t.ravel(), fr)
+            np.maximum.at(hi, t.ravel(), fr)
+            self._multi = lo != hi
+        sel = np.count_nonzero(self._multi[t], axis=1) >= 2
         return _seam_graph(TriMesh(self.V, t[sel], face_id=f[sel]))
 
     def round(self, seam, cands, chord_tol, skip, uv_check: bool = True, interior: bool = False) -> int:
