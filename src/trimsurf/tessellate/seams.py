@@ -679,15 +679,12 @@ def reduce_seams(mesh: TriMesh, tolerance: float, *, tri_dev=None, max_edge: flo
             seam = st.seam()
             if not len(seam):
                 break
-            key = seam[:, 0] * len(V) + seam[:, 1]
-            cands = []
-            for t in st.T[bad].tolist():
-                for c in range(3):
-                    a, b = t[c], t[(c + 1) % 3]
-                    k = min(a, b) * len(V) + max(a, b)
-                    if np.any(key == k):
-                        cands += [(a, b), (b, a)]
-            n_round = st.round(seam, cands, tolerance, skip, uv_check=False) if cands else 0
+            # the seam edges of the flipped triangles, both ways, triangle by triangle, corner by corner
+            tb = st.T[bad]
+            ea, eb = tb.ravel(), np.roll(tb, -1, axis=1).ravel()
+            on = np.isin(np.minimum(ea, eb) * len(V) + np.maximum(ea, eb), seam[:, 0] * len(V) + seam[:, 1])
+            cands = np.stack([np.c_[ea, eb], np.c_[eb, ea]], axis=1)[on].reshape(-1, 2)
+            n_round = st.round(seam, cands, tolerance, skip, uv_check=False) if len(cands) else 0
             if n_round:
                 bad = st.flipped()
             # a flipped triangle at a corner where several faces were merged into one vertex (the
