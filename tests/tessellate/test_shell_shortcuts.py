@@ -156,3 +156,34 @@ def test_triangulate_polygon_is_mains_bit_for_bit():
                 poly.append(len(pts) - 1)
         V = np.asarray(pts)
         assert _triangulate_polygon(V, poly, [0, 1, 2]) == _triangulate_polygon_reference(V, poly, [0, 1, 2])
+
+
+def test_dev_and_against_is_the_two_separate_evaluations():
+    """One kernel call per face for both the collapse's deviation and flip tests: the same numbers as
+    evaluating the deviation's points with `surface.evaluate` and the flip test's normals per face."""
+    from trimsurf.tessellate.seams import _BARY, _dev_and_against
+
+    rng = np.random.default_rng(12)
+    faces = [TrimmedFace(_flat_surface(rng, 1, 1, 2, 2), same_sense=False),
+             TrimmedFace(_flat_surface(rng, 3, 3, 4, 4, warp=0.4), same_sense=True),
+             TrimmedFace(NurbsSurface(2, 1, [0, 0, 0, 1, 1, 1], [0, 0, 1, 1],
+                                      np.array([[[1, 0, 0], [1, 0, 2]], [[1, 1, 0], [1, 1, 2]], [[0, 1, 0], [0, 1, 2]]],
+                                               dtype=float), np.array([[1, 1], [0.7071, 0.7071], [1, 1]])))]
+    surfaces = [f.surface for f in faces]
+    m = 3000
+    face_of = rng.integers(0, len(faces), m)
+    uv3 = rng.uniform(0, 1, (m, 3, 2))
+    for f, face in enumerate(faces):
+        (u0, u1), (v0, v1) = face.surface.domain
+        uv3[face_of == f] = uv3[face_of == f] * [u1 - u0, v1 - v0] + [u0, v0]
+    x3 = np.stack([surfaces[f].evaluate(uv3[k]) for k, f in enumerate(face_of)]) + rng.normal(0, 1e-3, (m, 3, 3))
+    tn = rng.normal(size=(m, 3))
+    tn[: m // 2] = np.array([faces[f].oriented_normals(uv3[k, :1])[0] for k, f in enumerate(face_of[: m // 2])])
+    dev, against = _dev_and_against(surfaces, faces, face_of, uv3, x3, tn)
+    pts = np.einsum("bj,rjk->rbk", _BARY, uv3)
+    ref = np.einsum("bj,rjk->rbk", _BARY, x3)
+    s = np.stack([surfaces[f].evaluate(pts[k]) for k, f in enumerate(face_of)])
+    assert np.array_equal(dev, np.linalg.norm(s - ref, axis=2).max(axis=1))
+    want = _against_normal_reference(faces, face_of, uv3, tn)
+    assert 0 < want.sum() < m
+    assert np.array_equal(against, want)

@@ -226,22 +226,39 @@ def _planar_cone(surface):
     return out
 
 
+_CONES: dict = {}    # id(faces) -> (faces, its items, (nf, 3) oriented n0 per face, (nf,) flat)
+
+
+def _face_cones(faces):
+    """Per face of `faces`: its oriented flat-cone axis (`_planar_cone`) and whether it has one, built
+    once per list of faces (checked item by item)."""
+    hit = _CONES.get(id(faces))
+    if hit is not None and hit[0] is faces and len(hit[1]) == len(faces) and all(
+            x is y for x, y in zip(hit[1], faces)):
+        return hit[2], hit[3]
+    axis = np.zeros((len(faces), 3))
+    flat = np.zeros(len(faces), dtype=bool)
+    for i, face in enumerate(faces):
+        cone = None if face is None else _planar_cone(face.surface)
+        if cone is not None:
+            axis[i] = cone[0] if face.same_sense else -cone[0]
+            flat[i] = True
+    if len(_CONES) > 8:
+        _CONES.clear()
+    _CONES[id(faces)] = (faces, tuple(faces), axis, flat)
+    return axis, flat
+
+
 def _surely_along(faces, face_of, tri_normals) -> np.ndarray:
     """Per triangle: on a flat face (`_planar_cone`) and within 87 degrees of its oriented normal, so the
     surface normal the kernel computes at any point of the face is finite with a positive dot product
     with the triangle's normal or undefined: never against it (its samples need no evaluation)."""
-    out = np.zeros(len(face_of), dtype=bool)
-    for f, r in _by_face(face_of):
-        face = faces[int(f)]
-        cone = _planar_cone(face.surface)
-        if cone is None:
-            continue
-        n0 = cone[0] if face.same_sense else -cone[0]
-        t = tri_normals[r]
-        lt = np.linalg.norm(t, axis=1)
-        with np.errstate(all="ignore"):
-            out[r] = (lt > 0) & ((t @ n0) > 0.05 * lt)
-    return out
+    axis, flat = _face_cones(faces)
+    face_of = np.asarray(face_of, dtype=np.int64)
+    t = np.asarray(tri_normals, dtype=np.float64)
+    lt = np.linalg.norm(t, axis=1)
+    with np.errstate(all="ignore"):
+        return flat[face_of] & (lt > 0) & (np.einsum("ij,ij->i", t, axis[face_of]) > 0.05 * lt)
 
 
 def _against_normal(faces, face_of, uv3, tri_normals, bary=_ORIENT_BARY, corners=None):
@@ -276,6 +293,47 @@ def _against_normal(faces, face_of, uv3, tri_normals, bary=_ORIENT_BARY, corners
         dot = np.einsum("rbk,rk->rb", ns, tri_normals)
         valid = np.isfinite(dot) & (np.linalg.norm(ns, axis=2) > 0.5)
     return np.any(valid & ~(dot > 0), axis=1)
+
+
+def _dev_and_against(surfaces, faces, face_of, uv3, x3, tri_normals):
+    """(`_per_face_dev`, `_against_normal`) of the same triangles with one kernel call per face: the
+    deviation's points (S only) and the flip test's (S_u, S_v; not on flat faces, `_surely_along`)
+    in one batch of first derivatives (the kernel's S is the same with or without them)."""
+    if not len(face_of):
+        return np.empty(0), np.zeros(0, dtype=bool)
+    dpts = np.einsum("bj,rjk->rbk", _BARY, uv3)
+    npts = np.einsum("bj,rjk->rbk", _ORIENT_BARY, uv3)
+    if not (_fast(surfaces, face_of, dpts) and bool(np.isfinite(npts).all())
+            and all(faces[f].surface is surfaces[f] for f in np.unique(face_of).tolist())):
+        return _per_face_dev(surfaces, face_of, uv3, x3), _against_normal(faces, face_of, uv3, tri_normals)
+    ref = np.einsum("bj,rjk->rbk", _BARY, x3)
+    s = np.empty(ref.shape)
+    sure = _surely_along(faces, face_of, tri_normals)
+    nb, nd = npts.shape[1], dpts.shape[1]
+    su, sv, rows, neg = [], [], [], []
+    for f, r in _by_face(face_of):
+        rn = r[~sure[r]]
+        d = _derivatives(surfaces[int(f)], np.concatenate([dpts[r].reshape(-1, 2), npts[rn].reshape(-1, 2)]), 1)
+        k = nd * len(r)
+        s[r] = d[0, 0][:k].reshape(len(r), nd, 3)
+        if len(rn):
+            su.append(d[1, 0][k:])
+            sv.append(d[0, 1][k:])
+            rows.append(rn)
+            neg.append(np.full(len(rn) * nb, not faces[int(f)].same_sense))
+    dev = np.linalg.norm(s - ref, axis=2).max(axis=1)
+    against = np.zeros(len(face_of), dtype=bool)
+    if rows:
+        n = unit_normals(np.concatenate(su), np.concatenate(sv))
+        flip = np.concatenate(neg)
+        n[flip] = -n[flip]
+        rows = np.concatenate(rows)
+        ns = n.reshape(len(rows), nb, 3)
+        with np.errstate(all="ignore"):
+            dot = np.einsum("rbk,rk->rb", ns, tri_normals[rows])
+            valid = np.isfinite(dot) & (np.linalg.norm(ns, axis=2) > 0.5)
+        against[rows] = np.any(valid & ~(dot > 0), axis=1)
+    return dev, against
 
 
 def _close(x, y) -> bool:
@@ -515,13 +573,15 @@ class _State:
             nosrc |= ~np.all(np.abs(uv_v_src - uv_v) <= 1e-8 + 1e-5 * np.abs(uv_v), axis=1)
             fail |= nosrc
             new_uv = np.where(at_v[..., None], uv_u_src[:, None, :], cuv[mi])
-            new_dev = _per_face_dev(self.surfaces, fid[mi], new_uv, V[newt])
+            if self.faces is not None:
+                new_dev, against = _dev_and_against(self.surfaces, self.faces, fid[mi], new_uv, V[newt], new)
+            else:
+                new_dev, against = _per_face_dev(self.surfaces, fid[mi], new_uv, V[newt]), False
             # no triangle may turn over in its face's (u, v) domain ...
             if uv_check:
                 fail |= np.sign(_uv_area(new_uv)) != np.sign(_uv_area(cuv[mi]))
             # ... nor against the oriented surface normal in 3D (what `measure` counts as flipped)
-            if self.faces is not None:
-                fail |= _against_normal(self.faces, fid[mi], new_uv, new)
+            fail |= against
         fail |= ~(new_dev <= self.tolerance)
         bad[ci[fail]] = True
         ok = ~bad
