@@ -138,7 +138,8 @@ def _oriented_normals(faces, face_of, pts, corner_key=None) -> np.ndarray:
     """`faces[f].oriented_normals` at the points `pts` (p, 2) of faces `face_of` (p,), in one batch.
 
     The same kernel and arithmetic per point as the public method (so the same values). With
-    `corner_key` (p,) int64 (-1: none), points with one key and bit-equal parameters are evaluated once.
+    `corner_key` (p,) int64 (-1: none), a vertex id: points of one vertex on one face with bit-equal
+    parameters are evaluated once.
     """
     out = np.empty((len(pts), 3))
     if not len(pts):
@@ -150,13 +151,19 @@ def _oriented_normals(faces, face_of, pts, corner_key=None) -> np.ndarray:
         return out
     src = np.arange(len(pts))
     if corner_key is not None:
-        has = np.flatnonzero(corner_key >= 0)
-        if len(has):
-            _, first, inv = np.unique(corner_key[has], return_index=True, return_inverse=True)
-            rep = has[first][inv.ravel()]
+        pending = np.flatnonzero(corner_key >= 0)
+        if len(pending):
+            # per vertex one representative among the pending points; those on its face with its
+            # parameters take its value; the others (another face, a periodic seam) wait for the next
             bits = np.ascontiguousarray(pts).view(np.int64)
-            same = (bits[rep] == bits[has]).all(axis=1)
-            src[has[same]] = rep[same]
+            first = np.full(int(corner_key.max()) + 1, -1, dtype=np.int64)
+            while len(pending):
+                kv = corner_key[pending]
+                first[kv] = pending
+                rep = first[kv]
+                same = (face_of[rep] == face_of[pending]) & (bits[rep] == bits[pending]).all(axis=1)
+                src[pending[same]] = rep[same]
+                pending = pending[~same]
     ev = np.flatnonzero(src == np.arange(len(pts)))
     su, sv = [], []
     groups = _by_face(face_of[ev])
@@ -283,9 +290,8 @@ def _against_normal(faces, face_of, uv3, tri_normals, bary=_ORIENT_BARY, corners
     pts = np.einsum("bj,rjk->rbk", bary, uv3)
     key = None
     if corners is not None and bary is _ORIENT_BARY:
-        nf = int(face_of.max()) + 1
         key = np.full(pts.shape[:2], -1, dtype=np.int64)
-        key[:, 1:] = corners * nf + face_of[:, None]
+        key[:, 1:] = corners
         key = key.ravel()
     with np.errstate(all="ignore"):
         ns = _oriented_normals(faces, np.repeat(face_of, pts.shape[1]), pts.reshape(-1, 2),
