@@ -250,7 +250,7 @@ def _face_cones(faces):
         if cone is not None:
             axis[i] = cone[0] if face.same_sense else -cone[0]
             flat[i] = True
-    if len(_CONES) > 8:
+    if len(_CONES) >= 2:        # (it keeps its faces alive: a batch of shells must not pile up)
         _CONES.clear()
     _CONES[id(faces)] = (faces, tuple(faces), axis, flat)
     return axis, flat
