@@ -409,6 +409,7 @@ class _State:
         self.fid_list = self.fid.tolist()
         self._rows = None                   # T as lists (`rows`), kept up to date by _check and flip_edges
         self._multi = None                  # vertices on more than one face (`seam`)
+        self._stri = None                   # triangles with two such corners (`seam`)
 
     def rows(self) -> list:
         """The triangles as a list of [a, b, c] (T.tolist(), converted once, changed rows updated)."""
@@ -417,10 +418,13 @@ class _State:
         return self._rows
 
     def _set_rows(self, idx) -> None:
+        """Rows `idx` of T changed: update their lists (`rows`) and seam-triangle flags (`seam`)."""
+        idx = np.asarray(idx, dtype=np.int64)
         if self._rows is not None:
-            idx = np.asarray(idx, dtype=np.int64)
             for k, r in zip(idx.tolist(), self.T[idx].tolist()):
                 self._rows[k] = r
+        if self._stri is not None and len(idx):
+            self._stri[idx] = np.count_nonzero(self._multi[self.T[idx]], axis=1) >= 2
 
     def seam(self):
         """Seam edges (k, 2) of the alive triangles.
@@ -431,8 +435,8 @@ class _State:
         moves v onto u, which has both of v's faces; an interior one and a diagonal swap stay in one
         face), so the first set holds every later one, which is all the selection needs.
         """
-        t, f = self.T[self.alive], self.fid[self.alive]
         if self._multi is None:
+            t, f = self.T[self.alive], self.fid[self.alive]
             nv = len(self.V)
             lo = np.full(nv, np.iinfo(np.int64).max)
             hi = np.full(nv, -1, dtype=np.int64)
@@ -440,8 +444,10 @@ class _State:
             np.minimum.at(lo, t.ravel(), fr)
             np.maximum.at(hi, t.ravel(), fr)
             self._multi = lo != hi
-        sel = np.count_nonzero(self._multi[t], axis=1) >= 2
-        return _seam_graph(TriMesh(self.V, t[sel], face_id=f[sel]))
+            # per triangle (kept up to date by `_set_rows`): two corners on more than one face
+            self._stri = np.count_nonzero(self._multi[self.T], axis=1) >= 2
+        idx = np.flatnonzero(self.alive & self._stri)
+        return _seam_graph(TriMesh(self.V, self.T[idx], face_id=self.fid[idx]))
 
     def round(self, seam, cands, chord_tol, skip, uv_check: bool = True, interior: bool = False) -> int:
         """Try the directed collapses `cands` (v into u, in order) whose stars do not overlap; apply the good.
@@ -458,11 +464,9 @@ class _State:
         """
         V, T, fid, alive = self.V, self.T, self.fid, self.alive
         nv = len(V)
-        deg = np.bincount(seam.ravel(), minlength=nv)
-        # the two seam neighbours of every degree-2 seam vertex
+        # the two seam neighbours of every degree-2 seam vertex (both ways, by first vertex)
         both = np.r_[seam, seam[:, ::-1]]
         both = both[np.argsort(both[:, 0], kind="stable")]
-        first = np.searchsorted(both[:, 0], np.arange(nv))
         Tl = self.rows()
         fl = self.fid_list
         # the cheap tests of every candidate at once: v on the seam between two neighbours, u one of
@@ -471,11 +475,13 @@ class _State:
         if skip and len(c):
             c = c[~np.isin(c[:, 0] * nv + c[:, 1], np.fromiter(skip, dtype=np.int64, count=len(skip)))]
         cv, cu = c[:, 0], c[:, 1]
+        first = np.searchsorted(both[:, 0], cv)                               # v's first seam edge
+        deg = np.searchsorted(both[:, 0], cv, side="right") - first           # v's seam degree
         if interior:
-            ok = deg[cv] == 0
+            ok = deg == 0
         else:
-            ok = deg[cv] == 2
-            f = np.where(ok, first[cv], 0)
+            ok = deg == 2
+            f = np.where(ok, first, 0)
             n0 = both[np.minimum(f, len(both) - 1), 1]
             n1 = both[np.minimum(f + 1, len(both) - 1), 1]
             ok &= (cu == n0) | (cu == n1)
@@ -495,7 +501,11 @@ class _State:
         ia = ia[need[T[ia]].any(axis=1)]
         flat = T[ia].ravel()
         order = np.argsort(flat, kind="stable")
-        vstart = np.searchsorted(flat[order], np.arange(nv + 1)).tolist()
+        # the CSR starts of the needed vertices v and ends (as starts of v + 1) only
+        nvtx = np.flatnonzero(need)
+        sf = flat[order]
+        vstart = dict(zip(nvtx.tolist(), np.searchsorted(sf, nvtx).tolist()))
+        vstart.update(zip((nvtx + 1).tolist(), np.searchsorted(sf, nvtx, side="right").tolist()))
         vtri = ia[order // 3].tolist()
         locked = bytearray(nv)
         sel = []        # (v, u, moved, gone)
