@@ -7,7 +7,8 @@ assemble (`_assemble_conforming`), seams (`reduce_seams`), stitch (`stitch_mesh`
 `merge_face_meshes`, holding its own stitch and seams), orient, to_trimesh (the face meshes handed back)
 and rest: the total minus every outermost stage (FaceStatus and report building, parallel_map, mode
 detection). A nested stage counts in its caller too; `shell` sums the shell-level columns (outermost
-only) and rest; the row is the run with the smallest `shell`. Compare two versions by running this file with each on PYTHONPATH:
+only) and rest; the row is the run with the smallest `shell`. Compare two versions by running this
+file with each on PYTHONPATH:
 
     PYTHONPATH=src python benchmarks/tessellate_shell_stages.py --models featuretype,t20,screw,U_Joint,bearing
     PYTHONPATH=src python benchmarks/tessellate_shell_stages.py --mode paper
