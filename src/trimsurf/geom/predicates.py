@@ -114,23 +114,27 @@ def points_in_polygons(points, polygons, *, chunk_size: int = 1 << 22) -> np.nda
 
 
 @njit(cache=True, nogil=True)
+def _point_in_index(x, y, a, b, y0, h, n_slab, start, edges):
+    """Whether (x, y) lies inside the polygons of a `PolygonIndex` (its arrays), even-odd rule."""
+    if not y >= y0:          # below every edge (or NaN): no crossing
+        return False
+    # the same monotone expression as the edges' slabs: an edge with ylo <= y < yhi is in slab k
+    k = min(int((y - y0) / h), n_slab - 1)
+    c = 0
+    for j in range(start[k], start[k + 1]):
+        e = edges[j]
+        ay, by = a[e, 1], b[e, 1]
+        if (ay > y) != (by > y):
+            xc = a[e, 0] + (y - ay) * (b[e, 0] - a[e, 0]) / (by - ay)
+            if x < xc:
+                c += 1
+    return c % 2 == 1
+
+
+@njit(cache=True, nogil=True)
 def _points_in_polygons_kernel(pts, a, b, y0, h, n_slab, start, edges, inside):
     for i in range(pts.shape[0]):
-        x, y = pts[i, 0], pts[i, 1]
-        if not y >= y0:          # below every edge (or NaN): no crossing
-            inside[i] = False
-            continue
-        # the same monotone expression as the edges' slabs: an edge with ylo <= y < yhi is in slab k
-        k = min(int((y - y0) / h), n_slab - 1)
-        c = 0
-        for j in range(start[k], start[k + 1]):
-            e = edges[j]
-            ay, by = a[e, 1], b[e, 1]
-            if (ay > y) != (by > y):
-                xc = a[e, 0] + (y - ay) * (b[e, 0] - a[e, 0]) / (by - ay)
-                if x < xc:
-                    c += 1
-        inside[i] = c % 2 == 1
+        inside[i] = _point_in_index(pts[i, 0], pts[i, 1], a, b, y0, h, n_slab, start, edges)
 
 
 def segment_intersections(p0, p1, q0, q1) -> np.ndarray:

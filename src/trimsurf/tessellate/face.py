@@ -857,7 +857,11 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
     dt = triangulate_domain(us, vs, polys, split=split, tie_main=prefer)
     xyz = lift(dt)
     known = _TriangleDeviations(s)
-    if tol is not None:
+    # a plane: a triangle with its corners on it lies in it, its deviation is its corners' offsets at most
+    # (a trim point off the surface), which the interior points of the rounds below never remove: skip them
+    plane_delta = _plane_offset(s, tol)
+    dev = None                  # `known.deviation` of dt.triangles, once computed
+    if tol is not None and plane_delta is None:
         # the CDT of a crossed cell cuts it other than the cell splits refine_cells checked: where one
         # of its triangles leaves the tolerance, its centroid joins the CDT (an interior point, so the
         # trim polygons, shared with the neighbours, stay as they are)
@@ -876,6 +880,7 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
             n_before = len(dt.uv)
             dt = triangulate_domain(us, vs, polys, split=split, extra=extra, tie_main=prefer)
             xyz = lift(dt)
+            dev = None
             if len(dt.uv) == n_before:
                 break
     n_trim = dt.n_trim
@@ -883,6 +888,7 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
     vid[:n_trim] = np.concatenate(vids)
     tris = dt.triangles if face.same_sense else dt.triangles[:, ::-1]
     quads = dt.quads
+    kept = None
     if tol is not None and slivers:
         # boundary-only reduction of thin triangles (grid nodes next to the trim); trim points stay
         fixed = (dt.grid_node < 0) | (np.arange(len(dt.uv)) < n_trim)
@@ -890,35 +896,90 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
                                                max_edge=max_edge)
         quads = kept[quads] if len(quads) else quads
         quads = quads[(quads >= 0).all(axis=1)] if len(quads) else quads
-    return FaceMesh(dt.uv, xyz, np.ascontiguousarray(tris), vid, quads, us, vs, dt.n_crossed_cells,
-                    known.deviation(dt.uv, xyz, tris), removed)
+    tris = np.ascontiguousarray(tris)
+    if plane_delta is not None:
+        # the exact bound: a point of the triangle is the same combination of its corners, each within its
+        # offset |S(uv) - x| of the plane (0 for the lifted points), and the surface within plane_delta of it
+        off = np.zeros(len(dt.uv))
+        off[:n_trim] = np.linalg.norm(s.evaluate(dt.uv[:n_trim]) - trim_xyz, axis=1)
+        tri_dev = off[tris].max(axis=1) + plane_delta if len(tris) else np.zeros(0)
+    else:
+        # the sampled bound of every triangle in the (u, v) orientation of the triangulation: what the rounds
+        # computed is taken over (the triangles the slivers' collapse kept), the rest computed
+        if dev is None:
+            dev = known.deviation(dt.uv, xyz, dt.triangles)
+        if kept is None:
+            tri_dev = dev.copy()
+        else:
+            tri_dev = np.full(len(tris), np.nan)
+            src = np.flatnonzero(kept >= 0)
+            tri_dev[kept[src]] = dev[src]
+            new = np.flatnonzero(np.isnan(tri_dev))
+            if len(new):
+                t_new = tris[new] if face.same_sense else tris[new][:, ::-1]
+                tri_dev[new] = triangle_deviation(s, dt.uv, xyz, np.ascontiguousarray(t_new))
+    return FaceMesh(dt.uv, xyz, tris, vid, quads, us, vs, dt.n_crossed_cells, tri_dev, removed)
+
+
+def _plane_offset(surface, tolerance: float | None) -> float | None:
+    """How far the surface's control points lie from their best-fitting plane, when that is negligible
+    (at most 1e-9 of the control net's size and 1e-3 of the tolerance; positive weights): then the
+    surface, in the convex hull of its control points, lies within that distance of the plane. None
+    for a curved surface."""
+    p = surface.control_points.reshape(-1, 3)
+    w = surface.weights
+    if w is not None and not np.all(w > 0):
+        return None
+    c = p.mean(axis=0)
+    q = p - c
+    size = float(np.abs(q).max())
+    if not np.isfinite(size):
+        return None
+    if size == 0.0:
+        return 0.0
+    normal = np.linalg.svd(q, full_matrices=False)[2][-1]
+    delta = float(np.abs(q @ normal).max())
+    limit = 1e-9 * size if tolerance is None else min(1e-9 * size, 1e-3 * tolerance)
+    return delta if delta <= limit else None
 
 
 class _TriangleDeviations:
     """`triangle_deviation` of one face's triangulations, each triangle computed once: the rounds that
-    add interior points re-triangulate the face but keep most triangles, and the slivers' collapse keeps
-    most of the last ones. A triangle is known by its corners' (u, v) and points in order; its
-    deviation depends on nothing else."""
+    add interior points re-triangulate the face but keep most triangles. A triangle is known by its
+    corners' (u, v) and points in order; its deviation depends on nothing else. The first call only
+    keeps its arrays (most faces need one round): their keys are made when a second call comes."""
 
     def __init__(self, surface):
         self.surface = surface
         self.values: dict = {}
+        self._pending = None
+
+    @staticmethod
+    def _keys(uv, xyz, triangles) -> list:
+        m = len(triangles)
+        keys = np.ascontiguousarray(np.concatenate([uv[triangles].reshape(m, 6), xyz[triangles].reshape(m, 9)],
+                                                   axis=1))
+        return keys.view(np.dtype((np.void, 15 * 8))).ravel().tolist()
 
     def deviation(self, uv: np.ndarray, xyz: np.ndarray, triangles: np.ndarray) -> np.ndarray:
         m = len(triangles)
         if not m:
             return np.zeros(0)
-        keys = np.ascontiguousarray(np.concatenate([uv[triangles].reshape(m, 6), xyz[triangles].reshape(m, 9)],
-                                                   axis=1))
-        keys = keys.view(np.dtype((np.void, 15 * 8))).ravel().tolist()
+        if not self.values and self._pending is None:
+            out = triangle_deviation(self.surface, uv, xyz, triangles)
+            self._pending = (uv, xyz, triangles, out)
+            return out
+        if self._pending is not None:
+            puv, pxyz, ptri, pout = self._pending
+            self._pending = None
+            self.values.update(zip(self._keys(puv, pxyz, ptri), pout.tolist()))
+        keys = self._keys(uv, xyz, triangles)
         out = np.array([self.values.get(k, np.nan) for k in keys])
         new = np.flatnonzero(np.isnan(out))
         if len(new):
             out[new] = triangle_deviation(self.surface, uv, xyz, triangles[new])
             self.values.update(zip([keys[i] for i in new], out[new].tolist()))
         return out
-
-
 
 
 def surface_distance(surface, uv: np.ndarray, x: np.ndarray, steps: int = 2) -> np.ndarray:

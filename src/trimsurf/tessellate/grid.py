@@ -20,7 +20,7 @@ import triangle as tr
 from numba import njit
 
 from ..errors import TrimLoopError
-from ..geom.predicates import PolygonIndex, points_in_polygons
+from ..geom.predicates import PolygonIndex, _point_in_index
 from .pslg import clean_pslg
 
 __all__ = ["outcodes", "cohen_sutherland_cells", "DomainTriangulation", "triangulate_domain"]
@@ -281,6 +281,127 @@ def _crossed_cells_kernel(p0, p1, us, vs, i0, i1, j0, j1, crossed):
                         cb = _outcode(bx, by, lx, ly, hx, hy)
 
 
+@njit(cache=True, nogil=True)
+def _keep_cells_kernel(us, vs, crossed, a, b, y0, h, n_slab, start, edges, keep):
+    """keep[i, j]: cell (i, j) is not crossed and its centre lies inside the polygons (a `PolygonIndex`)."""
+    for i in range(us.shape[0] - 1):
+        cx = 0.5 * (us[i] + us[i + 1])
+        for j in range(vs.shape[0] - 1):
+            if not crossed[i, j]:
+                keep[i, j] = _point_in_index(cx, 0.5 * (vs[j] + vs[j + 1]), a, b, y0, h, n_slab, start, edges)
+
+
+@njit(cache=True, nogil=True)
+def _grid_nodes_kernel(pts, us, vs, crossed, keep, ki, kj, main):
+    """The grid nodes at crossed or kept cells (strictly increasing us, vs): (uv, grid node) of those not
+    equal to a trim point, in flat order, the grid node of each trim point (-1 or the node it equals, for
+    the first of equal trim points), and the kept cells' two triangles (first triangles, then second)."""
+    nu, nv = us.shape[0], vs.shape[0]
+    n_trim = pts.shape[0]
+    node_trim = np.full(nu * nv, -1, dtype=np.int64)
+    for t in range(n_trim):
+        iu = np.searchsorted(us, pts[t, 0])
+        jv = np.searchsorted(vs, pts[t, 1])
+        if iu < nu and jv < nv and us[iu] == pts[t, 0] and vs[jv] == pts[t, 1]:
+            f = iu * nv + jv
+            if node_trim[f] < 0:
+                node_trim[f] = t
+    node_vertex = np.full(nu * nv, -1, dtype=np.int64)
+    trim_gn = np.full(n_trim, -1, dtype=np.int64)
+    n_used = 0
+    for i in range(nu):
+        for j in range(nv):
+            used = False
+            for ci in range(max(i - 1, 0), min(i, nu - 2) + 1):
+                for cj in range(max(j - 1, 0), min(j, nv - 2) + 1):
+                    if crossed[ci, cj] or keep[ci, cj]:
+                        used = True
+            if used:
+                node_vertex[i * nv + j] = -2
+                n_used += 1
+    node_uv = np.empty((n_used, 2))
+    node_gn = np.empty(n_used, dtype=np.int64)
+    k = 0
+    for f in range(nu * nv):
+        if node_vertex[f] != -2:
+            continue
+        t = node_trim[f]
+        if t >= 0:
+            node_vertex[f] = t
+            trim_gn[t] = f
+        else:
+            node_vertex[f] = n_trim + k
+            node_uv[k, 0] = us[f // nv]
+            node_uv[k, 1] = vs[f % nv]
+            node_gn[k] = f
+            k += 1
+    nq = ki.shape[0]
+    tris = np.empty((2 * nq, 3), dtype=np.int64)
+    for q in range(nq):
+        i, j = ki[q], kj[q]
+        v00 = node_vertex[i * nv + j]
+        v10 = node_vertex[(i + 1) * nv + j]
+        v11 = node_vertex[(i + 1) * nv + j + 1]
+        v01 = node_vertex[i * nv + j + 1]
+        if main[q]:
+            tris[q, 0], tris[q, 1], tris[q, 2] = v00, v10, v11
+            tris[nq + q, 0], tris[nq + q, 1], tris[nq + q, 2] = v00, v11, v01
+        else:
+            tris[q, 0], tris[q, 1], tris[q, 2] = v00, v10, v01
+            tris[nq + q, 0], tris[nq + q, 1], tris[nq + q, 2] = v10, v11, v01
+    return node_uv[:k], node_gn[:k], trim_gn, tris
+
+
+def _grid_nodes_numpy(pts, us, vs, crossed, keep_cell, ki, kj, main):
+    """`_grid_nodes_kernel` for any grid values (equal ones too), the reference of the kernel:
+    (uv, grid_node, grid triangles)."""
+    nu, nv = len(us), len(vs)
+    n_trim = len(pts)
+    node_used = np.zeros((nu, nv), dtype=bool)
+    for di in (0, 1):
+        for dj in (0, 1):
+            node_used[di:nu - 1 + di, dj:nv - 1 + dj] |= crossed | keep_cell
+    node_flat = np.flatnonzero(node_used.ravel())
+    gi, gj = node_flat // nv, node_flat % nv
+    node_uv = np.column_stack([us[gi], vs[gj]])
+    # merge grid nodes that coincide exactly with trim points
+    all_uv = np.concatenate([pts, node_uv])
+    # representative index: trim points keep their index; a node equal to a trim point maps to it
+    idx_of = _first_equal(all_uv)                         # index into all_uv of each point's representative
+    # compact vertex list: trim points first (all kept), then nodes not merged
+    is_node = np.arange(len(all_uv)) >= n_trim
+    node_kept = is_node & (idx_of == np.arange(len(all_uv)))
+    new_index = np.full(len(all_uv), -1, dtype=np.int64)
+    new_index[:n_trim] = np.arange(n_trim)
+    new_index[node_kept] = n_trim + np.arange(int(node_kept.sum()))
+    vmap = new_index[idx_of]                              # all_uv index -> vertex index
+    uv = np.concatenate([pts, node_uv[node_kept[n_trim:]]])
+    grid_node = np.full(len(uv), -1, dtype=np.int64)
+    grid_node[vmap[n_trim:]] = node_flat
+    node_vertex = np.full(nu * nv, -1, dtype=np.int64)
+    node_vertex[node_flat] = vmap[n_trim:]
+    v00 = node_vertex[ki * nv + kj]
+    v10 = node_vertex[(ki + 1) * nv + kj]
+    v11 = node_vertex[(ki + 1) * nv + kj + 1]
+    v01 = node_vertex[ki * nv + kj + 1]
+    t1 = np.where(main[:, None], np.column_stack([v00, v10, v11]), np.column_stack([v00, v10, v01]))
+    t2 = np.where(main[:, None], np.column_stack([v00, v11, v01]), np.column_stack([v10, v11, v01]))
+    return uv, grid_node, np.concatenate([t1, t2]).reshape(-1, 3).astype(np.int64)
+
+
+@njit(cache=True, nogil=True)
+def _cdt_keep_kernel(uv, tri, us, vs, crossed, a, b, y0, h, n_slab, start, edges, ok):
+    """ok[k]: triangle k's centroid (the mean of its corners) lies in a crossed cell and inside the polygons."""
+    nu, nv = us.shape[0], vs.shape[0]
+    for k in range(tri.shape[0]):
+        p, q, r = tri[k, 0], tri[k, 1], tri[k, 2]
+        cx = (uv[p, 0] + uv[q, 0] + uv[r, 0]) / 3.0
+        cy = (uv[p, 1] + uv[q, 1] + uv[r, 1]) / 3.0
+        ti = min(max(np.searchsorted(us, cx) - 1, 0), nu - 2)
+        tj = min(max(np.searchsorted(vs, cy) - 1, 0), nv - 2)
+        ok[k] = crossed[ti, tj] and _point_in_index(cx, cy, a, b, y0, h, n_slab, start, edges)
+
+
 @dataclass(eq=False)
 class DomainTriangulation:
     """A triangulation of the trimmed region in (u, v).
@@ -360,9 +481,10 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
     pts = np.concatenate(polys)
     n_trim = len(pts)
     index = PolygonIndex(polys)
-    starts = np.cumsum([0] + [len(p) for p in polys])
-    seg_a = np.concatenate([np.arange(a, b) for a, b in zip(starts[:-1], starts[1:])])
-    seg_b = np.concatenate([np.r_[np.arange(a + 1, b), a] for a, b in zip(starts[:-1], starts[1:])])
+    lens = np.array([len(p) for p in polys], dtype=np.int64)
+    seg_a = np.arange(n_trim)
+    seg_b = seg_a + 1
+    seg_b[np.cumsum(lens) - 1] = np.cumsum(lens) - lens          # each polygon closes on its first point
     # 1. Cohen-Sutherland: which cells each trim segment meets
     crossed = _crossed_cells(pts[seg_a], pts[seg_b], us, vs)
     if extra is not None and len(extra):
@@ -373,53 +495,28 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
         ok = (ei >= 0) & (ei < nu - 1) & (ej >= 0) & (ej < nv - 1) & ~_is_in(e[:, 0], us) & ~_is_in(e[:, 1], vs)
         crossed[ei[ok], ej[ok]] = True
     # 2. untouched cells inside the trim: centre inside
-    ci, cj = np.meshgrid(np.arange(nu - 1), np.arange(nv - 1), indexing="ij")
-    centre = np.column_stack([0.5 * (us[ci.ravel()] + us[ci.ravel() + 1]), 0.5 * (vs[cj.ravel()] + vs[cj.ravel() + 1])])
-    free = ~crossed.ravel()
-    inside = np.zeros(len(centre), dtype=bool)
-    if free.any():
-        inside[free] = points_in_polygons(centre[free], index)
-    keep_cell = (free & inside).reshape(nu - 1, nv - 1)
-    # grid nodes used: corners of crossed or kept cells
-    node_used = np.zeros((nu, nv), dtype=bool)
-    for di in (0, 1):
-        for dj in (0, 1):
-            node_used[di:nu - 1 + di, dj:nv - 1 + dj] |= crossed | keep_cell
-    node_flat = np.flatnonzero(node_used.ravel())
-    gi, gj = node_flat // nv, node_flat % nv
-    node_uv = np.column_stack([us[gi], vs[gj]])
-    # merge grid nodes that coincide exactly with trim points
-    all_uv = np.concatenate([pts, node_uv])
-    # representative index: trim points keep their index; a node equal to a trim point maps to it
-    idx_of = _first_equal(all_uv)                         # index into all_uv of each point's representative
-    # compact vertex list: trim points first (all kept), then nodes not merged
-    is_node = np.arange(len(all_uv)) >= n_trim
-    node_kept = is_node & (idx_of == np.arange(len(all_uv)))
-    new_index = np.full(len(all_uv), -1, dtype=np.int64)
-    new_index[:n_trim] = np.arange(n_trim)
-    new_index[node_kept] = n_trim + np.arange(int(node_kept.sum()))
-    vmap = new_index[idx_of]                              # all_uv index -> vertex index
-    uv = np.concatenate([pts, node_uv[node_kept[n_trim:]]])
-    grid_node = np.full(len(uv), -1, dtype=np.int64)
-    grid_node[vmap[n_trim:]] = node_flat
-    node_vertex = np.full(nu * nv, -1, dtype=np.int64)
-    node_vertex[node_flat] = vmap[n_trim:]
-    # 3. untouched cells: two triangles along the best diagonal (or a quad)
+    keep_cell = np.zeros_like(crossed)
+    _keep_cells_kernel(us, vs, crossed, index.a, index.b, index.y0, index.h, index.n_slab, index.start,
+                       index.edges, keep_cell)
     ki, kj = np.nonzero(keep_cell)
-    v00 = node_vertex[ki * nv + kj]
-    v10 = node_vertex[(ki + 1) * nv + kj]
-    v11 = node_vertex[(ki + 1) * nv + kj + 1]
-    v01 = node_vertex[ki * nv + kj + 1]
     main = np.ones(len(ki), dtype=bool) if split is None or not len(ki) else np.asarray(split(ki, kj), dtype=bool)
-    t1 = np.where(main[:, None], np.column_stack([v00, v10, v11]), np.column_stack([v00, v10, v01]))
-    t2 = np.where(main[:, None], np.column_stack([v00, v11, v01]), np.column_stack([v10, v11, v01]))
-    grid_tris = np.concatenate([t1, t2])
+    # grid nodes used (corners of crossed or kept cells), a node equal to a trim point merged into the first
+    # such point; 3. untouched cells: two triangles along the best diagonal (or a quad)
+    vmap = _first_equal(pts)                              # trim point -> the first trim point equal to it
+    if np.all(us[1:] > us[:-1]) and np.all(vs[1:] > vs[:-1]):
+        node_uv, node_gn, trim_gn, grid_tris = _grid_nodes_kernel(
+            np.ascontiguousarray(pts), us, vs, crossed, keep_cell, ki.astype(np.int64), kj.astype(np.int64),
+            np.ascontiguousarray(main))
+        uv = np.concatenate([pts, node_uv])
+        grid_node = np.concatenate([trim_gn, node_gn])
+    else:
+        uv, grid_node, grid_tris = _grid_nodes_numpy(pts, us, vs, crossed, keep_cell, ki, kj, main)
     nq = len(ki)
     quads = np.column_stack([np.arange(nq), nq + np.arange(nq)])
     # 4. crossed cells: one constrained Delaunay triangulation of their sides and the trim segments
     cdt_tris = np.zeros((0, 3), dtype=np.int64)
     if crossed.any():
-        segs = [np.column_stack([vmap[seg_a], vmap[seg_b]])]
+        segs = [np.column_stack([vmap[seg_a], vmap[seg_b]])]          # trim points: vmap their own
         # cell sides of crossed cells, split at every vertex lying exactly on them
         segs.append(_side_segments(uv, us, vs, crossed))
         seg = np.concatenate(segs)
@@ -480,11 +577,10 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
             uv = np.concatenate([uv, out_v[new_rows]])
             grid_node = np.r_[grid_node, np.full(n_new, -1, dtype=np.int64)]
         tri = glob[out_t]
-        cen = uv[tri].mean(axis=1)
-        ti = np.clip(np.searchsorted(us, cen[:, 0]) - 1, 0, nu - 2)
-        tj = np.clip(np.searchsorted(vs, cen[:, 1]) - 1, 0, nv - 2)
-        ok = crossed[ti, tj]
-        ok[ok] = points_in_polygons(cen[ok], index)
+        # the triangles whose centroid lies in a crossed cell and inside the trim
+        ok = np.zeros(len(tri), dtype=np.bool_)
+        _cdt_keep_kernel(uv, tri, us, vs, crossed, index.a, index.b, index.y0, index.h, index.n_slab,
+                         index.start, index.edges, ok)
         cdt_tris = tri[ok]
     flat = (grid_tris[:, 0] == grid_tris[:, 1]) | (grid_tris[:, 1] == grid_tris[:, 2]) | (grid_tris[:, 0] == grid_tris[:, 2])
     if flat.any():          # a cell narrower than SNAP lost a corner: its triangles go, and the quad
