@@ -922,23 +922,31 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
 
 
 def _plane_offset(surface, tolerance: float | None) -> float | None:
-    """How far the surface's control points lie from their best-fitting plane, when that is negligible
-    (at most 1e-9 of the control net's size and 1e-3 of the tolerance; positive weights): then the
-    surface, in the convex hull of its control points, lies within that distance of the plane. None
-    for a curved surface."""
-    p = surface.control_points.reshape(-1, 3)
+    """How far the surface's control points lie from a plane, when that is negligible (at most 1e-9 of
+    the control net's size and 1e-3 of the tolerance; positive weights): then the surface, in the convex
+    hull of its control points, lies within that distance of the plane. None for a curved surface."""
     w = surface.weights
-    if w is not None and not np.all(w > 0):
+    if w is not None and not w.min() > 0:
         return None
-    c = p.mean(axis=0)
-    q = p - c
-    size = float(np.abs(q).max())
-    if not np.isfinite(size):
-        return None
-    if size == 0.0:
-        return 0.0
-    normal = np.linalg.svd(q, full_matrices=False)[2][-1]
-    delta = float(np.abs(q @ normal).max())
+    cp = surface.control_points
+    (a0, a1, a2), (b0, b1, b2) = (cp[-1, -1] - cp[0, 0]).tolist(), (cp[-1, 0] - cp[0, -1]).tolist()
+    # the normal of the control net's diagonals (else, a degenerate net, of the best-fitting plane); the
+    # plane with this normal halfway between the extreme control points
+    n = (a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0)
+    ln2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2]
+    s2 = max(a0 * a0 + a1 * a1 + a2 * a2, b0 * b0 + b1 * b1 + b2 * b2)
+    p = cp.reshape(-1, 3)
+    if ln2 > 1e-12 * s2 * s2:
+        size = float(np.sqrt(s2))
+        normal = np.array(n) / np.sqrt(ln2)
+    else:
+        q = p - p.mean(axis=0)
+        size = float(np.abs(q).max())
+        if not size > 0:
+            return 0.0 if size == 0.0 else None
+        normal = np.linalg.svd(q, full_matrices=False)[2][-1]
+    dist = p @ normal
+    delta = 0.5 * float(np.ptp(dist))
     limit = 1e-9 * size if tolerance is None else min(1e-9 * size, 1e-3 * tolerance)
     return delta if delta <= limit else None
 

@@ -88,12 +88,12 @@ def collapse_boundary_slivers(surface, uv: np.ndarray, xyz: np.ndarray, triangle
         idx = np.flatnonzero(alive)
         if not len(idx):
             break
-        P = xyz[T[idx]]
-        ang = _min_angles_deg(P)
-        thin_m = ang < min_angle_deg
+        # candidates: triangles with trim and inner vertices, thin (their angles only: per triangle the same)
         tt = is_trim[T[idx]]
-        thin_m &= tt.any(axis=1) & ~tt.all(axis=1)
-        thin, thin_ang = idx[thin_m], ang[thin_m]
+        mixed = idx[tt.any(axis=1) & ~tt.all(axis=1)]
+        ang = _min_angles_deg(xyz[T[mixed]])
+        thin_m = ang < min_angle_deg
+        thin, thin_ang = mixed[thin_m], ang[thin_m]
         if not len(thin):
             break
         # per thin triangle the shortest edge from an inner vertex to a trim vertex
@@ -161,14 +161,19 @@ def _check(surface, uv, xyz, T, sel, sgn, tolerance, max_edge) -> np.ndarray:
     fail = _uv_area(uv, newt) * sgn <= 0
     pn = xyz[newt]
     fail |= np.linalg.norm(pn - np.roll(pn, 1, axis=1), axis=2).max(axis=1) > max_edge
-    tuv = np.einsum("bk,mkd->mbd", _BARY, uv[newt])
-    txyz = np.einsum("bk,mkd->mbd", _BARY, pn)
-    dev = np.linalg.norm(surface.evaluate(tuv.reshape(-1, 2)).reshape(txyz.shape) - txyz, axis=2)
-    fail |= ~(dev.max(axis=1) <= tolerance)
-    # no moved triangle may turn against the surface normal in 3D (a flip the (u, v) test misses)
-    fail |= _turned_in_3d(surface, uv[newt], pn, sgn)
     # the collapse must not make a thinner triangle than the one it removes
     fail |= _min_angles_deg(pn) < a0[ci]
     bad = np.zeros(ns, dtype=bool)
     bad[ci[fail]] = True
+    # the surface tests only for the triangles of collapses no test above refused (per triangle the same)
+    rest = np.flatnonzero(~bad[ci])
+    if len(rest):
+        nt, pr = newt[rest], pn[rest]
+        tuv = np.einsum("bk,mkd->mbd", _BARY, uv[nt])
+        txyz = np.einsum("bk,mkd->mbd", _BARY, pr)
+        dev = np.linalg.norm(surface.evaluate(tuv.reshape(-1, 2)).reshape(txyz.shape) - txyz, axis=2)
+        f2 = ~(dev.max(axis=1) <= tolerance)
+        # no moved triangle may turn against the surface normal in 3D (a flip the (u, v) test misses)
+        f2 |= _turned_in_3d(surface, uv[nt], pr, sgn)
+        bad[ci[rest[f2]]] = True
     return ~bad
