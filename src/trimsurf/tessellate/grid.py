@@ -223,11 +223,10 @@ def _first_equal(p: np.ndarray) -> np.ndarray:
 def _crossed_cells(p0: np.ndarray, p1: np.ndarray, us: np.ndarray, vs: np.ndarray) -> np.ndarray:
     """(len(us) - 1, len(vs) - 1) bool: the cells `cohen_sutherland_cells` finds, compiled (the same
     candidate cells and the same clipping arithmetic, per segment and cell)."""
-    i0, i1, j0, j1 = _candidate_cells(p0, p1, us, vs)
     crossed = np.zeros((len(us) - 1, len(vs) - 1), dtype=np.bool_)
     _crossed_cells_kernel(np.ascontiguousarray(p0, dtype=np.float64), np.ascontiguousarray(p1, dtype=np.float64),
-                          np.ascontiguousarray(us), np.ascontiguousarray(vs), i0.astype(np.int64),
-                          i1.astype(np.int64), j0.astype(np.int64), j1.astype(np.int64), crossed)
+                          np.ascontiguousarray(us, dtype=np.float64), np.ascontiguousarray(vs, dtype=np.float64),
+                          crossed)
     return crossed
 
 
@@ -246,10 +245,16 @@ def _outcode(x, y, lx, ly, hx, hy):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _crossed_cells_kernel(p0, p1, us, vs, i0, i1, j0, j1, crossed):
+def _crossed_cells_kernel(p0, p1, us, vs, crossed):
+    nu, nv = us.shape[0], vs.shape[0]
     for s in range(p0.shape[0]):
-        for i in range(i0[s], i1[s] + 1):
-            for j in range(j0[s], j1[s] + 1):
+        # `_candidate_cells`
+        i0 = min(max(np.searchsorted(us, min(p0[s, 0], p1[s, 0]), side="right") - 2, 0), nu - 2)
+        i1 = min(max(np.searchsorted(us, max(p0[s, 0], p1[s, 0]), side="left"), 0), nu - 2)
+        j0 = min(max(np.searchsorted(vs, min(p0[s, 1], p1[s, 1]), side="right") - 2, 0), nv - 2)
+        j1 = min(max(np.searchsorted(vs, max(p0[s, 1], p1[s, 1]), side="left"), 0), nv - 2)
+        for i in range(i0, i1 + 1):
+            for j in range(j0, j1 + 1):
                 if crossed[i, j]:
                     continue
                 lx, ly, hx, hy = us[i], vs[j], us[i + 1], vs[j + 1]

@@ -84,6 +84,7 @@ def collapse_boundary_slivers(surface, uv: np.ndarray, xyz: np.ndarray, triangle
     sign0 = np.sign(_uv_area(uv, T))
     sgn = 1.0 if np.sum(sign0) >= 0 else -1.0
     nv = len(uv)
+    angle = np.full(len(T), np.nan)
     for _ in range(rounds):
         idx = np.flatnonzero(alive)
         if not len(idx):
@@ -91,7 +92,9 @@ def collapse_boundary_slivers(surface, uv: np.ndarray, xyz: np.ndarray, triangle
         # candidates: triangles with trim and inner vertices, thin (their angles only: per triangle the same)
         tt = is_trim[T[idx]]
         mixed = idx[tt.any(axis=1) & ~tt.all(axis=1)]
-        ang = _min_angles_deg(xyz[T[mixed]])
+        need = mixed[np.isnan(angle[mixed])]         # a triangle's angle: computed again once it changed
+        angle[need] = _min_angles_deg(xyz[T[need]])
+        ang = angle[mixed]
         thin_m = ang < min_angle_deg
         thin, thin_ang = mixed[thin_m], ang[thin_m]
         if not len(thin):
@@ -125,19 +128,20 @@ def collapse_boundary_slivers(surface, uv: np.ndarray, xyz: np.ndarray, triangle
         if not sel:
             break
         ok = _check(surface, uv, xyz, T, sel, sgn, tolerance, max_edge)
-        n_done = 0
-        for (v, u, moved, gone, _), good in zip(sel, ok.tolist()):
-            if not good:
-                continue
-            if moved:
-                tm = T[moved]
-                tm[tm == v] = u
-                T[moved] = tm
-                changed[moved] = True
-            alive[gone] = False
-            n_done += 1
-        if not n_done:
+        if not ok.any():
             break
+        # the good collapses at once (their stars do not overlap): v becomes u in the moved triangles
+        good = [x for x, g in zip(sel, ok.tolist()) if g]
+        mv = np.array([k for x in good for k in x[2]], dtype=np.int64)
+        if len(mv):
+            cnt = [len(x[2]) for x in good]
+            vv = np.repeat(np.array([x[0] for x in good], dtype=np.int64), cnt)
+            uu = np.repeat(np.array([x[1] for x in good], dtype=np.int64), cnt)
+            tm = T[mv]
+            T[mv] = np.where(tm == vv[:, None], uu[:, None], tm)
+            changed[mv] = True
+            angle[mv] = np.nan
+        alive[np.array([k for x in good for k in x[3]], dtype=np.int64)] = False
     kept = np.full(len(T), -1, dtype=np.int64)
     kept[alive] = np.arange(int(alive.sum()))
     kept[changed] = -1
