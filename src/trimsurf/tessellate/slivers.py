@@ -71,14 +71,14 @@ def _maybe_thin_kernel(xyz, T, rows, cos_min):
 
 
 def _min_angles_deg(P: np.ndarray) -> np.ndarray:
-    a = np.linalg.norm(P[:, 1] - P[:, 2], axis=1)
-    b = np.linalg.norm(P[:, 2] - P[:, 0], axis=1)
-    c = np.linalg.norm(P[:, 0] - P[:, 1], axis=1)
+    """Smallest angle (degrees) of triangles P (m, 3, 3), 0 for a degenerate one."""
+    # sides a = |P1 P2|, b = |P2 P0|, c = |P0 P1| in one pass; the cosine of the angle opposite each side
+    # from the other two (b, c), (c, a), (a, b): the law of cosines per angle
+    L = np.linalg.norm(P[:, [1, 2, 0]] - P[:, [2, 0, 1]], axis=2)
+    L1, L2 = L[:, [1, 2, 0]], L[:, [2, 0, 1]]
     with np.errstate(invalid="ignore", divide="ignore"):
-        ca = np.clip((b * b + c * c - a * a) / (2 * b * c), -1, 1)
-        cb = np.clip((a * a + c * c - b * b) / (2 * a * c), -1, 1)
-        cc = np.clip((a * a + b * b - c * c) / (2 * a * b), -1, 1)
-    ang = np.degrees(np.arccos(np.stack([ca, cb, cc], axis=1)))
+        cos = np.clip((L1 * L1 + L2 * L2 - L * L) / (2 * L1 * L2), -1, 1)
+    ang = np.degrees(np.arccos(cos))
     return np.where(np.isnan(ang), 0.0, ang).min(axis=1)       # nan_to_num (arccos gives no inf)
 
 
