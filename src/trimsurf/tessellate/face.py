@@ -898,11 +898,12 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
         quads = quads[(quads >= 0).all(axis=1)] if len(quads) else quads
     tris = np.ascontiguousarray(tris)
     if plane_delta is not None:
-        # the exact bound: a point of the triangle is the same combination of its corners, each within its
-        # offset |S(uv) - x| of the plane (0 for the lifted points), and the surface within plane_delta of it
-        off = np.zeros(len(dt.uv))
-        off[:n_trim] = np.linalg.norm(s.evaluate(dt.uv[:n_trim]) - trim_xyz, axis=1)
-        tri_dev = off[tris].max(axis=1) + plane_delta if len(tris) else np.zeros(0)
+        # the exact bound: the distance to the plane is affine on a triangle, its largest at a corner (a
+        # trim point off the surface, a lifted point on it up to rounding), and the surface lies within
+        # delta of the plane
+        delta, normal, height = plane_delta
+        off = np.abs(xyz @ normal - height)
+        tri_dev = off[tris].max(axis=1) + delta if len(tris) else np.zeros(0)
     else:
         # the sampled bound of every triangle in the (u, v) orientation of the triangulation: what the rounds
         # computed is taken over (the triangles the slivers' collapse kept), the rest computed
@@ -921,10 +922,11 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
     return FaceMesh(dt.uv, xyz, tris, vid, quads, us, vs, dt.n_crossed_cells, tri_dev, removed)
 
 
-def _plane_offset(surface, tolerance: float | None) -> float | None:
-    """How far the surface's control points lie from a plane, when that is negligible (at most 1e-9 of
-    the control net's size and 1e-3 of the tolerance; positive weights): then the surface, in the convex
-    hull of its control points, lies within that distance of the plane. None for a curved surface."""
+def _plane_offset(surface, tolerance: float | None):
+    """(delta, unit normal n, height h) when the surface's control points lie within a negligible delta
+    of the plane n . x = h (delta at most 1e-9 of the control net's size and 1e-3 of the tolerance;
+    positive weights): the surface, in the convex hull of its control points, lies within delta of the
+    plane. None for a curved surface."""
     w = surface.weights
     if w is not None and not w.min() > 0:
         return None
@@ -943,12 +945,13 @@ def _plane_offset(surface, tolerance: float | None) -> float | None:
         q = p - p.mean(axis=0)
         size = float(np.abs(q).max())
         if not size > 0:
-            return 0.0 if size == 0.0 else None
+            return None
         normal = np.linalg.svd(q, full_matrices=False)[2][-1]
     dist = p @ normal
-    delta = 0.5 * float(np.ptp(dist))
+    lo, hi = float(dist.min()), float(dist.max())
+    delta = 0.5 * (hi - lo)
     limit = 1e-9 * size if tolerance is None else min(1e-9 * size, 1e-3 * tolerance)
-    return delta if delta <= limit else None
+    return (delta, normal, 0.5 * (lo + hi)) if delta <= limit else None
 
 
 class _TriangleDeviations:

@@ -1,0 +1,194 @@
+"""The per-face triangulation's shortcuts (issue 17, session 24): compiled kernels against the numpy code
+they replace (bit for bit), the planar faces' exact deviation bound, the slivers' thin-triangle filter."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from trimsurf.io import read_shell
+from trimsurf.tessellate import face as face_mod
+from trimsurf.tessellate import grid as grid_mod
+from trimsurf.tessellate import slivers as slivers_mod
+from trimsurf.tessellate import tessellate_shell
+from trimsurf.tessellate.face import (_BARY, _plane_offset, _triangle_deviation_numpy, surface_distance,
+                                      triangle_deviation)
+
+
+@pytest.fixture(scope="module")
+def featuretype(shared_data):
+    return read_shell(shared_data / "cad" / "trimesh__featuretype.STEP")
+
+
+@pytest.fixture(scope="module")
+def t20(shared_data):
+    return read_shell(shared_data / "cad" / "gmsh__t20_data.step")
+
+
+def test_triangle_deviation_kernel_equals_numpy(t20):
+    """`deviation_samples` (sample points summed as einsum sums, shared edge midpoints once) gives
+    `triangle_deviation` bit for bit, for batches of 1 to 3000 triangles, shared edges, repeated and
+    reversed rows, on rational and polynomial surfaces."""
+    rng = np.random.default_rng(11)
+    for face in t20.faces[:6]:
+        s = face.surface
+        (u0, u1), (v0, v1) = s.domain
+        uv = np.column_stack([rng.uniform(u0, u1, 400), rng.uniform(v0, v1, 400)])
+        xyz = s.evaluate(uv) + rng.normal(scale=1e-3, size=(400, 3))
+        for m in (1, 2, 7, 50, 3000):
+            tris = rng.integers(0, 40 if m > 7 else 400, (m, 3))      # few vertices: many shared edges
+            tris = np.r_[tris, tris[:3, ::-1], tris[:2]]
+            got = triangle_deviation(s, uv, xyz, tris)
+            assert np.array_equal(got, _triangle_deviation_numpy(s, uv, xyz, tris))
+            # and it is the full sampling: the max over all seven samples of each triangle
+            full = surface_distance(s, np.einsum("bk,mkd->mbd", _BARY, uv[tris]).reshape(-1, 2),
+                                    np.einsum("bk,mkd->mbd", _BARY, xyz[tris]).reshape(-1, 3))
+            assert np.array_equal(got, full.reshape(len(tris), -1).max(axis=1))
+
+
+def test_grid_nodes_kernel_equals_numpy():
+    """The grid nodes (merged into trim points they equal, the first of equal trim points) and the kept
+    cells' triangles of the compiled path equal the numpy reference, on random grids whose trim points
+    sit on grid nodes, on grid lines, repeat, or lie anywhere."""
+    rng = np.random.default_rng(5)
+    for trial in range(40):
+        nu, nv = rng.integers(2, 9, 2)
+        us = np.cumsum(rng.uniform(0.1, 1.0, nu))
+        vs = np.cumsum(rng.uniform(0.1, 1.0, nv))
+        k = int(rng.integers(3, 30))
+        pts = np.column_stack([rng.uniform(us[0], us[-1], k), rng.uniform(vs[0], vs[-1], k)])
+        on = rng.random(k) < 0.5
+        pts[on, 0] = us[rng.integers(0, nu, on.sum())]
+        on2 = rng.random(k) < 0.5
+        pts[on2, 1] = vs[rng.integers(0, nv, on2.sum())]
+        pts = np.r_[pts, pts[rng.integers(0, k, 3)]]                   # repeated trim points
+        crossed = rng.random((nu - 1, nv - 1)) < 0.3
+        keep = ~crossed & (rng.random((nu - 1, nv - 1)) < 0.6)
+        ki, kj = np.nonzero(keep)
+        main = rng.random(len(ki)) < 0.5
+        node_uv, node_gn, trim_gn, tris = grid_mod._grid_nodes_kernel(pts, us, vs, crossed, keep, ki, kj, main)
+        uv, gn, ref_tris = grid_mod._grid_nodes_numpy(pts, us, vs, crossed, keep, ki, kj, main)
+        assert np.array_equal(np.r_[pts, node_uv], uv), trial
+        assert np.array_equal(np.r_[trim_gn, node_gn], gn), trial
+        assert np.array_equal(tris, ref_tris), trial
+
+
+def _planar_face_meshes(shell, tol, h):
+    out = []
+    orig = face_mod.mesh_face_from_chunks
+
+    def rec(face, *a, **k):
+        fm = orig(face, *a, **k)
+        out.append((face, fm))
+        return fm
+
+    import trimsurf.tessellate.shell as shell_mod
+
+    shell_mod.mesh_face_from_chunks, saved = rec, shell_mod.mesh_face_from_chunks
+    try:
+        tessellate_shell(shell, tolerance=tol, max_edge=h, measure=False)
+    finally:
+        shell_mod.mesh_face_from_chunks = saved
+    return [(f, fm) for f, fm in out if _plane_offset(f.surface, tol) is not None]
+
+
+def _plane_distance(face, tol, x):
+    delta, normal, height = _plane_offset(face.surface, tol)
+    return np.abs(x @ normal - height), delta
+
+
+def _check_planar(face, fm, tol, d):
+    s = face.surface
+    t = fm.triangles if face.same_sense else fm.triangles[:, ::-1]
+    sampled = triangle_deviation(s, fm.uv, fm.xyz, t)
+    off = np.linalg.norm(s.evaluate(fm.uv) - fm.xyz, axis=1)
+    # the rounds' test (mesh_face_from_chunks): bad = dev > tol and dev > corner offset + 0.05 tol
+    assert not np.any((sampled > tol) & (sampled > off[fm.triangles].max(axis=1) + 0.05 * tol))
+    assert np.all(fm.tri_dev >= sampled - 1e-12 * d)
+    # dense barycentric points of each triangle against the plane (an independent best-fitting one)
+    p = s.control_points.reshape(-1, 3)
+    c = p.mean(axis=0)
+    normal = np.linalg.svd(p - c)[2][-1]
+    w = np.random.default_rng(0).dirichlet(np.ones(3), 64)
+    x = np.einsum("sk,mkd->msd", w, fm.xyz[fm.triangles])
+    dist = np.abs((x - c) @ normal).max(axis=1)
+    assert np.all(dist <= fm.tri_dev + 1e-12 * d)
+    return sampled
+
+
+def test_planar_faces_exact_bound_and_no_rounds(featuretype):
+    """On the planar faces (featuretype: 49 of 96) the deviation rounds are skipped: their sampled
+    deviations (what the rounds test) never exceed the rounds' threshold, and tri_dev, the corners'
+    distances to the plane, bounds both the sampled deviation and the distance to the plane of dense
+    points of every triangle."""
+    d = featuretype.diagonal()
+    tol = 1e-3 * d
+    faces = _planar_face_meshes(featuretype, tol, d)
+    assert len(faces) >= 40
+    for face, fm in faces:
+        _check_planar(face, fm, tol, d)
+
+
+def test_planar_face_trim_off_the_plane(featuretype):
+    """A planar face whose trim points lie off the plane (a gap in the model: the mean of two faces'
+    curves): tri_dev carries their offset (0.3 tol here) to the triangles at the trim, still bounds every
+    dense point, and no interior point would have helped (the rounds' test finds nothing)."""
+    from trimsurf.tessellate.face import face_domain_values, loose_chunks, mesh_face_from_chunks
+
+    d = featuretype.diagonal()
+    tol = 1e-3 * d
+    face = next(f for f in featuretype.faces if _plane_offset(f.surface, tol) is not None and len(f.loops) > 1)
+    us, vs = face_domain_values(face, tolerance=tol, max_edge=0.05 * d)
+    chunks = loose_chunks(face, 0, us, vs, tolerance=tol, max_edge=0.05 * d, strategy="equidistributed")
+    _, normal, _ = _plane_offset(face.surface, tol)
+    for entries in chunks:
+        for chunk, _, _ in entries:
+            chunk.xyz[:] = chunk.xyz + 0.3 * tol * normal
+    fm = mesh_face_from_chunks(face, us, vs, chunks, tolerance=tol, max_edge=0.05 * d)
+    dist, _ = _plane_distance(face, tol, fm.xyz)
+    at_trim = dist > 0.2 * tol                  # the shifted trim points (the lifted ones lie in the plane)
+    assert at_trim.sum() > 10 and not at_trim.all()
+    touching = at_trim[fm.triangles].any(axis=1)
+    assert np.all(fm.tri_dev[touching] >= 0.3 * tol * (1 - 1e-9))
+    sampled = _check_planar(face, fm, tol, d)
+    assert sampled.max() > 0.25 * tol          # the sampling sees the offset too: the shift took effect
+
+
+def test_plane_offset_rejects_curved_and_bent(t20):
+    """A cylinder or a plane bent by more than 1e-3 of the tolerance is no plane."""
+    tol = 1e-3 * t20.diagonal()
+    kinds = [(_plane_offset(f.surface, tol) is not None, f.surface) for f in t20.faces]
+    assert any(k for k, _ in kinds) and not all(k for k, _ in kinds)
+    from dataclasses import replace
+
+    for planar, s in kinds:
+        if planar and s.control_points.shape[0] * s.control_points.shape[1] >= 4:
+            cp = s.control_points.copy()
+            cp[-1, -1] += 2e-3 * tol * np.cross(cp[-1, 0] - cp[0, 0], cp[0, -1] - cp[0, 0]) / np.linalg.norm(
+                np.cross(cp[-1, 0] - cp[0, 0], cp[0, -1] - cp[0, 0]))
+            assert _plane_offset(replace(s, control_points=cp), tol) is None
+            break
+    else:
+        pytest.fail("no planar face in t20")
+
+
+def test_thin_filter_keeps_every_thin_triangle():
+    """`_maybe_thin_kernel` only drops triangles whose smallest angle (numpy's) is above the limit: on
+    random, thin, degenerate and near-limit triangles."""
+    rng = np.random.default_rng(2)
+    n = 20000
+    xyz = rng.normal(size=(3 * n, 3))
+    T = np.arange(3 * n).reshape(n, 3)
+    xyz[T[::5, 1]] = xyz[T[::5, 0]] + 1e-7 * rng.normal(size=(len(T[::5]), 3))      # thin
+    xyz[T[::13, 2]] = xyz[T[::13, 0]]                                                # degenerate
+    # angles right at 12 degrees: a (1, 0), b (cos a, sin a) scaled
+    ang = np.radians(12.0 + rng.uniform(-1e-6, 1e-6, n // 4))
+    k = T[1::4][: len(ang)]
+    xyz[k[:, 0]] = 0.0
+    xyz[k[:, 1]] = np.column_stack([np.ones(len(ang)), np.zeros(len(ang)), np.zeros(len(ang))])
+    xyz[k[:, 2]] = np.column_stack([np.cos(ang), np.sin(ang), np.zeros(len(ang))]) * 0.9
+    rows = np.arange(n)
+    maybe = slivers_mod._maybe_thin_kernel(xyz, T, rows, slivers_mod._COS_MARGIN * np.cos(np.radians(12.0)))
+    exact = slivers_mod._min_angles_deg(xyz[T])
+    assert np.all(maybe[exact < 12.0])
+    assert (~maybe).sum() > n // 3          # the filter does drop the clearly wide ones
