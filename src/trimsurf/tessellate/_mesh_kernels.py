@@ -19,26 +19,38 @@ def deviation_samples(bary, uv, xyz, tris):
     """
     m, nb = tris.shape[0], bary.shape[0]
     n_own = nb - 3
-    # edges keyed by their sorted corners; the first triangle edge of each key (in key order) owns the point
+    # edges by their lower corner (buckets of a CSR); an edge's point belongs to its first occurrence
     n_v = 0
     for i in range(m):
         for c in range(3):
             n_v = max(n_v, tris[i, c] + 1)
-    keys = np.empty(3 * m, dtype=np.int64)
+    start = np.zeros(n_v + 1, dtype=np.int64)
+    for i in range(m):
+        for c in range(3):
+            start[min(tris[i, c], tris[i, (c + 1) % 3]) + 1] += 1
+    for v in range(n_v):
+        start[v + 1] += start[v]
+    fill = start[:-1].copy()
+    other = np.empty(3 * m, dtype=np.int64)          # the higher corner of the bucket's edges
+    slot = np.empty(3 * m, dtype=np.int64)           # the triangle edge there
+    edge_id = np.empty(3 * m, dtype=np.int64)
+    n_edge = 0
     for i in range(m):
         for c in range(3):
             a, b = tris[i, c], tris[i, (c + 1) % 3]
-            keys[3 * i + c] = min(a, b) * n_v + max(a, b)
-    order = np.argsort(keys)
-    edge_id = np.empty(3 * m, dtype=np.int64)
-    n_edge = 0
-    for r in range(3 * m):
-        e = order[r]
-        if r > 0 and keys[e] == keys[order[r - 1]]:
-            edge_id[e] = n_edge - 1
-        else:
-            edge_id[e] = n_edge
-            n_edge += 1
+            lo, hi = min(a, b), max(a, b)
+            e = -1
+            for r in range(start[lo], fill[lo]):
+                if other[r] == hi:
+                    e = edge_id[slot[r]]
+                    break
+            if e < 0:
+                e = n_edge
+                n_edge += 1
+                other[fill[lo]] = hi
+                slot[fill[lo]] = 3 * i + c
+                fill[lo] += 1
+            edge_id[3 * i + c] = e
     n = m * n_own + n_edge
     suv = np.empty((n, 2))
     sx = np.empty((n, 3))

@@ -220,6 +220,21 @@ def _first_equal(p: np.ndarray) -> np.ndarray:
     return out
 
 
+@njit(cache=True, nogil=True)
+def _bisect(a, x, right):
+    """np.searchsorted(a, x, side="right" if right else "left") for increasing a (NaN sorts last)."""
+    lo, hi = 0, a.shape[0]
+    if x != x:
+        return hi
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if a[mid] < x or (right and a[mid] == x):
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
 def _crossed_cells(p0: np.ndarray, p1: np.ndarray, us: np.ndarray, vs: np.ndarray) -> np.ndarray:
     """(len(us) - 1, len(vs) - 1) bool: the cells `cohen_sutherland_cells` finds, compiled (the same
     candidate cells and the same clipping arithmetic, per segment and cell)."""
@@ -249,10 +264,10 @@ def _crossed_cells_kernel(p0, p1, us, vs, crossed):
     nu, nv = us.shape[0], vs.shape[0]
     for s in range(p0.shape[0]):
         # `_candidate_cells`
-        i0 = min(max(np.searchsorted(us, min(p0[s, 0], p1[s, 0]), side="right") - 2, 0), nu - 2)
-        i1 = min(max(np.searchsorted(us, max(p0[s, 0], p1[s, 0]), side="left"), 0), nu - 2)
-        j0 = min(max(np.searchsorted(vs, min(p0[s, 1], p1[s, 1]), side="right") - 2, 0), nv - 2)
-        j1 = min(max(np.searchsorted(vs, max(p0[s, 1], p1[s, 1]), side="left"), 0), nv - 2)
+        i0 = min(max(_bisect(us, min(p0[s, 0], p1[s, 0]), True) - 2, 0), nu - 2)
+        i1 = min(max(_bisect(us, max(p0[s, 0], p1[s, 0]), False), 0), nu - 2)
+        j0 = min(max(_bisect(vs, min(p0[s, 1], p1[s, 1]), True) - 2, 0), nv - 2)
+        j1 = min(max(_bisect(vs, max(p0[s, 1], p1[s, 1]), False), 0), nv - 2)
         for i in range(i0, i1 + 1):
             for j in range(j0, j1 + 1):
                 if crossed[i, j]:
@@ -303,16 +318,21 @@ def _grid_nodes_kernel(pts, us, vs, crossed, keep, ki, kj, main):
     the first of equal trim points), and the kept cells' two triangles (first triangles, then second)."""
     nu, nv = us.shape[0], vs.shape[0]
     n_trim = pts.shape[0]
-    node_trim = np.full(nu * nv, -1, dtype=np.int64)
+    node_trim = np.empty(nu * nv, dtype=np.int64)
+    node_vertex = np.empty(nu * nv, dtype=np.int64)
+    for f in range(nu * nv):
+        node_trim[f] = -1
+        node_vertex[f] = -1
     for t in range(n_trim):
-        iu = np.searchsorted(us, pts[t, 0])
-        jv = np.searchsorted(vs, pts[t, 1])
+        iu = _bisect(us, pts[t, 0], False)
+        jv = _bisect(vs, pts[t, 1], False)
         if iu < nu and jv < nv and us[iu] == pts[t, 0] and vs[jv] == pts[t, 1]:
             f = iu * nv + jv
             if node_trim[f] < 0:
                 node_trim[f] = t
-    node_vertex = np.full(nu * nv, -1, dtype=np.int64)
-    trim_gn = np.full(n_trim, -1, dtype=np.int64)
+    trim_gn = np.empty(n_trim, dtype=np.int64)
+    for t in range(n_trim):
+        trim_gn[t] = -1
     n_used = 0
     for i in range(nu):
         for j in range(nv):
@@ -402,8 +422,8 @@ def _cdt_keep_kernel(uv, tri, us, vs, crossed, a, b, y0, h, n_slab, start, edges
         p, q, r = tri[k, 0], tri[k, 1], tri[k, 2]
         cx = (uv[p, 0] + uv[q, 0] + uv[r, 0]) / 3.0
         cy = (uv[p, 1] + uv[q, 1] + uv[r, 1]) / 3.0
-        ti = min(max(np.searchsorted(us, cx) - 1, 0), nu - 2)
-        tj = min(max(np.searchsorted(vs, cy) - 1, 0), nv - 2)
+        ti = min(max(_bisect(us, cx, False) - 1, 0), nu - 2)
+        tj = min(max(_bisect(vs, cy, False) - 1, 0), nv - 2)
         ok[k] = crossed[ti, tj] and _point_in_index(cx, cy, a, b, y0, h, n_slab, start, edges)
 
 
