@@ -192,3 +192,51 @@ def test_thin_filter_keeps_every_thin_triangle():
     exact = slivers_mod._min_angles_deg(xyz[T])
     assert np.all(maybe[exact < 12.0])
     assert (~maybe).sum() > n // 3          # the filter does drop the clearly wide ones
+
+
+def _select_reference(T, idx, nv, inner, trim):
+    """The selection loop over `collapse_sets` that `_select_collapses_kernel` replaces."""
+    from trimsurf.tessellate._collapse import collapse_sets
+
+    flat = T[idx].ravel()
+    order = np.argsort(flat, kind="stable")
+    vstart = np.searchsorted(flat[order], np.arange(nv + 1)).tolist()
+    vtri = idx[order // 3].tolist()
+    Tl = T.tolist()
+    locked = np.zeros(nv, dtype=bool)
+    sel = []
+    for q, (v, u) in enumerate(zip(inner.tolist(), trim.tolist())):
+        if locked[v] or locked[u]:
+            continue
+        _, star, common, gone, moved = collapse_sets(Tl, vtri, vstart, v, u)
+        if not gone or len(gone) > 2 or any(locked[x] for x in star) or len(common) != len(gone):
+            continue
+        sel.append((q, moved, gone))
+        locked[list(star | {u})] = True
+    return sel
+
+
+def test_select_collapses_kernel_equals_collapse_sets_loop():
+    """The compiled selection takes the same collapses, with the same moved and gone triangles in the same
+    order, as the loop over `collapse_sets`: Delaunay meshes of random points, some triangles dead, random
+    (v, u) pairs along edges and not."""
+    from scipy.spatial import Delaunay
+
+    rng = np.random.default_rng(4)
+    for trial in range(30):
+        n = int(rng.integers(10, 300))
+        T = Delaunay(rng.random((n, 2))).simplices.astype(np.int64)
+        alive = rng.random(len(T)) < 0.9
+        idx = np.flatnonzero(alive)
+        e = T[rng.integers(0, len(T), 3 * n)]
+        c = rng.integers(0, 3, len(e))
+        inner = e[np.arange(len(e)), c]
+        trim = np.where(rng.random(len(e)) < 0.8, e[np.arange(len(e)), (c + 1) % 3], rng.integers(0, n, len(e)))
+        keep = inner != trim
+        inner, trim = inner[keep], trim[keep]
+        qs, mv, ms, gn, gs = slivers_mod._select_collapses_kernel(T, idx, n, inner, trim)
+        ref = _select_reference(T, idx, n, inner, trim)
+        assert qs.tolist() == [r[0] for r in ref], trial
+        assert [mv[ms[k]:ms[k + 1]].tolist() for k in range(len(qs))] == [r[1] for r in ref]
+        assert [gn[gs[k]:gs[k + 1]].tolist() for k in range(len(qs))] == [r[2] for r in ref]
+        assert len(ref) > 0

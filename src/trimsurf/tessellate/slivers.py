@@ -14,7 +14,6 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ._collapse import collapse_sets
 
 __all__ = ["collapse_boundary_slivers"]
 
@@ -87,6 +86,86 @@ def _uv_area(uv: np.ndarray, T: np.ndarray) -> np.ndarray:
     return (p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1]) - (p[:, 2, 0] - p[:, 0, 0]) * (p[:, 1, 1] - p[:, 0, 1])
 
 
+@njit(cache=True, nogil=True)
+def _select_collapses_kernel(T, idx, nv, inner, trim):
+    """The collapses inner[q] -> trim[q] taken in order q, as the loop over `collapse_sets` would: v's
+    triangles (the alive ones `idx`, by vertex in index order) must hold u in one or two of them (they
+    go), v and u and v's star must be unlocked, v and u must have as many common neighbours as
+    triangles go (the link condition); a taken collapse locks v's star and u.
+
+    Returns (q taken, moved triangles, their offsets per taken q, gone triangles, their offsets)."""
+    m = idx.shape[0]
+    start = np.zeros(nv + 1, dtype=np.int64)
+    for r in range(m):
+        for c in range(3):
+            start[T[idx[r], c] + 1] += 1
+    for w in range(nv):
+        start[w + 1] += start[w]
+    fill = start[:-1].copy()
+    vtri = np.empty(3 * m, dtype=np.int64)
+    for r in range(m):
+        t = idx[r]
+        for c in range(3):
+            w = T[t, c]
+            vtri[fill[w]] = t
+            fill[w] += 1
+    n = inner.shape[0]
+    locked = np.zeros(nv, dtype=np.bool_)
+    in_nu = np.full(nv, -1, dtype=np.int64)
+    counted = np.full(nv, -1, dtype=np.int64)
+    qs = np.empty(n, dtype=np.int64)
+    moved = np.empty(3 * m, dtype=np.int64)
+    gone = np.empty(3 * m, dtype=np.int64)
+    ms = np.zeros(n + 1, dtype=np.int64)
+    gs = np.zeros(n + 1, dtype=np.int64)
+    n_sel = n_moved = n_gone = 0
+    for q in range(n):
+        v, u = inner[q], trim[q]
+        if locked[v] or locked[u]:
+            continue
+        free = True
+        n_g = 0
+        for r in range(start[v], start[v + 1]):
+            t = vtri[r]
+            for c in range(3):
+                if locked[T[t, c]]:
+                    free = False
+            if T[t, 0] == u or T[t, 1] == u or T[t, 2] == u:
+                n_g += 1
+        if n_g == 0 or n_g > 2 or not free:
+            continue
+        for r in range(start[u], start[u + 1]):
+            t = vtri[r]
+            for c in range(3):
+                in_nu[T[t, c]] = q
+        n_common = 0
+        for r in range(start[v], start[v + 1]):
+            t = vtri[r]
+            for c in range(3):
+                x = T[t, c]
+                if x != v and x != u and in_nu[x] == q and counted[x] != q:
+                    counted[x] = q
+                    n_common += 1
+        if n_common != n_g:
+            continue
+        qs[n_sel] = q
+        for r in range(start[v], start[v + 1]):
+            t = vtri[r]
+            if T[t, 0] == u or T[t, 1] == u or T[t, 2] == u:
+                gone[n_gone] = t
+                n_gone += 1
+            else:
+                moved[n_moved] = t
+                n_moved += 1
+            for c in range(3):
+                locked[T[t, c]] = True
+        locked[u] = True
+        n_sel += 1
+        ms[n_sel] = n_moved
+        gs[n_sel] = n_gone
+    return qs[:n_sel], moved[:n_moved], ms[:n_sel + 1], gone[:n_gone], gs[:n_sel + 1]
+
+
 def collapse_boundary_slivers(surface, uv: np.ndarray, xyz: np.ndarray, triangles: np.ndarray, is_trim: np.ndarray,
                               *, tolerance: float, max_edge: float, min_angle_deg: float = 12.0,
                               rounds: int = 3) -> tuple[np.ndarray, np.ndarray]:
@@ -146,57 +225,40 @@ def collapse_boundary_slivers(surface, uv: np.ndarray, xyz: np.ndarray, triangle
         a_, b_ = ea[r, c], eb[r, c]
         inner = np.where(is_trim[a_], b_, a_)
         trim = np.where(is_trim[a_], a_, b_)
-        # vertex -> alive triangles (CSR)
-        flat = T[idx].ravel()
-        order = np.argsort(flat, kind="stable")
-        vstart = np.searchsorted(flat[order], np.arange(nv + 1)).tolist()
-        vtri = idx[order // 3].tolist()
-        Tl = T.tolist()
-        locked = np.zeros(nv, dtype=bool)
-        sel = []        # (v, u, moved, gone, min angle of the thin triangle)
-        for k, v, u, a0 in zip(thin.tolist(), inner.tolist(), trim.tolist(), thin_ang.tolist()):
-            if locked[v] or locked[u]:
-                continue
-            _, star, common, gone, moved = collapse_sets(Tl, vtri, vstart, v, u)
-            if not gone or len(gone) > 2 or any(locked[x] for x in star) or len(common) != len(gone):
-                continue
-            sel.append((v, u, moved, gone, a0))
-            locked[list(star | {u})] = True
-        if not sel:
+        # the collapses of this round whose stars do not overlap, in the thin triangles' order (the
+        # topology of `collapse_sets`, compiled)
+        qs, mv, ms, gn, gs = _select_collapses_kernel(T, idx, nv, inner, trim)
+        if not len(qs):
             break
-        ok = _check(surface, uv, xyz, T, sel, sgn, tolerance, max_edge)
+        cv, cu = inner[qs], trim[qs]
+        ci = np.repeat(np.arange(len(qs)), np.diff(ms))
+        ok = _check(surface, uv, xyz, T, cv, cu, thin_ang[qs], mv, ci, sgn, tolerance, max_edge)
         if not ok.any():
             break
         # the good collapses at once (their stars do not overlap): v becomes u in the moved triangles
-        good = [x for x, g in zip(sel, ok.tolist()) if g]
-        mv = np.array([k for x in good for k in x[2]], dtype=np.int64)
-        if len(mv):
-            cnt = [len(x[2]) for x in good]
-            vv = np.repeat(np.array([x[0] for x in good], dtype=np.int64), cnt)
-            uu = np.repeat(np.array([x[1] for x in good], dtype=np.int64), cnt)
-            tm = T[mv]
-            T[mv] = np.where(tm == vv[:, None], uu[:, None], tm)
-            changed[mv] = True
-            angle[mv] = np.nan
-        alive[np.array([k for x in good for k in x[3]], dtype=np.int64)] = False
+        good = ok[ci]
+        if good.any():
+            mvg = mv[good]
+            tm = T[mvg]
+            T[mvg] = np.where(tm == cv[ci[good], None], cu[ci[good], None], tm)
+            changed[mvg] = True
+            angle[mvg] = np.nan
+        alive[gn[np.repeat(ok, np.diff(gs))]] = False
     kept = np.full(len(T), -1, dtype=np.int64)
     kept[alive] = np.arange(int(alive.sum()))
     kept[changed] = -1
     return T[alive], kept
 
 
-def _check(surface, uv, xyz, T, sel, sgn, tolerance, max_edge) -> np.ndarray:
-    """Batched tests of the selected collapses (v into u): (s,) bool, True where every moved triangle
-    stays counter-clockwise (in the face's sense) in (u, v), within max_edge and the tolerance, not turned
-    against the surface normal in 3D, and no thinner than the thin triangle the collapse removes."""
-    ns = len(sel)
-    mi = np.array([j for x in sel for j in x[2]], dtype=np.int64)
+def _check(surface, uv, xyz, T, cv, cu, a0, mi, ci, sgn, tolerance, max_edge) -> np.ndarray:
+    """Batched tests of the selected collapses (cv[s] into cu[s]; mi their moved triangles, ci the
+    collapse of each, a0 the smallest angle of the thin triangle each removes): (s,) bool, True where
+    every moved triangle stays counter-clockwise (in the face's sense) in (u, v), within max_edge and the
+    tolerance, not turned against the surface normal in 3D, and no thinner than the thin triangle the
+    collapse removes."""
+    ns = len(cv)
     if not len(mi):
         return np.ones(ns, dtype=bool)
-    ci = np.repeat(np.arange(ns), [len(x[2]) for x in sel])
-    cv = np.array([x[0] for x in sel], dtype=np.int64)
-    cu = np.array([x[1] for x in sel], dtype=np.int64)
-    a0 = np.array([x[4] for x in sel])
     oldt = T[mi]
     newt = np.where(oldt == cv[ci, None], cu[ci, None], oldt)
     fail = _uv_area(uv, newt) * sgn <= 0
