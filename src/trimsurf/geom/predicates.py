@@ -74,7 +74,12 @@ class PolygonIndex:
     def __init__(self, polygons):
         self.polygons = polygons
         a = np.concatenate([np.asarray(p, dtype=np.float64) for p in polygons])
-        b = np.concatenate([np.roll(np.asarray(p, dtype=np.float64), -1, axis=0) for p in polygons])
+        # each polygon's next vertices (np.roll(p, -1) per polygon), by index
+        lens = np.array([len(p) for p in polygons], dtype=np.int64)
+        nxt = np.arange(1, len(a) + 1)
+        ends = np.cumsum(lens)
+        nxt[ends[lens > 0] - 1] = (ends - lens)[lens > 0]
+        b = a[nxt] if len(a) else a.copy()
         self.a, self.b = np.ascontiguousarray(a), np.ascontiguousarray(b)
         if not len(a):
             return

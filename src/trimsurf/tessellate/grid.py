@@ -213,7 +213,10 @@ def _first_equal(p: np.ndarray) -> np.ndarray:
         return np.zeros(0, dtype=np.int64)
     order = np.lexsort((p[:, 1], p[:, 0]))      # stable: equal rows in index order, the first is the lowest
     q = p[order]
-    new = np.r_[True, (q[1:, 0] != q[:-1, 0]) | (q[1:, 1] != q[:-1, 1])]
+    new = np.empty(n, dtype=bool)
+    new[0] = True
+    np.not_equal(q[1:, 0], q[:-1, 0], out=new[1:])
+    new[1:] |= q[1:, 1] != q[:-1, 1]
     head = order[np.flatnonzero(new)]
     out = np.empty(n, dtype=np.int64)
     out[order] = head[np.cumsum(new) - 1]
@@ -537,11 +540,11 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
     else:
         uv, grid_node, grid_tris = _grid_nodes_numpy(pts, us, vs, crossed, keep_cell, ki, kj, main)
     nq = len(ki)
-    quads = np.column_stack([np.arange(nq), nq + np.arange(nq)])
+    quads = np.arange(nq)[:, None] + np.array([0, nq])
     # 4. crossed cells: one constrained Delaunay triangulation of their sides and the trim segments
     cdt_tris = np.zeros((0, 3), dtype=np.int64)
     if crossed.any():
-        segs = [np.column_stack([vmap[seg_a], vmap[seg_b]])]          # trim points: vmap their own
+        segs = [np.stack([vmap[seg_a], vmap[seg_b]], axis=1)]        # trim points: vmap their own
         # cell sides of crossed cells, split at every vertex lying exactly on them
         segs.append(_side_segments(uv, us, vs, crossed))
         seg = np.concatenate(segs)
@@ -573,7 +576,7 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
         q = (uv[used] - scale_lo) / scale
         shear = 0.0 if tie_main is None else (-1e-3 if tie_main else 1e-3)
         if shear:       # u += shear * v: every rectangle turns into a parallelogram, its shorter diagonal wins
-            q = np.column_stack([q[:, 0] + shear * q[:, 1], q[:, 1]])
+            q[:, 0] += shear * q[:, 1]          # q is a new array
         # a graph without crossings, near-duplicate points or points on segments: Triangle never
         # computes a crossing point then, so it always finishes (see `clean_pslg`)
         q, lseg, rep = clean_pslg(q, local[seg], eps=SNAP)
@@ -588,7 +591,8 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
             grid_tris = alias[grid_tris]
         out_v = res["vertices"]
         if shear:
-            out_v = np.column_stack([out_v[:, 0] - shear * out_v[:, 1], out_v[:, 1]])
+            out_v = out_v.copy()
+            out_v[:, 0] -= shear * out_v[:, 1]
         out_v = out_v * scale + scale_lo
         out_t = res["triangles"].astype(np.int64)
         given = keep < n_q                          # input points (the rest: crossing points, Triangle's)
@@ -596,11 +600,11 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
         n_new = len(out_v) - int(given.sum())
         glob = np.empty(len(out_v), dtype=np.int64)
         glob[:len(keep)][given] = used[keep[given]]
-        new_rows = np.r_[np.flatnonzero(~given), np.arange(len(keep), len(out_v))]
+        new_rows = np.concatenate([np.flatnonzero(~given), np.arange(len(keep), len(out_v))])
         glob[new_rows] = len(uv) + np.arange(n_new)
         if n_new:
             uv = np.concatenate([uv, out_v[new_rows]])
-            grid_node = np.r_[grid_node, np.full(n_new, -1, dtype=np.int64)]
+            grid_node = np.concatenate([grid_node, np.full(n_new, -1, dtype=np.int64)])
         tri = glob[out_t]
         # the triangles whose centroid lies in a crossed cell and inside the trim
         ok = np.zeros(len(tri), dtype=np.bool_)
