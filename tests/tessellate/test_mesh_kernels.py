@@ -1,5 +1,5 @@
 """The per-face triangulation's shortcuts (issue 17, session 24): compiled kernels against the numpy code
-they replace (bit for bit), the planar faces' exact deviation bound, the slivers' thin-triangle filter."""
+they replace (bit for bit), the planar faces' exact deviation bound."""
 
 from __future__ import annotations
 
@@ -172,28 +172,6 @@ def test_plane_offset_rejects_curved_and_bent(t20):
         pytest.fail("no planar face in t20")
 
 
-def test_thin_filter_keeps_every_thin_triangle():
-    """`_maybe_thin_kernel` only drops triangles whose smallest angle (numpy's) is above the limit: on
-    random, thin, degenerate and near-limit triangles."""
-    rng = np.random.default_rng(2)
-    n = 20000
-    xyz = rng.normal(size=(3 * n, 3))
-    T = np.arange(3 * n).reshape(n, 3)
-    xyz[T[::5, 1]] = xyz[T[::5, 0]] + 1e-7 * rng.normal(size=(len(T[::5]), 3))      # thin
-    xyz[T[::13, 2]] = xyz[T[::13, 0]]                                                # degenerate
-    # angles right at 12 degrees: a (1, 0), b (cos a, sin a) scaled
-    ang = np.radians(12.0 + rng.uniform(-1e-6, 1e-6, n // 4))
-    k = T[1::4][: len(ang)]
-    xyz[k[:, 0]] = 0.0
-    xyz[k[:, 1]] = np.column_stack([np.ones(len(ang)), np.zeros(len(ang)), np.zeros(len(ang))])
-    xyz[k[:, 2]] = np.column_stack([np.cos(ang), np.sin(ang), np.zeros(len(ang))]) * 0.9
-    rows = np.arange(n)
-    maybe = slivers_mod._maybe_thin_kernel(xyz, T, rows, slivers_mod._COS_MARGIN * np.cos(np.radians(12.0)))
-    exact = slivers_mod._min_angles_deg(xyz[T])
-    assert np.all(maybe[exact < 12.0])
-    assert (~maybe).sum() > n // 3          # the filter does drop the clearly wide ones
-
-
 def _select_reference(T, idx, nv, inner, trim):
     """The selection loop over `collapse_sets` that `_select_collapses_kernel` replaces."""
     from trimsurf.tessellate._collapse import collapse_sets
@@ -240,3 +218,25 @@ def test_select_collapses_kernel_equals_collapse_sets_loop():
         assert [mv[ms[k]:ms[k + 1]].tolist() for k in range(len(qs))] == [r[1] for r in ref]
         assert [gn[gs[k]:gs[k + 1]].tolist() for k in range(len(qs))] == [r[2] for r in ref]
         assert len(ref) > 0
+
+
+def test_min_angles_one_pass_equals_per_side():
+    """`_min_angles_deg` (sides and cosines in one pass) equals the per-side law of cosines bit for bit,
+    on random, thin and degenerate triangles at three scales."""
+    def ref(P):
+        a = np.linalg.norm(P[:, 1] - P[:, 2], axis=1)
+        b = np.linalg.norm(P[:, 2] - P[:, 0], axis=1)
+        c = np.linalg.norm(P[:, 0] - P[:, 1], axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ca = np.clip((b * b + c * c - a * a) / (2 * b * c), -1, 1)
+            cb = np.clip((a * a + c * c - b * b) / (2 * a * c), -1, 1)
+            cc = np.clip((a * a + b * b - c * c) / (2 * a * b), -1, 1)
+        ang = np.degrees(np.arccos(np.stack([ca, cb, cc], axis=1)))
+        return np.where(np.isnan(ang), 0.0, ang).min(axis=1)
+
+    rng = np.random.default_rng(1)
+    for scale in (1e-6, 1.0, 1e3):
+        P = rng.normal(size=(20000, 3, 3)) * scale
+        P[::7, 1] = P[::7, 0] + 1e-9 * scale * rng.normal(size=(len(P[::7]), 3))     # thin
+        P[::11, 2] = P[::11, 0]                                                     # degenerate
+        assert np.array_equal(ref(P), slivers_mod._min_angles_deg(P))

@@ -37,38 +37,6 @@ def _turned_in_3d(surface, uv3: np.ndarray, x3: np.ndarray, sgn: float) -> np.nd
     return np.any(valid & ~(dot > 0), axis=1)
 
 
-#: a triangle whose every angle's cosine (in floating point) is below cos(min angle) / _COS_MARGIN has its
-#: smallest angle clearly above min angle (the rounding of either computation is ~1e-15)
-_COS_MARGIN = 1.0 - 1e-9
-
-
-@njit(cache=True, nogil=True)
-def _maybe_thin_kernel(xyz, T, rows, cos_min):
-    """Per triangle T[rows[k]]: False where its three angles' cosines are finite and all below `cos_min`
-    (certainly no angle below the limit), True otherwise (a degenerate or possibly thin triangle)."""
-    out = np.ones(rows.shape[0], dtype=np.bool_)
-    for k in range(rows.shape[0]):
-        t = rows[k]
-        p, q, r = T[t, 0], T[t, 1], T[t, 2]
-        a2 = b2 = c2 = 0.0
-        for d in range(3):
-            x = xyz[q, d] - xyz[r, d]
-            a2 += x * x
-            x = xyz[r, d] - xyz[p, d]
-            b2 += x * x
-            x = xyz[p, d] - xyz[q, d]
-            c2 += x * x
-        a, b, c = np.sqrt(a2), np.sqrt(b2), np.sqrt(c2)
-        if not (a > 0 and b > 0 and c > 0):
-            continue
-        ca = (b2 + c2 - a2) / (2 * b * c)
-        cb = (a2 + c2 - b2) / (2 * a * c)
-        cc = (a2 + b2 - c2) / (2 * a * b)
-        if ca < cos_min and cb < cos_min and cc < cos_min:
-            out[k] = False
-    return out
-
-
 def _min_angles_deg(P: np.ndarray) -> np.ndarray:
     """Smallest angle (degrees) of triangles P (m, 3, 3), 0 for a degenerate one."""
     # sides a = |P1 P2|, b = |P2 P0|, c = |P0 P1| in one pass; the cosine of the angle opposite each side
@@ -205,11 +173,7 @@ def collapse_boundary_slivers(surface, uv: np.ndarray, xyz: np.ndarray, triangle
         tt = is_trim[T[idx]]
         mixed = idx[tt.any(axis=1) & ~tt.all(axis=1)]
         need = mixed[np.isnan(angle[mixed])]         # a triangle's angle: computed again once it changed
-        # the exact angles (numpy's) of the triangles a compiled test cannot show to be clearly wider
-        # than min_angle_deg; the others get +inf (they are no candidates either way)
-        maybe = _maybe_thin_kernel(xyz, T, need, _COS_MARGIN * np.cos(np.radians(min_angle_deg)))
-        angle[need[~maybe]] = np.inf
-        angle[need[maybe]] = _min_angles_deg(xyz[T[need[maybe]]])
+        angle[need] = _min_angles_deg(xyz[T[need]])
         ang = angle[mixed]
         thin_m = ang < min_angle_deg
         thin, thin_ang = mixed[thin_m], ang[thin_m]
