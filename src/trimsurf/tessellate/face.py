@@ -800,31 +800,43 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
     polys, xyzs, vids = [], [], []
     removed = 0
     for entries in loop_chunks:
-        uv_parts, x_parts, id_parts, seg_parts = [], [], [], []
+        # each chunk in the loop's direction without its last point (the next chunk's first)
+        uv_parts, x_parts, id_parts, seg_ids, counts = [], [], [], [], []
+        any_ids = False
         for chunk, ui, ids in entries:
             use = chunk.uses[ui]
             uv, x = chunk.uv[ui], chunk.xyz
-            idv = np.full(len(uv), -1, dtype=np.int64) if ids is None else ids
-            if not use.forward:
-                uv, x, idv = uv[::-1], x[::-1], idv[::-1]
-            uv_parts.append(uv[:-1])
-            x_parts.append(x[:-1])
-            id_parts.append(idv[:-1])
+            if use.forward:
+                uv_parts.append(uv[:-1])
+                x_parts.append(x[:-1])
+                id_parts.append(None if ids is None else ids[:-1])
+            else:
+                uv_parts.append(uv[:0:-1])
+                x_parts.append(x[:0:-1])
+                id_parts.append(None if ids is None else ids[:0:-1])
+            any_ids |= ids is not None
             eid = use.pcurve.edge_id
-            seg_parts.append(np.full(len(uv) - 1, -1 - use.segment if eid is None else int(eid), dtype=np.int64))
+            seg_ids.append(-1 - use.segment if eid is None else int(eid))
+            counts.append(len(uv) - 1)
         poly = np.concatenate(uv_parts)
         xyz = np.concatenate(x_parts)
-        vid = np.concatenate(id_parts)
-        seg = np.concatenate(seg_parts)
+        if any_ids:
+            vid = np.concatenate([np.full(c, -1, dtype=np.int64) if i is None else i
+                                  for i, c in zip(id_parts, counts)])
+        else:
+            vid = np.full(len(poly), -1, dtype=np.int64)
         # drop consecutive duplicates in (u, v)
-        keep = np.r_[True, np.any(poly[1:] != poly[:-1], axis=1)]
+        keep = np.empty(len(poly), dtype=bool)
+        keep[:1] = True
+        np.any(poly[1:] != poly[:-1], axis=1, out=keep[1:])
         if len(poly) > 1 and np.all(poly[-1] == poly[0]):
             keep[-1] = False
-        poly, xyz, vid, seg = poly[keep], xyz[keep], vid[keep], seg[keep]
+        poly, xyz, vid = poly[keep], xyz[keep], vid[keep]
         if len(poly) < 3:
             continue
         sel = remove_polygon_loops(poly)
         if tolerance is not None and len(sel) < len(poly):
+            seg = np.repeat(np.array(seg_ids, dtype=np.int64), counts)[keep]
             _check_cut_loop(face, poly, xyz, seg, sel, float(tolerance))
         removed += len(poly) - len(sel)
         polys.append(poly[sel])
