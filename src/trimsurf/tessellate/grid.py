@@ -550,7 +550,9 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
         seg = np.concatenate(segs)
         seg = seg[seg[:, 0] != seg[:, 1]]
         # Triangle on the vertices these segments use (plus the extra interior points)
-        used = np.unique(seg)
+        mark = np.zeros(len(uv), dtype=bool)
+        mark[seg.ravel()] = True
+        used = np.flatnonzero(mark)                 # np.unique(seg)
         if extra is not None and len(extra):
             e = np.unique(np.asarray(extra, dtype=np.float64).reshape(-1, 2), axis=0)
             ei = np.searchsorted(us, e[:, 0]) - 1
@@ -590,20 +592,22 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
             alias[used[gone]] = used[rep[gone]]
             grid_tris = alias[grid_tris]
         out_v = res["vertices"]
-        if shear:
-            out_v = out_v.copy()
-            out_v[:, 0] -= shear * out_v[:, 1]
-        out_v = out_v * scale + scale_lo
         out_t = res["triangles"].astype(np.int64)
-        given = keep < n_q                          # input points (the rest: crossing points, Triangle's)
-        out_v[:len(keep)][given] = uv[used[keep[given]]]          # the input points exactly as given
-        n_new = len(out_v) - int(given.sum())
+        # Triangle's vertices: the input points exactly as given, the others (crossing points) new, mapped
+        # back from Triangle's coordinates
+        given = np.flatnonzero(keep < n_q)
         glob = np.empty(len(out_v), dtype=np.int64)
-        glob[:len(keep)][given] = used[keep[given]]
-        new_rows = np.concatenate([np.flatnonzero(~given), np.arange(len(keep), len(out_v))])
-        glob[new_rows] = len(uv) + np.arange(n_new)
+        glob[given] = used[keep[given]]
+        is_new = np.ones(len(out_v), dtype=bool)
+        is_new[given] = False
+        new_rows = np.flatnonzero(is_new)
+        n_new = len(new_rows)
         if n_new:
-            uv = np.concatenate([uv, out_v[new_rows]])
+            glob[new_rows] = len(uv) + np.arange(n_new)
+            v = out_v[new_rows]
+            if shear:
+                v[:, 0] -= shear * v[:, 1]
+            uv = np.concatenate([uv, v * scale + scale_lo])
             grid_node = np.concatenate([grid_node, np.full(n_new, -1, dtype=np.int64)])
         tri = glob[out_t]
         # the triangles whose centroid lies in a crossed cell and inside the trim
