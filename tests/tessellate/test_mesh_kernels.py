@@ -240,3 +240,41 @@ def test_min_angles_one_pass_equals_per_side():
         P[::7, 1] = P[::7, 0] + 1e-9 * scale * rng.normal(size=(len(P[::7]), 3))     # thin
         P[::11, 2] = P[::11, 0]                                                     # degenerate
         assert np.array_equal(ref(P), slivers_mod._min_angles_deg(P))
+
+
+def _dist_to_polygon(p, poly):
+    a, b = poly, np.roll(poly, -1, axis=0)
+    d = b - a
+    t = np.clip(np.einsum("nkd,kd->nk", p[:, None] - a[None], d) / np.einsum("kd,kd->k", d, d), 0, 1)
+    return np.linalg.norm(p[:, None] - (a[None] + t[..., None] * d[None]), axis=2).min(axis=1)
+
+
+def test_triangulate_domain_crossing_points_mapped_back():
+    """Trim polygons crossing each other and the grid lines: the crossing points `clean_pslg` inserts
+    come back from Triangle's (scaled, sheared) coordinates onto the polygons, and the triangles cover
+    the even-odd region."""
+    us = np.linspace(0.0, 1.0, 6)
+    vs = np.linspace(0.0, 1.0, 5)
+    outer = np.array([[0.1, 0.1], [0.9, 0.1], [0.9, 0.9], [0.1, 0.9]])
+    other = np.array([[0.5, 0.5], [0.97, 0.63], [0.61, 0.97]])       # crosses x = 0.9 and y = 0.9
+    for tie in (None, True, False):
+        dt = grid_mod.triangulate_domain(us, vs, [outer, other], tie_main=tie)
+        new = np.flatnonzero((np.arange(len(dt.uv)) >= dt.n_trim) & (dt.grid_node < 0))
+        p = dt.uv[new]
+        d_outer, d_other = _dist_to_polygon(p, outer), _dist_to_polygon(p, other)
+        # every new point is where a trim segment crossed a cell side or the other loop: on a loop ...
+        assert np.all(np.minimum(d_outer, d_other) < 1e-12)
+        # ... and the loops' two crossings are among them, on both
+        assert np.count_nonzero((d_outer < 1e-12) & (d_other < 1e-12)) >= 2
+        q = dt.uv[dt.triangles]
+        area = 0.5 * ((q[:, 1, 0] - q[:, 0, 0]) * (q[:, 2, 1] - q[:, 0, 1])
+                      - (q[:, 2, 0] - q[:, 0, 0]) * (q[:, 1, 1] - q[:, 0, 1]))
+        assert np.all(area > 0)
+        # even-odd: the square plus the triangle minus twice their overlap (by a fine raster)
+        g = (np.arange(2000) + 0.5) / 2000
+        X, Y = np.meshgrid(g, g)
+        pts = np.column_stack([X.ravel(), Y.ravel()])
+        from trimsurf.geom.predicates import points_in_polygons
+
+        expect = points_in_polygons(pts, [outer, other]).mean()
+        assert abs(area.sum() - expect) < 2e-3
