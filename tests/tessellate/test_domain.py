@@ -168,3 +168,27 @@ def test_adaptive_values_no_more_triangles_than_the_uniform_baseline(name):
     uniform = tessellate_face(face, tolerance=tol, max_edge=h, strategy="uniform")
     assert adaptive.n_triangles <= 1.1 * uniform.n_triangles
     assert surface_deviation(adaptive, face, density=4).max_two_sided <= tol
+
+
+def test_domain_values_fits_are_the_diagonal_fits(shared_data):
+    """The diagonal fits `face_domain_values(..., with_fits=True)` hands to `mesh_face_from_chunks` (from
+    its cell cache) are bit for bit `_diagonal_fits` of the returned grid, also where the refinement's
+    last round added cells the cache had not seen (wing_fuselage at loose mode's face tolerance)."""
+    from trimsurf.errors import InputError
+    from trimsurf.io import read_shell
+    from trimsurf.tessellate.face import _diagonal_fits
+    from trimsurf.tessellate.shell import default_parameters
+
+    shell = read_shell(shared_data / "cad" / "gmsh__wing_fuselage.step")
+    tol, h = default_parameters(shell)
+    n = 0
+    for f in shell.faces:
+        f = f if f.loops else _rectangle_face(f)
+        try:
+            us, vs, fits = face_domain_values(f, tolerance=0.5 * tol, max_edge=h, with_fits=True)
+        except InputError:
+            continue
+        ref = _diagonal_fits(f.surface, us, vs)
+        assert fits.shape == ref.shape and np.array_equal(fits.view(np.uint64), ref.view(np.uint64))
+        n += 1
+    assert n >= 0.9 * len(shell.faces)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -257,7 +257,7 @@ def _knots_in(knots: np.ndarray, a: float, b: float) -> np.ndarray:
 
 
 def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
-                       strategy: str = "equidistributed", n_lines: int = _N_LINES) -> tuple[np.ndarray, np.ndarray]:
+                       strategy: str = "equidistributed", n_lines: int = _N_LINES, with_fits: bool = False):
     """Adaptive u and v values of a face (paper Sec. 4.2), the criteria evaluated over the whole face.
 
     For the u values, the lines are v = const for `n_lines` values across the
@@ -274,14 +274,25 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
     Returns
     -------
     us, vs : increasing float64 arrays, from the grid box's lower to upper corner.
+    fits : (n_cells, 2) float64, only with ``with_fits``
+        The grid's `_diagonal_fits` (the same numbers, from the refinement's cell cache): for
+        `mesh_face_from_chunks(..., fits=fits)`.
     """
+    cache = _CellCache(face.surface)
+    us, vs = _domain_values(face, tolerance, max_edge, strategy, n_lines, cache)
+    if with_fits:
+        return us, vs, cache.fits(us, vs)
+    return us, vs
+
+
+def _domain_values(face, tolerance, max_edge, strategy, n_lines, cache):
+    """`face_domain_values` with the face's `_CellCache`."""
     s = face.surface
     # the loops sampled for the grid box (32 per segment) and as trim polygons (`_loop_polys`, 6) at once
     box_polys, polys = None, None
     if face.loops:
         box_polys, polys = _loop_polylines(face, 32, 6)
     lo, hi = grid_box(face, box_polys)
-    cache = _CellCache(s)
     raster = None
     if polys is not None:       # refine_cells and _worst_cell_ratio index the same trim polygons
         cache.seed(face, polys)
@@ -656,6 +667,11 @@ class _CellCache:
             self.n = first + k
         return rows
 
+    def fits(self, us, vs) -> np.ndarray:
+        """`_diagonal_fits(surface, us, vs)` from the cache (the same numbers; the new cells computed)."""
+        rows = self._cells(us, vs)      # first: new cells may move the buffers
+        return self._d[rows]
+
     def deviation(self, us, vs, tolerance, exact: bool = True):
         """`_cell_deviation`; with exact=False a cell whose deviation is certainly at most the tolerance may
         get an upper bound of it, at most the tolerance, instead (`cell_surface_kernel`'s screen): where
@@ -699,7 +715,8 @@ class FaceMesh:
     n_crossed_cells : int
     tri_dev : (m,) float64
         Per triangle, the largest |S(uv) - x| at its centroid and edge midpoints
-        (x on the triangle, uv interpolated): a sampled bound of its deviation.
+        (x on the triangle, uv interpolated): a sampled bound of its deviation. Computed when first
+        read (`tessellate_shell` in conforming mode with seam reduction does not read it).
     removed_loop_points : int
         Trim-polygon points cut out with the small sub-loops of a self-crossing trim (repair).
     """
@@ -712,8 +729,17 @@ class FaceMesh:
     us: np.ndarray
     vs: np.ndarray
     n_crossed_cells: int
-    tri_dev: np.ndarray
+    _tri_dev: np.ndarray | None
     removed_loop_points: int = 0
+    #: the arguments of `_face_tri_dev` while `_tri_dev` is not computed yet
+    _dev_task: tuple | None = field(default=None, repr=False)
+
+    @property
+    def tri_dev(self) -> np.ndarray:
+        if self._tri_dev is None:
+            self._tri_dev = _face_tri_dev(*self._dev_task)
+            self._dev_task = None
+        return self._tri_dev
 
     def to_trimesh(self) -> TriMesh:
         return TriMesh(self.xyz, self.triangles, uv=self.uv)
@@ -778,7 +804,7 @@ def _check_cut_loop(face: TrimmedFace, poly: np.ndarray, xyz: np.ndarray, seg: n
 
 def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loop_chunks: list, *,
                           tolerance: float | None = None, max_edge: float = np.inf,
-                          slivers: bool = True) -> FaceMesh:
+                          slivers: bool = True, fits: np.ndarray | None = None) -> FaceMesh:
     """Triangulate a face whose loops are given as discretized chunks.
 
     Parameters
@@ -796,6 +822,9 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
     slivers : bool
         With a tolerance: collapse grid nodes that make thin triangles at the
         trim into the trim vertex (`trimsurf.tessellate.slivers`, paper Sec. 5.1).
+    fits : (n_cells, 2) float64 or None
+        The grid's `_diagonal_fits` when known (`face_domain_values(..., with_fits=True)`); None:
+        computed here.
     """
     polys, xyzs, vids = [], [], []
     removed = 0
@@ -849,7 +878,8 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
     tol = None if tolerance is None else float(tolerance)
     # every cell's diagonal fits once: the preferred direction and each triangulation's cell splits
     # (the extra-point rounds re-triangulate) read them
-    fits = _diagonal_fits(s, us, vs)
+    if fits is None or len(fits) != (len(us) - 1) * (len(vs) - 1):
+        fits = _diagonal_fits(s, us, vs)
     prefer = None if tol is None else _prefer_main(s, us, vs, fits)
     n_v = len(vs) - 1
 
@@ -909,6 +939,7 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
         quads = kept[quads] if len(quads) else quads
         quads = quads[(quads >= 0).all(axis=1)] if len(quads) else quads
     tris = np.ascontiguousarray(tris)
+    task = None
     if plane_delta is not None:
         # the exact bound: the distance to the plane is affine on a triangle, its largest at a corner (a
         # trim point off the surface, a lifted point on it up to rounding), and the surface lies within
@@ -917,21 +948,28 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
         off = np.abs(xyz @ normal - height)
         tri_dev = off[tris].max(axis=1) + delta if len(tris) else np.zeros(0)
     else:
-        # the sampled bound of every triangle in the (u, v) orientation of the triangulation: what the rounds
-        # computed is taken over (the triangles the slivers' collapse kept), the rest computed
-        if dev is None:
-            dev = known.deviation(dt.uv, xyz, dt.triangles)
-        if kept is None:
-            tri_dev = dev.copy()
-        else:
-            tri_dev = np.full(len(tris), np.nan)
-            src = np.flatnonzero(kept >= 0)
-            tri_dev[kept[src]] = dev[src]
-            new = np.flatnonzero(np.isnan(tri_dev))
-            if len(new):
-                t_new = tris[new] if face.same_sense else tris[new][:, ::-1]
-                tri_dev[new] = triangle_deviation(s, dt.uv, xyz, np.ascontiguousarray(t_new))
-    return FaceMesh(dt.uv, xyz, tris, vid, quads, us, vs, dt.n_crossed_cells, tri_dev, removed)
+        # computed when read (FaceMesh.tri_dev): the same numbers
+        tri_dev = None
+        task = (s, known if dev is None else None, dt.uv, xyz, dt.triangles, dev, kept, tris, face.same_sense)
+    return FaceMesh(dt.uv, xyz, tris, vid, quads, us, vs, dt.n_crossed_cells, tri_dev, removed, task)
+
+
+def _face_tri_dev(s, known, uv, xyz, dt_triangles, dev, kept, tris, same_sense) -> np.ndarray:
+    """`FaceMesh.tri_dev` of a curved face (`mesh_face_from_chunks`)."""
+    # the sampled bound of every triangle in the (u, v) orientation of the triangulation: what the rounds
+    # computed is taken over (the triangles the slivers' collapse kept), the rest computed
+    if dev is None:
+        dev = known.deviation(uv, xyz, dt_triangles)
+    if kept is None:
+        return dev.copy()
+    tri_dev = np.full(len(tris), np.nan)
+    src = np.flatnonzero(kept >= 0)
+    tri_dev[kept[src]] = dev[src]
+    new = np.flatnonzero(np.isnan(tri_dev))
+    if len(new):
+        t_new = tris[new] if same_sense else tris[new][:, ::-1]
+        tri_dev[new] = triangle_deviation(s, uv, xyz, np.ascontiguousarray(t_new))
+    return tri_dev
 
 
 def _plane_offset(surface, tolerance: float | None):
@@ -1185,7 +1223,8 @@ def tessellate_face(face: TrimmedFace, *, tolerance: float, max_edge: float, str
         face = rep.face
     if not face.loops:
         face = _rectangle_face(face)
-    us, vs = face_domain_values(face, tolerance=tolerance, max_edge=max_edge, strategy=strategy)
+    us, vs, fits = face_domain_values(face, tolerance=tolerance, max_edge=max_edge, strategy=strategy,
+                                      with_fits=True)
     chunks = loose_chunks(face, 0, us, vs, tolerance=tolerance, max_edge=max_edge, strategy=strategy, reduce=reduce)
     return mesh_face_from_chunks(face, us, vs, chunks, tolerance=tolerance, max_edge=max_edge,
-                                 slivers=slivers).to_trimesh()
+                                 slivers=slivers, fits=fits).to_trimesh()

@@ -336,6 +336,7 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
     n = len(shell.faces)
     faces, statuses = [], {}
     grids: dict = {}
+    fits: dict = {}     # per face (us, vs, the grid's diagonal fits) from face_domain_values
 
     def prepare(i):     # repair and domain values of face i: (face, status, grid or None)
         face = shell.faces[i]
@@ -347,7 +348,7 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
         if not f.loops:
             f = _rectangle_face(f)
         try:
-            grid = face_domain_values(f, tolerance=face_tol, max_edge=max_edge, strategy=strategy)
+            grid = face_domain_values(f, tolerance=face_tol, max_edge=max_edge, strategy=strategy, with_fits=True)
             return f, FaceStatus(i, name, rep.status, tuple(rep.messages)), grid
         except InputError as exc:
             return f, FaceStatus(i, name, "failed", tuple(rep.messages) + (str(exc),)), None
@@ -360,7 +361,8 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
         faces.append(shell.faces[i] if f is None else f)
         statuses[i] = st
         if grid is not None:
-            grids[i] = grid
+            grids[i] = grid[:2]
+            fits[i] = grid
     n_common = 0
     if common and mode == "conforming":
         from .common import common_parameterization
@@ -378,13 +380,17 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
                                      strategy=strategy, reduce=reduce, next_id=next_id, jobs=jobs)
     def mesh_face(i):   # the triangulation of face i, or the InputError that stopped it
         us, vs = grids[i]
+        # the domain values' diagonal fits while the grid is still theirs (common_parameterization replaces some)
+        known = fits.get(i)
+        f_i = known[2] if known is not None and known[0] is us and known[1] is vs else None
         try:
             if mode == "conforming":
-                return mesh_face_from_chunks(faces[i], us, vs, entries[i], tolerance=face_tol, max_edge=max_edge)
+                return mesh_face_from_chunks(faces[i], us, vs, entries[i], tolerance=face_tol, max_edge=max_edge,
+                                             fits=f_i)
             return mesh_face_from_chunks(faces[i], us, vs,
                                          loose_chunks(faces[i], i, us, vs, tolerance=face_tol,
                                                       max_edge=max_edge, strategy=strategy, reduce=reduce),
-                                         tolerance=face_tol, max_edge=max_edge)
+                                         tolerance=face_tol, max_edge=max_edge, fits=f_i)
         except InputError as exc:
             return exc
 
@@ -414,7 +420,8 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
     stitch_info: dict = {}
     quads = np.zeros((0, 2), dtype=np.int64)
     if mode == "conforming":
-        mesh, quads, tri_dev, corner_uv = _assemble_conforming(face_meshes, next_id[0])
+        # with seam reduction (corner (u, v) and surfaces given) the bounds are not read: not computed
+        mesh, quads, tri_dev, corner_uv = _assemble_conforming(face_meshes, next_id[0], with_dev=not reduce_seams)
         if reduce_seams:
             from .seams import reduce_seams as _reduce_seams
 
@@ -496,12 +503,13 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
     return result
 
 
-def _assemble_conforming(face_meshes: dict, n_shared: int) -> TriMesh:
+def _assemble_conforming(face_meshes: dict, n_shared: int, with_dev: bool = True) -> TriMesh:
     """One mesh: shared (chunk) vertices by their global id, face-interior vertices appended.
 
     Faces in increasing order; a shared vertex takes its position from the first face that has it
     (within that face, its last point with that id). All faces' arrays are joined once and indexed
-    together (no per-face numpy passes).
+    together (no per-face numpy passes). with_dev=False: the triangles' deviation bounds come as None
+    (`FaceMesh.tri_dev` not computed).
     """
     order = sorted(face_meshes)
     if not order:
@@ -534,7 +542,7 @@ def _assemble_conforming(face_meshes: dict, n_shared: int) -> TriMesh:
     ok = (t[:, 0] != t[:, 1]) & (t[:, 1] != t[:, 2]) & (t[:, 0] != t[:, 2])
     tri = t[ok]
     fid = np.asarray(order, dtype=np.int64)[tri_face[ok]]
-    dev = np.concatenate([fm.tri_dev for fm in fms])[ok]
+    dev = np.concatenate([fm.tri_dev for fm in fms])[ok] if with_dev else None
     cuv = uv[tri_all[ok]]
     new_index = np.where(ok, np.cumsum(ok) - 1, -1)
     quads = [fm.quads + toff[k] for k, fm in enumerate(fms) if len(fm.quads)]
