@@ -291,7 +291,7 @@ def _moving_basis(p, knots, n_ctrl, t, spans, basis):
     for i in range(t.shape[0]):
         for k in range(t.shape[1]):
             s = _span(p, knots, n_ctrl, t[i, k])
-            _ders_basis(s, t[i, k], p, knots, 0, ndu, a, left, right, ders)
+            _ders_basis(s, t[i, k], p, knots, np.int64(0), ndu, a, left, right, ders)
             spans[i, k] = s
             for r in range(p + 1):
                 basis[i, k, r] = ders[0, r]
@@ -391,7 +391,7 @@ def iso_line_criteria_kernel(pu, pv, ku, kv, pw, rational, axis, lines, xs, weig
 def _curve_point(p, knots, pw, rational, t, ndu, a, left, right, ders, out_row):
     n_ctrl, dimw = pw.shape
     s = _span(p, knots, n_ctrl, t)
-    _ders_basis(s, t, p, knots, 0, ndu, a, left, right, ders)
+    _ders_basis(s, t, p, knots, np.int64(0), ndu, a, left, right, ders)
     dim = dimw - 1 if rational else dimw
     w = 1.0
     if rational:
@@ -442,7 +442,7 @@ def pcurve_surface_kernel(cp, ck, cpw, crat, lo, hi, box, pu, pv, ku, kv, pw, sr
         out_uv[i, 1] = vv
         if not with_xyz:
             continue
-        _surface_point01(pu, pv, ku, kv, pw, srat, min(max(uu, su0), su1), min(max(vv, sv0), sv1), 0, ndu_u, ndu_v,
+        _surface_point01(pu, pv, ku, kv, pw, srat, min(max(uu, su0), su1), min(max(vv, sv0), sv1), np.int64(0), ndu_u, ndu_v,
                          a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
         for d in range(3):
             out_xyz[i, d] = res[0, d]

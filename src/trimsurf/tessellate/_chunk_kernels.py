@@ -400,10 +400,10 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
                 for q in range(n):
                     G[j, axis, q] = gf[o + q]
         chord_tol = tolerance if L < 2 else shared_chord * tolerance
-        mpu, mpv = 1, 1
+        mpu, mpv = np.int64(1), np.int64(1)
         for j in range(L):
             mpu, mpv = max(mpu, cic[j, 2]), max(mpv, cic[j, 3])
-        ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(mpu, mpv, 4)
+        ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(mpu, mpv, np.int64(4))
         res = np.empty((3, 3))
         if mode == 0:
             # the start values: the first use's p-curve knots inside its range, mapped onto [0, 1], and s9
@@ -439,7 +439,7 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
                 x0, y0, z0 = 0.0, 0.0, 0.0
                 for i in range(s33.shape[0]):
                     _surface_point01(pu, pv, ku, kv, pw, srat, min(max(uvp[i, 0], su0), su1),
-                                     min(max(uvp[i, 1], sv0), sv1), 0, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
+                                     min(max(uvp[i, 1], sv0), sv1), np.int64(0), ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
                                      bu, bv, tmp, skl, res)
                     if i == 0:
                         x0, y0, z0 = res[0, 0], res[0, 1], res[0, 2]
@@ -495,7 +495,7 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
                 uu, vv = uvs[j, i, 0], uvs[j, i, 1]
                 o_uv[nuv + j * k + i, 0] = uu
                 o_uv[nuv + j * k + i, 1] = vv
-                _surface_point01(pu, pv, ku, kv, pw, srat, min(max(uu, su0), su1), min(max(vv, sv0), sv1), 0,
+                _surface_point01(pu, pv, ku, kv, pw, srat, min(max(uu, su0), su1), min(max(vv, sv0), sv1), np.int64(0),
                                  ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
                 for q in range(3):
                     if j == 0:

@@ -300,7 +300,7 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
                 if straight and 0 < k < m - 1:
                     continue
                 sk = _span(pm, km, nm, xs[0, k])
-                _ders_basis(sk, xs[0, k], pm, km, 0, ndu, aa, left, right, ders)
+                _ders_basis(sk, xs[0, k], pm, km, np.int64(0), ndu, aa, left, right, ders)
                 mspan[0, k] = sk
                 for r in range(pm + 1):
                     mbasis[0, k, r] = ders[0, r]
@@ -332,7 +332,7 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
             # a short (or non-finite) interval: its interior samples after all
             for k in range(1, m - 1):
                 sk = _span(pm, km, nm, xs[0, k])
-                _ders_basis(sk, xs[0, k], pm, km, 0, ndu, aa, left, right, ders)
+                _ders_basis(sk, xs[0, k], pm, km, np.int64(0), ndu, aa, left, right, ders)
                 mspan[0, k] = sk
                 for r in range(pm + 1):
                     mbasis[0, k, r] = ders[0, r]
@@ -397,7 +397,7 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
     [a_i, b_i]: a point at the previous interval's last parameter is taken from it; with `stop`,
     returns False at the first interval over max_len or max_dev."""
     n_uses = ci.shape[0]
-    mcp, mpu, mpv = 0, 0, 0
+    mcp, mpu, mpv = 0, np.int64(0), np.int64(0)
     for j in range(n_uses):
         mcp = max(mcp, ci[j, 0])
         mpu = max(mpu, ci[j, 2])
@@ -407,7 +407,7 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
     left = np.empty(mcp + 1)
     right = np.empty(mcp + 1)
     ders = np.empty((1, mcp + 1))
-    ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(mpu, mpv, 4)
+    ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(mpu, mpv, np.int64(4))
     uv = np.empty(2)
     res = np.empty((3, 3))
     t = _linspace01(m)
@@ -435,7 +435,7 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
                 _curve_point(cp, kc, cw, crat, tt, ndu, aa, left, right, ders, uv)
                 uu = min(max(uv[0], cf[j, 2]), cf[j, 3])
                 vv = min(max(uv[1], cf[j, 4]), cf[j, 5])
-                _surface_point01(pu, pv, ku, kv, pw, srat != 0, min(max(uu, su0), su1), min(max(vv, sv0), sv1), 0,
+                _surface_point01(pu, pv, ku, kv, pw, srat != 0, min(max(uu, su0), su1), min(max(vv, sv0), sv1), np.int64(0),
                                  ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
                 for q in range(3):
                     pts[k, j, q] = res[0, q]
@@ -602,8 +602,8 @@ def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku
     nbad = 0
     sb = np.empty(0)
     cum = np.empty(0)
-    n0 = 0
-    nn = 0
+    n0 = np.int64(0)
+    nn = np.int64(0)
     v = np.empty(2)
     while True:
         ok = _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,

@@ -267,10 +267,10 @@ def _crossed_cells_kernel(p0, p1, us, vs, crossed):
     nu, nv = us.shape[0], vs.shape[0]
     for s in range(p0.shape[0]):
         # `_candidate_cells`
-        i0 = min(max(_bisect(us, min(p0[s, 0], p1[s, 0]), True) - 2, 0), nu - 2)
-        i1 = min(max(_bisect(us, max(p0[s, 0], p1[s, 0]), False), 0), nu - 2)
-        j0 = min(max(_bisect(vs, min(p0[s, 1], p1[s, 1]), True) - 2, 0), nv - 2)
-        j1 = min(max(_bisect(vs, max(p0[s, 1], p1[s, 1]), False), 0), nv - 2)
+        i0 = min(max(_bisect(us, min(p0[s, 0], p1[s, 0]), np.bool_(True)) - 2, 0), nu - 2)
+        i1 = min(max(_bisect(us, max(p0[s, 0], p1[s, 0]), np.bool_(False)), 0), nu - 2)
+        j0 = min(max(_bisect(vs, min(p0[s, 1], p1[s, 1]), np.bool_(True)) - 2, 0), nv - 2)
+        j1 = min(max(_bisect(vs, max(p0[s, 1], p1[s, 1]), np.bool_(False)), 0), nv - 2)
         for i in range(i0, i1 + 1):
             for j in range(j0, j1 + 1):
                 if crossed[i, j]:
@@ -327,8 +327,8 @@ def _grid_nodes_kernel(pts, us, vs, crossed, keep, ki, kj, main):
         node_trim[f] = -1
         node_vertex[f] = -1
     for t in range(n_trim):
-        iu = _bisect(us, pts[t, 0], False)
-        jv = _bisect(vs, pts[t, 1], False)
+        iu = _bisect(us, pts[t, 0], np.bool_(False))
+        jv = _bisect(vs, pts[t, 1], np.bool_(False))
         if iu < nu and jv < nv and us[iu] == pts[t, 0] and vs[jv] == pts[t, 1]:
             f = iu * nv + jv
             if node_trim[f] < 0:
@@ -425,8 +425,8 @@ def _cdt_keep_kernel(uv, tri, us, vs, crossed, a, b, y0, h, n_slab, start, edges
         p, q, r = tri[k, 0], tri[k, 1], tri[k, 2]
         cx = (uv[p, 0] + uv[q, 0] + uv[r, 0]) / 3.0
         cy = (uv[p, 1] + uv[q, 1] + uv[r, 1]) / 3.0
-        ti = min(max(_bisect(us, cx, False) - 1, 0), nu - 2)
-        tj = min(max(_bisect(vs, cy, False) - 1, 0), nv - 2)
+        ti = min(max(_bisect(us, cx, np.bool_(False)) - 1, 0), nu - 2)
+        tj = min(max(_bisect(vs, cy, np.bool_(False)) - 1, 0), nv - 2)
         ok[k] = crossed[ti, tj] and _point_in_index(cx, cy, a, b, y0, h, n_slab, start, edges)
 
 
