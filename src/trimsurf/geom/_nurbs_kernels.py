@@ -11,7 +11,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _span(degree, knots, n_ctrl, t):
     if t >= knots[n_ctrl]:
         last = n_ctrl - 1
@@ -28,7 +28,7 @@ def _span(degree, knots, n_ctrl, t):
     return lo
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _ders_basis(span, t, p, knots, nd, ndu, a, left, right, ders):
     ndu[0, 0] = 1.0
     for j in range(1, p + 1):
@@ -73,7 +73,7 @@ def _ders_basis(span, t, p, knots, nd, ndu, a, left, right, ders):
         factor *= p - k
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _surface_scratch(pu, pv, nd, dimw):
     """Work arrays of `_surface_point` (allocated once per kernel call, not per point)."""
     binom = np.zeros((nd + 1, nd + 1))
@@ -87,7 +87,7 @@ def _surface_scratch(pu, pv, nd, dimw):
             np.empty((nd + 1, nd + 1, dimw)), binom)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _surface_point(pu, pv, ku, kv, pw, rational, u, v, nd, scratch, out, i):
     """out[k, l, i, :] = d^(k+l) S / du^k dv^l at (u, v) (A3.6, A4.4)."""
     ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, binom = scratch
@@ -138,7 +138,7 @@ def _surface_point(pu, pv, ku, kv, pw, rational, u, v, nd, scratch, out, i):
                 out[k, l, i, d] = val / w0
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _point_scratch(pu, pv, dimw):
     """Work arrays of `_surface_point01`."""
     return (np.empty((pu + 1, pu + 1)), np.empty((pv + 1, pv + 1)), np.empty((2, pu + 1)), np.empty((2, pv + 1)),
@@ -146,7 +146,7 @@ def _point_scratch(pu, pv, dimw):
             np.empty((2, pu + 1)), np.empty((2, pv + 1)), np.empty((2, pu + 1, dimw)), np.empty((3, dimw)))
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _surface_point01(pu, pv, ku, kv, pw, rational, u, v, nd, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv,
                      tmp, skl, res):
     """`_surface_point` for nd = 0 or 1, the same operations in the same order (so the same numbers):
@@ -280,7 +280,7 @@ def basis_functions_kernel(p, knots, spans, t, nd, out):
                 out[k, i, r] = ders[k, r]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _moving_basis(p, knots, n_ctrl, t, spans, basis):
     """spans[i, k], basis[i, k, :] of the parameters t[i, k] (A2.1, A2.3 without derivatives)."""
     ndu = np.empty((p + 1, p + 1))
@@ -387,7 +387,7 @@ def iso_line_criteria_kernel(pu, pv, ku, kv, pw, rational, axis, lines, xs, weig
         deviation[i] = dmax
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _curve_point(p, knots, pw, rational, t, ndu, a, left, right, ders, out_row):
     n_ctrl, dimw = pw.shape
     s = _span(p, knots, n_ctrl, t)
@@ -481,7 +481,7 @@ def chord_criteria_kernel(p, weights, length, deviation):
         deviation[i] = dmax
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _d2_work(pu, pv, dimw):
     """Work arrays of `_eval_d2`, allocated once per kernel call."""
     return (np.empty((pu + 1, pu + 1)), np.empty((pv + 1, pv + 1)), np.empty((2, pu + 1)), np.empty((2, pv + 1)),
@@ -489,7 +489,7 @@ def _d2_work(pu, pv, dimw):
             np.empty((3, pv + 1)), np.empty((3, pu + 1, dimw)), np.empty((3, 3, dimw)), np.empty((3, 3, 3)))
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _eval_d2(pu, pv, ku, kv, pw, rational, u, v, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, o,
              S, D1, D2):
     """S (3,), D1 (2, 3), D2 (2, 2, 3) at (u, v) clamped to the domain: `_surface_point` with nd = 2, the
@@ -553,7 +553,7 @@ def _eval_d2(pu, pv, ku, kv, pw, rational, u, v, ndu_u, ndu_v, a_u, a_v, l_u, r_
         D2[1, 1, d] = o[0, 2, d]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _box(brk, x):
     """(lower, upper, index) of the crease-free interval of `brk` holding x (`projection._boxes`)."""
     nb = brk.shape[0]

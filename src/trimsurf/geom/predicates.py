@@ -118,7 +118,7 @@ def points_in_polygons(points, polygons, *, chunk_size: int = 1 << 22) -> np.nda
     return index.contains(points)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _point_in_index(x, y, a, b, y0, h, n_slab, start, edges):
     """Whether (x, y) lies inside the polygons of a `PolygonIndex` (its arrays), even-odd rule."""
     if not y >= y0:          # below every edge (or NaN): no crossing
@@ -200,7 +200,7 @@ def polyline_self_intersections(vertices, *, closed: bool = True) -> np.ndarray:
     return out[np.lexsort((out[:, 1], out[:, 0]))] if len(out) else out
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _sign_certain(ax, ay, bx, by, cx, cy, bound):
     left = (ax - cx) * (by - cy)
     right = (ay - cy) * (bx - cx)
@@ -210,7 +210,7 @@ def _sign_certain(ax, ay, bx, by, cx, cy, bound):
     return 1 if det > 0 else -1
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _may_cross(ax, ay, bx, by, cx, cy, dx, dy, bound):
     """Whether segments ab and cd may meet: their boxes overlap and no sign certain in floating point
     (`_sign_certain`) puts c and d, or a and b, strictly on one side of the other's line."""

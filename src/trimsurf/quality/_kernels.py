@@ -25,7 +25,7 @@ def _seg(p0, p1, p2, a0, a1, a2, b0, b1, b2):
     return t
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _tri_closest(p0, p1, p2, a, b, c, out):
     """out[0:3] closest point on triangle (a, b, c) to p, out[3:6] its barycentric weights, returns the distance."""
     ab0, ab1, ab2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]

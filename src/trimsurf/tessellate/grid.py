@@ -223,7 +223,7 @@ def _first_equal(p: np.ndarray) -> np.ndarray:
     return out
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _bisect(a, x, right):
     """np.searchsorted(a, x, side="right" if right else "left") for increasing a (NaN sorts last)."""
     lo, hi = 0, a.shape[0]
@@ -248,7 +248,7 @@ def _crossed_cells(p0: np.ndarray, p1: np.ndarray, us: np.ndarray, vs: np.ndarra
     return crossed
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _outcode(x, y, lx, ly, hx, hy):
     c = 0
     if x < lx:

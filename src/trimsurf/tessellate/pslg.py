@@ -276,7 +276,7 @@ def _is_clean(q: np.ndarray, seg: np.ndarray, eps: float) -> bool:
     return _is_clean_kernel(np.ascontiguousarray(q), np.ascontiguousarray(seg), float(eps), _CCW_BOUND)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _bucket_range(lo, hi, x0, h, g):
     a = min(max(int((lo - x0) / h), 0), g - 1)
     b = min(max(int((hi - x0) / h), 0), g - 1)
