@@ -225,6 +225,41 @@ def surface_derivatives_kernel(pu, pv, ku, kv, pw, rational, u, v, nd, out):
         _surface_point(pu, pv, ku, kv, pw, rational, u[i], v[i], nd, scratch, out, i)
 
 
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _surface_distance1(pu, pv, ku, kv, pw, rational, u, v, x0, x1, x2, steps, u0, u1, v0, v1,
+                       ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res):
+    """|S(u, v) - x| and `steps` Gauss-Newton steps of the foot point (clipped to [u0, u1] x [v0, v1]), the
+    smallest distance met: `surface_distance_kernel` of one point (scratch from `_point_scratch`, res (3, 3))."""
+    b = np.inf
+    for it in range(steps + 1):
+        uc = min(max(u, u0), u1)
+        vc = min(max(v, v0), v1)
+        _surface_point01(pu, pv, ku, kv, pw, rational, uc, vc, 1 if it < steps else 0, ndu_u, ndu_v, a_u, a_v,
+                         l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
+        p0, p1, p2 = res[0, 0], res[0, 1], res[0, 2]
+        r0, r1, r2 = x0 - p0, x1 - p1, x2 - p2
+        dist = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+        if it == 0 or dist < b:
+            b = dist
+        if it == steps:
+            break
+        su0, su1, su2 = res[1, 0], res[1, 1], res[1, 2]
+        sv0, sv1, sv2 = res[2, 0], res[2, 1], res[2, 2]
+        a = su0 * su0 + su1 * su1 + su2 * su2
+        bb = su0 * sv0 + su1 * sv1 + su2 * sv2
+        c = sv0 * sv0 + sv1 * sv1 + sv2 * sv2
+        ru = su0 * r0 + su1 * r1 + su2 * r2
+        rv = sv0 * r0 + sv1 * r1 + sv2 * r2
+        det = a * c - bb * bb
+        if np.isfinite(det) and det > 1e-12 * max(a * c, 1e-300):
+            u = min(max(u + (c * ru - bb * rv) / det, u0), u1)
+            v = min(max(v + (a * rv - bb * ru) / det, v0), v1)
+        else:
+            u = min(max(u, u0), u1)
+            v = min(max(v, v0), v1)
+    return b
+
+
 @njit(cache=True, nogil=True)
 def surface_distance_kernel(pu, pv, ku, kv, pw, rational, uv, x, steps, best):
     """`trimsurf.tessellate.face.surface_distance` per point: |S(uv) - x| and `steps` Gauss-Newton
@@ -234,35 +269,9 @@ def surface_distance_kernel(pu, pv, ku, kv, pw, rational, uv, x, steps, best):
     ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(pu, pv, pw.shape[2])
     res = np.empty((3, 3))
     for i in range(uv.shape[0]):
-        u, v = uv[i, 0], uv[i, 1]
-        b = np.inf
-        for it in range(steps + 1):
-            uc = min(max(u, u0), u1)
-            vc = min(max(v, v0), v1)
-            _surface_point01(pu, pv, ku, kv, pw, rational, uc, vc, 1 if it < steps else 0, ndu_u, ndu_v, a_u, a_v,
-                             l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
-            p0, p1, p2 = res[0, 0], res[0, 1], res[0, 2]
-            r0, r1, r2 = x[i, 0] - p0, x[i, 1] - p1, x[i, 2] - p2
-            dist = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
-            if it == 0 or dist < b:
-                b = dist
-            if it == steps:
-                break
-            su0, su1, su2 = res[1, 0], res[1, 1], res[1, 2]
-            sv0, sv1, sv2 = res[2, 0], res[2, 1], res[2, 2]
-            a = su0 * su0 + su1 * su1 + su2 * su2
-            bb = su0 * sv0 + su1 * sv1 + su2 * sv2
-            c = sv0 * sv0 + sv1 * sv1 + sv2 * sv2
-            ru = su0 * r0 + su1 * r1 + su2 * r2
-            rv = sv0 * r0 + sv1 * r1 + sv2 * r2
-            det = a * c - bb * bb
-            if np.isfinite(det) and det > 1e-12 * max(a * c, 1e-300):
-                u = min(max(u + (c * ru - bb * rv) / det, u0), u1)
-                v = min(max(v + (a * rv - bb * ru) / det, v0), v1)
-            else:
-                u = min(max(u, u0), u1)
-                v = min(max(v, v0), v1)
-        best[i] = b
+        best[i] = _surface_distance1(pu, pv, ku, kv, pw, rational, uv[i, 0], uv[i, 1], x[i, 0], x[i, 1], x[i, 2],
+                                     steps, u0, u1, v0, v1, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv,
+                                     tmp, skl, res)
 
 
 @njit(cache=True, nogil=True)
