@@ -306,6 +306,28 @@ def _moving_basis(p, knots, n_ctrl, t, spans, basis):
                 basis[i, k, r] = ders[0, r]
 
 
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _chord_worst(pts, m, den):
+    """Largest distance of the interior samples pts[1:m-1] from the chord pts[0] -> pts[m - 1] (den: the
+    chord's squared length), clamped to the chord, summed in numpy's order (the numpy path bit for bit)."""
+    a0, a1, a2 = pts[0, 0], pts[0, 1], pts[0, 2]
+    ab0, ab1, ab2 = pts[m - 1, 0] - a0, pts[m - 1, 1] - a1, pts[m - 1, 2] - a2
+    dd = den if den > 0 else 1.0
+    worst = 0.0
+    for k in range(1, m - 1):
+        q0, q1, q2 = pts[k, 0] - a0, pts[k, 1] - a1, pts[k, 2] - a2
+        t = ((q0 * ab0 + q2 * ab2) + q1 * ab1) / dd
+        if t < 0.0:
+            t = 0.0
+        elif t > 1.0:
+            t = 1.0
+        r0, r1, r2 = q0 - t * ab0, q1 - t * ab1, q2 - t * ab2
+        dist = np.sqrt((r0 * r0 + r1 * r1) + r2 * r2)
+        if dist > worst or k == 1:
+            worst = dist
+    return worst
+
+
 @njit(cache=True, nogil=True)
 def iso_line_criteria_kernel(pu, pv, ku, kv, pw, rational, axis, lines, xs, weights, length, deviation):
     """Chord length and chord deviation of intervals on iso-lines of a surface (`interval_criteria`).
@@ -377,19 +399,7 @@ def iso_line_criteria_kernel(pu, pv, ku, kv, pw, rational, axis, lines, xs, weig
             ln = np.sqrt(den)
             if ln > lmax:
                 lmax = ln
-            dd = den if den > 0 else 1.0
-            worst = 0.0
-            for k in range(1, m - 1):
-                q0, q1, q2 = pts[k, 0] - a0, pts[k, 1] - a1, pts[k, 2] - a2
-                t = ((q0 * ab0 + q2 * ab2) + q1 * ab1) / dd
-                if t < 0.0:
-                    t = 0.0
-                elif t > 1.0:
-                    t = 1.0
-                r0, r1, r2 = q0 - t * ab0, q1 - t * ab1, q2 - t * ab2
-                dist = np.sqrt((r0 * r0 + r1 * r1) + r2 * r2)
-                if dist > worst or k == 1:
-                    worst = dist
+            worst = _chord_worst(pts, m, den)
             if worst > dmax:
                 dmax = worst
         length[i] = lmax

@@ -31,8 +31,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..geom._nurbs_kernels import (_curve_point, _ders_basis, _moving_basis, _point_scratch, _span, _surface_distance1,
-                                   _surface_point01)
+from ..geom._nurbs_kernels import (_chord_worst, _curve_point, _ders_basis, _moving_basis, _point_scratch, _span,
+                                   _surface_distance1, _surface_point01)
 from ..geom.nurbs import read_only
 
 #: the other kind's members of a family tuple (one compiled signature for both kinds)
@@ -326,7 +326,7 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
             if lnl > lmax:
                 lmax = lnl
             if not straight:
-                worst = _chord_worst(pts, l, m, den)
+                worst = _chord_worst(pts[l], m, den)
                 if worst > dmax:
                     dmax = worst
         if straight and any_w and not (lmax >= thr and lmax < np.inf):
@@ -345,7 +345,7 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
                            stamp, cur)
                 ab0, ab1, ab2 = (pts[l, m - 1, 0] - pts[l, 0, 0], pts[l, m - 1, 1] - pts[l, 0, 1],
                                  pts[l, m - 1, 2] - pts[l, 0, 2])
-                worst = _chord_worst(pts, l, m, (ab0 * ab0 + ab2 * ab2) + ab1 * ab1)
+                worst = _chord_worst(pts[l], m, (ab0 * ab0 + ab2 * ab2) + ab1 * ab1)
                 if worst > dmax:
                     dmax = worst
         for l in range(n_lines):
@@ -356,28 +356,6 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
         if stop and not (lmax <= max_len and dmax <= max_dev):
             return False
     return True
-
-
-@njit(cache=True, nogil=True, no_cpython_wrapper=True)
-def _chord_worst(pts, l, m, den):
-    """Largest distance of the interior samples pts[l, 1:m-1] from the chord pts[l, 0] -> pts[l, m - 1]
-    (den: the chord's squared length), as `iso_line_criteria_kernel` computes it."""
-    a0, a1, a2 = pts[l, 0, 0], pts[l, 0, 1], pts[l, 0, 2]
-    ab0, ab1, ab2 = pts[l, m - 1, 0] - a0, pts[l, m - 1, 1] - a1, pts[l, m - 1, 2] - a2
-    dd = den if den > 0 else 1.0
-    worst = 0.0
-    for k in range(1, m - 1):
-        q0, q1, q2 = pts[l, k, 0] - a0, pts[l, k, 1] - a1, pts[l, k, 2] - a2
-        tq = ((q0 * ab0 + q2 * ab2) + q1 * ab1) / dd
-        if tq < 0.0:
-            tq = 0.0
-        elif tq > 1.0:
-            tq = 1.0
-        r0, r1, r2 = q0 - tq * ab0, q1 - tq * ab1, q2 - tq * ab2
-        dist = np.sqrt((r0 * r0 + r1 * r1) + r2 * r2)
-        if dist > worst or k == 1:
-            worst = dist
-    return worst
 
 
 @njit(cache=True, nogil=True, inline="always")
