@@ -24,6 +24,7 @@ from ..geom.projection import project_to_surface
 from ..model import Shell, TriMesh
 from ._results import ResultMixin
 from .closest_point import _closest, _TriangleLocator, closest_points_on_mesh
+from .interpolation_bound import span_bounds, triangle_bounds
 from .sampling import (_inside_loops, as_face, distance_outside_face, loop_polygons, sample_face_domain,
                        sample_triangles)
 
@@ -185,19 +186,90 @@ def surface_deviation(mesh: TriMesh, target, *, density: int = 4, n_domain: int 
     return refine_deviation([dev], [state], rel=refine, tol_rel=tol_rel)[0][0]
 
 
-def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, two_sided: bool, tol_rel: float,
-                       trim_tol_uv: float | None, adaptive: bool = False):
-    """`surface_deviation` and, with `adaptive`, the state `refine_deviation` continues from."""
-    _check_mesh(mesh, "surface_deviation")
-    face = as_face(target)
+class _Pre:
+    """A face's first-pass samples with their vertices already projected (`_prepare_face`), and each
+    triangle's a-priori bound (`interpolation_bound.triangle_bounds`)."""
+
+    def __init__(self, samples, uv0, k0, vproj, apriori):
+        self.samples, self.uv0, self.k0, self.vproj, self.apriori = samples, uv0, k0, vproj, apriori
+
+
+def _prepare_face(mesh: TriMesh, face, density: int, tol_rel: float) -> _Pre:
+    """The first pass's samples of a face's mesh (as `_surface_deviation` takes them), its vertex samples
+    projected (the projection is point by point: the same feet as in one call with all samples), and the
+    a-priori bound of every triangle between its points and the surface over its corners' feet."""
     samples = sample_triangles(mesh, density=density)
-    # the mesh's per-vertex (u, v), interpolated at the samples, warm-starts the projection
     uv0 = None if mesh.uv is None else np.einsum("kj,kjd->kd", samples.barycentric,
                                                   mesh.uv[mesh.triangles[samples.triangle]])
-    proj = project_to_face(samples.points, face, tol_rel=tol_rel, uv0=uv0)
-    d = proj.distance
-    mx, rms, where = _stats(d, samples.points)
-    out_uv = distance_outside_face(face, proj.uv)
+    k0 = np.flatnonzero(samples.kind == 0)
+    vproj = project_to_face(samples.points[k0], face, tol_rel=tol_rel, uv0=None if uv0 is None else uv0[k0])
+    vuv = np.full((mesh.n_vertices, 2), np.nan)
+    vd = np.full(mesh.n_vertices, np.nan)
+    vuv[samples.element[k0]] = vproj.uv
+    vd[samples.element[k0]] = vproj.distance
+    t = mesh.triangles
+    apriori = triangle_bounds(_span_bounds(face.surface), vuv[t], vd[t])
+    return _Pre(samples, uv0, k0, vproj, apriori)
+
+
+def _span_bounds(surface):
+    """`interpolation_bound.span_bounds`, kept per surface object while it lives (weakly)."""
+    hit = _SPAN_BOUNDS.get(id(surface))
+    if hit is not None and hit[0] is surface:
+        return hit[1]
+    sb = span_bounds(surface)
+    if len(_SPAN_BOUNDS) >= 4096:
+        _SPAN_BOUNDS.pop(next(iter(_SPAN_BOUNDS)))
+    _SPAN_BOUNDS[id(surface)] = (surface, sb)
+    return sb
+
+
+_SPAN_BOUNDS: dict = {}
+
+
+def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, two_sided: bool, tol_rel: float,
+                       trim_tol_uv: float | None, adaptive: bool = False, pre: _Pre | None = None,
+                       skip_at: float = -np.inf):
+    """`surface_deviation` and, with `adaptive`, the state `refine_deviation` continues from.
+
+    `pre` (`_prepare_face`, with `adaptive` and `two_sided`): the samples and vertex feet computed
+    already; then the triangles whose a-priori bound is at most `skip_at` are skipped (`_shell_deviation`):
+    of their own samples only the centroid is projected (for `flipped_against_normal`), and the surface
+    samples of the (u, v) grids that fall in their footprints are not measured.
+    """
+    _check_mesh(mesh, "surface_deviation")
+    face = as_face(target)
+    skip = None
+    if pre is None:
+        samples = sample_triangles(mesh, density=density)
+        # the mesh's per-vertex (u, v), interpolated at the samples, warm-starts the projection
+        uv0 = None if mesh.uv is None else np.einsum("kj,kjd->kd", samples.barycentric,
+                                                      mesh.uv[mesh.triangles[samples.triangle]])
+        proj = project_to_face(samples.points, face, tol_rel=tol_rel, uv0=uv0)
+        d = proj.distance
+        puv = proj.uv
+        n_conv = int(np.count_nonzero(~proj.converged))
+        sel = None
+    else:
+        samples, uv0 = pre.samples, pre.uv0
+        skip = pre.apriori <= skip_at
+        sel = _kept_rows(mesh, samples, skip, density)
+        rest = sel[samples.kind[sel] != 0]
+        pr = project_to_face(samples.points[rest], face, tol_rel=tol_rel, uv0=None if uv0 is None else uv0[rest])
+        n = len(samples.points)
+        d = np.full(n, -np.inf)
+        puv = np.full((n, 2), np.nan)
+        d[pre.k0], puv[pre.k0] = pre.vproj.distance, pre.vproj.uv
+        d[rest], puv[rest] = pr.distance, pr.uv
+        n_conv = int(np.count_nonzero(~pre.vproj.converged) + np.count_nonzero(~pr.converged))
+    if sel is None:
+        mx, rms, where = _stats(d, samples.points)
+        out_uv = distance_outside_face(face, puv)
+        n_mesh = len(d)
+    else:
+        mx, rms, where = _stats(d[sel], samples.points[sel])
+        out_uv = distance_outside_face(face, puv[sel])
+        n_mesh = len(sel)
     if trim_tol_uv is None:
         (u0, u1), (v0, v1) = face.surface.domain
         box = np.array([[u0, v0], [u1, v1]]) if not face.loops else np.array(
@@ -212,11 +284,15 @@ def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, tw
     if adaptive:
         vert_uv = np.full((mesh.n_vertices, 2), np.nan)
         k0 = np.flatnonzero(samples.kind == 0)
-        vert_uv[samples.element[k0]] = proj.uv[k0]
+        vert_uv[samples.element[k0]] = puv[k0]
     if two_sided:
         uv = sample_face_domain(face, n=n_domain)
         if adaptive:
             uv = np.concatenate([uv, _footprint_grid(face, mesh, vert_uv, n_domain)])
+        if skip is not None and skip.any():
+            # a surface point S(x(w)) in a skipped triangle's footprint lies within its a-priori bound of
+            # the mesh point p(w): it cannot raise the surface -> mesh maximum
+            uv = uv[~_in_triangles(uv, vert_uv[mesh.triangles[skip]])]
         pts = face.surface.evaluate(uv)
         if adaptive and np.all(np.isfinite(pts)):
             # the refinement measures to the same mesh again: its triangle search structure is kept
@@ -232,17 +308,90 @@ def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, tw
     if adaptive:
         state = _FaceState(mesh, face, vert_uv, per_tri.copy(), np.full(mesh.n_triangles, int(density)),
                            two_sided, loop_polygons(face) if face.loops else None, loc, fine=fine)
+        if skip is not None:
+            state.skip, state.apriori = skip, pre.apriori
         if density % 3 == 0:    # the centroid (1, 1, 1) / 3 is a node of the grid: kept for `flipped_against_normal`
             k = density // 3
             cen = np.flatnonzero((samples.kind == 2) & np.all(np.rint(samples.barycentric * density) == k, axis=1))
             if len(cen) == mesh.n_triangles:
                 cuv = np.empty((mesh.n_triangles, 2))
-                cuv[samples.element[cen]] = proj.uv[cen]
+                cuv[samples.element[cen]] = puv[cen]
                 state.centroid_uv = cuv
-    dev = Deviation(mx, rms, where, len(d), mx2, rms2, where2, n2,
-                    float(np.nanmax([mx, mx2])), int(np.count_nonzero(~proj.converged)), outside,
+    dev = Deviation(mx, rms, where, n_mesh, mx2, rms2, where2, n2,
+                    float(np.nanmax([mx, mx2])), n_conv, outside,
                     float(out_uv.max(initial=0.0)), per_tri)
     return dev, state
+
+
+def _kept_rows(mesh: TriMesh, samples, skip: np.ndarray, density: int) -> np.ndarray:
+    """The first-pass sample rows measured when the triangles `skip` are skipped: every vertex, the edge
+    samples of every edge with a kept triangle on it, the interior samples of kept triangles, and the
+    centroid of every skipped triangle (its foot serves `flipped_against_normal`)."""
+    kind, el = samples.kind, samples.element
+    keep_tri = ~skip
+    inv = mesh.half_edge_edges()
+    edge_kept = np.zeros(int(inv.max(initial=-1)) + 1, dtype=bool)
+    np.logical_or.at(edge_kept, inv, np.repeat(keep_tri, 3))
+    rows = (kind == 0)
+    k1 = kind == 1
+    rows[k1] = edge_kept[el[k1]]
+    k2 = kind == 2
+    rows[k2] = keep_tri[el[k2]]
+    if density % 3 == 0:
+        k = density // 3
+        cen = k2 & np.all(np.rint(samples.barycentric * density) == k, axis=1)
+        rows |= cen
+    return np.flatnonzero(rows)
+
+
+def _in_triangles(uv: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """Whether each point uv (n, 2) lies in (or on) one of the triangles tri (m, 3, 2) (closed; a triangle
+    with a NaN corner holds no point). Points are binned in a uniform grid about the triangles' median
+    box size, and each triangle tests the points of the cells its box overlaps."""
+    n, m = len(uv), len(tri)
+    out = np.zeros(n, dtype=bool)
+    if not n or not m:
+        return out
+    tri = tri[np.all(np.isfinite(tri.reshape(m, -1)), axis=1)]
+    if not len(tri):
+        return out
+    lo_t, hi_t = tri.min(axis=1), tri.max(axis=1)
+    fin = np.all(np.isfinite(uv), axis=1)
+    lo = np.minimum(lo_t.min(axis=0), uv[fin].min(axis=0, initial=np.inf) if fin.any() else lo_t.min(axis=0))
+    hi = np.maximum(hi_t.max(axis=0), uv[fin].max(axis=0, initial=-np.inf) if fin.any() else hi_t.max(axis=0))
+    span = np.maximum(hi - lo, 1e-300)
+    ext = np.maximum(np.median(hi_t - lo_t, axis=0), span * 2.0 ** -12)
+    dims = np.minimum(np.floor(span / ext).astype(np.int64) + 1, 4096)
+    h = span / dims
+    cell = np.clip(np.floor((uv - lo) / h).astype(np.int64), 0, dims - 1)
+    cid = np.where(fin, cell[:, 0] * dims[1] + cell[:, 1], -1)
+    order = np.argsort(cid, kind="stable")
+    start = np.searchsorted(cid[order], np.arange(int(dims[0] * dims[1]) + 1))
+    c0 = np.clip(np.floor((lo_t - lo) / h).astype(np.int64), 0, dims - 1)
+    c1 = np.clip(np.floor((hi_t - lo) / h).astype(np.int64), 0, dims - 1)
+    nu, nv = c1[:, 0] - c0[:, 0] + 1, c1[:, 1] - c0[:, 1] + 1
+    cnt = nu * nv
+    t_of = np.repeat(np.arange(len(tri)), cnt)
+    k = np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    cu = c0[t_of, 0] + k // nv[t_of]
+    cv = c0[t_of, 1] + k % nv[t_of]
+    c = cu * dims[1] + cv
+    a, b = start[c], start[c + 1]
+    npts = b - a
+    t2 = np.repeat(t_of, npts)
+    p = order[np.repeat(a, npts) + np.arange(int(npts.sum())) - np.repeat(np.cumsum(npts) - npts, npts)]
+    if not len(p):
+        return out
+    q = uv[p]
+    x0, x1, x2 = tri[t2, 0], tri[t2, 1], tri[t2, 2]
+    e1, e2, r = x1 - x0, x2 - x0, q - x0
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        l1 = (r[:, 0] * e2[:, 1] - r[:, 1] * e2[:, 0]) / det
+        l2 = (e1[:, 0] * r[:, 1] - e1[:, 1] * r[:, 0]) / det
+    inside = (det != 0) & (l1 >= 0) & (l2 >= 0) & (l1 + l2 <= 1)
+    out[p[inside]] = True
+    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -302,8 +451,22 @@ def shell_deviation(mesh: TriMesh, shell: Shell, *, density: int = 4, n_domain: 
 
 
 def _shell_deviation(mesh: TriMesh, shell: Shell, *, density: int, n_domain: int, two_sided: bool, tol_rel: float,
-                     refine: float | None) -> tuple[ShellDeviation, list]:
-    """`shell_deviation` and the per-face states of the refinement (None per face without it)."""
+                     refine: float | None, skip: bool = False) -> tuple[ShellDeviation, list]:
+    """`shell_deviation` and the per-face states of the refinement (None per face without it).
+
+    `skip` (with `refine` and `two_sided`): triangles that cannot change the overall maxima are not
+    sampled. Each face's vertices are projected first and every triangle gets its a-priori bound A_t
+    (`interpolation_bound`: proven, from the control net, on the distance between its points and the
+    surface over its corners' feet, both ways). The faces are measured in decreasing order of their
+    largest A_t; a triangle with A_t at most T = min(largest mesh -> face sample, largest face -> mesh
+    sample) over the faces measured before it is skipped: none of its samples, at any density, could
+    exceed T, a value both overall maxima reach, so ``max_mesh_to_target``, ``max_target_to_mesh`` and
+    ``max_two_sided`` over the shell are the same numbers, and so is every refinement decision on the
+    other triangles (their own samples, bounds and the running maximum are unchanged). Skipped
+    triangles enter the bound with A_t (<= T). Per-face figures of faces with skipped triangles may be
+    lower than without skipping (never above); the sample counts and RMS values cover the measured
+    samples only.
+    """
     _check_mesh(mesh, "shell_deviation")
     if not isinstance(shell, Shell):
         raise InputError(f"shell_deviation needs a Shell; got {type(shell).__name__}")
@@ -313,21 +476,29 @@ def _shell_deviation(mesh: TriMesh, shell: Shell, *, density: int, n_domain: int
     if mesh.face_id.min() < 0 or mesh.face_id.max() >= n_faces:
         raise MeshError(f"shell_deviation: face_id must lie in [0, {n_faces}); got "
                         f"[{int(mesh.face_id.min())}, {int(mesh.face_id.max())}]")
-    results: list[Deviation | None] = []
-    states: list = []
+    results: list[Deviation | None] = [None] * n_faces
+    states: list = [None] * n_faces
     order = np.argsort(mesh.face_id, kind="stable")
     bounds = np.searchsorted(mesh.face_id[order], np.arange(n_faces + 1))
-    for i, face in enumerate(shell.faces):
-        sel = order[bounds[i]:bounds[i + 1]]
-        if not len(sel):
-            results.append(None)
-            states.append(None)
-            continue
-        dev, st = _surface_deviation(mesh.submesh(np.sort(sel)), face, density=density, n_domain=n_domain,
+    subs = {i: mesh.submesh(np.sort(order[bounds[i]:bounds[i + 1]])) for i in range(n_faces)
+            if bounds[i + 1] > bounds[i]}
+    pre = {}
+    faces_order = sorted(subs)
+    if skip and refine is not None and two_sided:
+        pre = {i: _prepare_face(subs[i], as_face(shell.faces[i]), density, tol_rel) for i in faces_order}
+        top = {i: float(np.max(np.where(np.isnan(p.apriori), np.inf, p.apriori))) for i, p in pre.items()}
+        faces_order = sorted(faces_order, key=lambda i: (-top[i], i))
+    m1 = m2 = -np.inf
+    for i in faces_order:
+        dev, st = _surface_deviation(subs[i], shell.faces[i], density=density, n_domain=n_domain,
                                      two_sided=two_sided, tol_rel=tol_rel, trim_tol_uv=None,
-                                     adaptive=refine is not None)
-        results.append(dev)
-        states.append(st)
+                                     adaptive=refine is not None, pre=pre.get(i), skip_at=min(m1, m2))
+        if np.isfinite(dev.max_mesh_to_target):
+            m1 = max(m1, float(dev.max_mesh_to_target))
+        if np.isfinite(dev.max_target_to_mesh):
+            m2 = max(m2, float(dev.max_target_to_mesh))
+        results[i] = dev
+        states[i] = st
     if refine is not None:
         results = refine_deviation(results, states, rel=refine, tol_rel=tol_rel)[0]
     done = [r for r in results if r is not None]
@@ -394,6 +565,8 @@ class _FaceState:
     polys: list | None          # the trim loops as polygons in (u, v) (None: untrimmed)
     loc: object = None          # the mesh's triangle search structure (`closest_point._TriangleLocator`)
     centroid_uv: np.ndarray | None = None   # (m, 2) feet of the triangles' centroids (None: not sampled)
+    skip: np.ndarray | None = None          # (m,) triangles skipped (a-priori bound below the maxima) or None
+    apriori: np.ndarray | None = None       # (m,) their a-priori bounds (`interpolation_bound`) or None
     fine: list = field(default_factory=list)    # the fine trim polygons of `_drop_outside`, once computed
 
 
@@ -565,7 +738,8 @@ def _simplex_max(c: np.ndarray) -> np.ndarray:
     return best
 
 
-def _curvature_bound(st: _FaceState, tri_uv_ok: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _curvature_bound(st: _FaceState, tri_uv_ok: np.ndarray, rows: np.ndarray | None = None
+                     ) -> tuple[np.ndarray, np.ndarray]:
     """Per triangle: the interpolation bound's coefficient beta (the bound is beta / k^2 on a grid of k
     divisions) and the curvature kappa (for the 1 / (1 - kappa d) factor of the distance function).
 
@@ -575,7 +749,16 @@ def _curvature_bound(st: _FaceState, tri_uv_ok: np.ndarray) -> tuple[np.ndarray,
     ``max_l sum_{i<j} l_i l_j q_ij / 2`` (exact for a quadratic). Where the corners' (u, v) do not
     make a triangle of the face (across a periodic seam) the face's largest sampled curvature times
     |e_ij|^2 is used.
+
+    `rows` (m,) bool, optional: the triangles whose values are needed (the others are skipped and get
+    NaN): the forms are computed at every vertex's foot as without `rows`, and at the centres of these
+    triangles only; the face's largest curvature of the fallback is then over the vertices and these
+    centres.
     """
+    if rows is not None and not rows.any():
+        return np.full(len(st.mesh.triangles), np.nan), np.full(len(st.mesh.triangles), np.nan)
+    if rows is not None:
+        tri_uv_ok = tri_uv_ok & rows
     t = st.mesh.triangles
     s = st.face.surface
     used = np.isfinite(st.vert_uv[:, 0])
@@ -596,8 +779,14 @@ def _curvature_bound(st: _FaceState, tri_uv_ok: np.ndarray) -> tuple[np.ndarray,
         v = np.abs(np.einsum("mei,mij,mej->me", e, w, e))
         q = np.fmax(q, v)
     kt = np.fmax(np.fmax(np.fmax(kv[t[:, 0]], kv[t[:, 1]]), kv[t[:, 2]]), kc)
+    if rows is not None:
+        kt[~rows] = np.nan
+        kt_all = np.fmax(kt, np.fmax(np.fmax(kv[t[:, 0]], kv[t[:, 1]]), kv[t[:, 2]]))
+    else:
+        kt_all = kt
+    fin = np.isfinite(kt_all)
+    face_max = float(kt_all[fin].max()) if fin.any() else 0.0
     fin = np.isfinite(kt)
-    face_max = float(kt[fin].max()) if fin.any() else 0.0
     fallback = ~(fin & tri_uv_ok)
     kt = np.where(fallback, face_max, kt)
     q = np.where(fallback[:, None], face_max * np.einsum("mei,mei->me", e, e), q)
@@ -661,12 +850,14 @@ def refine_deviation(devs: list, states: list, *, rel: float = 0.01, tol_rel: fl
         r = _enclosing_radius(p)
         cuv = st.vert_uv[t]                                    # (m, 3, 2) corner feet
         ok = np.all(np.isfinite(cuv.reshape(len(t), -1)), axis=1) if st.two_sided else np.zeros(len(t), bool)
+        if st.skip is not None:
+            ok &= ~st.skip                                     # skipped: no footprint samples either
         if ok.any():
             # corners' (u, v) span a triangle of the face (not across a periodic seam): its centre maps near
             # the mesh triangle's centroid
             c3 = st.face.surface.evaluate(cuv[ok].mean(axis=1))
             ok[ok] = np.linalg.norm(c3 - p[ok].mean(axis=1), axis=1) <= 2.0 * r[ok] + 2.0 * st.tri_max[ok]
-        beta, kap = _curvature_bound(st, ok)
+        beta, kap = _curvature_bound(st, ok, None if st.skip is None else ~st.skip)
         info[i] = (beta, ok, kap, np.zeros(len(t), dtype=bool))
     # the surface -> mesh side over each triangle's own footprint at the starting density first
     for i in live:
@@ -677,13 +868,16 @@ def refine_deviation(devs: list, states: list, *, rel: float = 0.01, tol_rel: fl
     def bounds(i, k=None):
         st = states[i]
         beta, ok, kap, _ = info[i]
-        return st.tri_max + beta / np.maximum(1.0 - kap * st.tri_max, 0.5) / (st.density if k is None else k) ** 2
+        b = st.tri_max + beta / np.maximum(1.0 - kap * st.tri_max, 0.5) / (st.density if k is None else k) ** 2
+        # a skipped triangle: its a-priori bound (proven, and at most the maxima: never refined)
+        return b if st.skip is None else np.where(st.skip, st.apriori, b)
 
     first = {i: states[i].density.copy() for i in live}
     while True:
         g = max(float(np.nanmax([d.max_two_sided, 0.0])) for d in devs if d is not None)
         target = (1.0 + rel) * g
-        todo = {i: np.flatnonzero((bounds(i) > target) & (states[i].density < max_density)) for i in live}
+        todo = {i: np.flatnonzero((bounds(i) > target) & (states[i].density < max_density)
+                                  & (True if states[i].skip is None else ~states[i].skip)) for i in live}
         todo = {i: c for i, c in todo.items() if len(c)}
         if not todo:
             break

@@ -126,7 +126,7 @@ def measure_mesh(mesh: TriMesh, shell: Shell, *, density: int = 3, n_domain: int
     """
     t0 = time.perf_counter()
     dev, states = _shell_deviation(mesh, shell, density=density, n_domain=n_domain, two_sided=True, tol_rel=1e-10,
-                                   refine=refine)
+                                   refine=refine, skip=True)
     # the centroids' feet, projected with the samples: `flipped_against_normal` does not project them again
     centroid_uv = {i: st.centroid_uv for i, st in enumerate(states) if st is not None and st.centroid_uv is not None}
     dev_bound = max((float(d.max_bound) for d in dev.faces if d is not None and np.isfinite(d.max_bound)),
