@@ -236,3 +236,43 @@ def segments_distance_kernel(p, a, b, out):
             if d < best:
                 best = d
         out[i] = best
+
+
+@njit(cache=True, nogil=True)
+def uv_locate_kernel(uv, order, start, lo, h, dims, tri, skip, hint, in_skipped):
+    """For (u, v) points `uv` (n, 2) binned in a uniform grid (cell side h (2,), dims (2,), from `lo`;
+    `order` the points sorted by cell, `start` (cells + 1) the offsets): hint[p] = a triangle of `tri`
+    (m, 3, 2) holding uv[p] (closed; -1 none; a triangle with a NaN corner or zero area holds none), and
+    in_skipped[p] whether one with skip[t] holds it. Each triangle tests the points of the cells its box
+    overlaps (barycentric coordinates, the same expressions as `deviation._in_triangles`)."""
+    nu, nv = dims[0], dims[1]
+    for t in range(tri.shape[0]):
+        x0, y0 = tri[t, 0, 0], tri[t, 0, 1]
+        x1, y1 = tri[t, 1, 0], tri[t, 1, 1]
+        x2, y2 = tri[t, 2, 0], tri[t, 2, 1]
+        if not (np.isfinite(x0) and np.isfinite(y0) and np.isfinite(x1) and np.isfinite(y1)
+                and np.isfinite(x2) and np.isfinite(y2)):
+            continue
+        e10, e11 = x1 - x0, y1 - y0
+        e20, e21 = x2 - x0, y2 - y0
+        det = e10 * e21 - e11 * e20
+        if det == 0.0:
+            continue
+        i0 = min(max(int(np.floor((min(x0, x1, x2) - lo[0]) / h[0])), 0), nu - 1)
+        i1 = min(max(int(np.floor((max(x0, x1, x2) - lo[0]) / h[0])), 0), nu - 1)
+        j0 = min(max(int(np.floor((min(y0, y1, y2) - lo[1]) / h[1])), 0), nv - 1)
+        j1 = min(max(int(np.floor((max(y0, y1, y2) - lo[1]) / h[1])), 0), nv - 1)
+        for i in range(i0, i1 + 1):
+            for j in range(j0, j1 + 1):
+                c = i * nv + j
+                for s in range(start[c], start[c + 1]):
+                    p = order[s]
+                    if in_skipped[p] or (hint[p] >= 0 and not skip[t]):
+                        continue
+                    r0, r1 = uv[p, 0] - x0, uv[p, 1] - y0
+                    l1 = (r0 * e21 - r1 * e20) / det
+                    l2 = (e10 * r1 - e11 * r0) / det
+                    if l1 >= 0.0 and l2 >= 0.0 and l1 + l2 <= 1.0:
+                        hint[p] = t
+                        if skip[t]:
+                            in_skipped[p] = True

@@ -255,7 +255,7 @@ def closest_points_on_mesh(points, mesh: TriMesh) -> ClosestPoints:
 
 def _closest(q: np.ndarray, loc: _TriangleLocator, hint: np.ndarray | None = None) -> ClosestPoints:
     """Exact closest points of `q` on `loc`'s triangles. `hint` (n,) int: a triangle near each query (e.g.
-    the one whose footprint it samples); the search starts from its distance as the bound to beat, which
+    the one whose footprint it samples; -1: none); the search starts from its distance as the bound to beat, which
     prunes the cells and triangles farther than that. The distances are the same (the exact minimum over
     the triangles); where two triangles are equally near, the one reported may differ."""
     n = len(q)
@@ -267,8 +267,15 @@ def _closest(q: np.ndarray, loc: _TriangleLocator, hint: np.ndarray | None = Non
         return ClosestPoints(best_d, best_t, best_p, best_w)
     q = np.ascontiguousarray(q, dtype=np.float64)
     if hint is not None:
-        hint_closest_kernel(q, loc.a, loc.b, loc.c, np.ascontiguousarray(hint, dtype=np.int64), best_d, best_t,
-                            best_p, best_w)
+        hint = np.ascontiguousarray(hint, dtype=np.int64)
+        has = hint >= 0                 # -1: no hint (the search starts from nothing)
+        if has.all():
+            hint_closest_kernel(q, loc.a, loc.b, loc.c, hint, best_d, best_t, best_p, best_w)
+        elif has.any():
+            i = np.flatnonzero(has)
+            d, t, p, w = best_d[i], best_t[i], best_p[i], best_w[i]
+            hint_closest_kernel(np.ascontiguousarray(q[i]), loc.a, loc.b, loc.c, hint[i], d, t, p, w)
+            best_d[i], best_t[i], best_p[i], best_w[i] = d, t, p, w
     lo, hi, origin, h, dims, start, items = loc.grid
     grid_closest_kernel(q, loc.a, loc.b, loc.c, lo, hi, origin, h, dims, start, items, best_d, best_t, best_p,
                         best_w)

@@ -23,8 +23,9 @@ from ..errors import InputError, MeshError
 from ..geom.projection import project_to_surface
 from ..model import Shell, TriMesh
 from ._results import ResultMixin
+from ._kernels import uv_locate_kernel
 from .closest_point import _closest, _TriangleLocator, closest_points_on_mesh
-from .interpolation_bound import span_bounds, triangle_bounds
+from .interpolation_bound import domain_bound, span_bounds, triangle_bounds
 from .sampling import (_inside_loops, as_face, distance_outside_face, loop_polygons, sample_face_domain,
                        sample_triangles)
 
@@ -289,15 +290,19 @@ def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, tw
         uv = sample_face_domain(face, n=n_domain)
         if adaptive:
             uv = np.concatenate([uv, _footprint_grid(face, mesh, vert_uv, n_domain)])
+        hint = None
         if skip is not None and skip.any():
-            # a surface point S(x(w)) in a skipped triangle's footprint lies within its a-priori bound of
-            # the mesh point p(w): it cannot raise the surface -> mesh maximum
-            uv = uv[~_in_triangles(uv, vert_uv[mesh.triangles[skip]])]
+            # each grid point's footprint triangle (its distance to it starts the exact search: the same
+            # minimum); a surface point S(x(w)) in a skipped triangle's footprint lies within that
+            # triangle's a-priori bound of the mesh point p(w): it cannot raise the surface -> mesh maximum
+            hint, ins = _locate_uv(uv, vert_uv[mesh.triangles], skip)
+            if ins.any():
+                uv, hint = uv[~ins], hint[~ins]
         pts = face.surface.evaluate(uv)
         if adaptive and np.all(np.isfinite(pts)):
             # the refinement measures to the same mesh again: its triangle search structure is kept
             loc = _TriangleLocator(mesh.vertices, mesh.triangles)
-            d2 = _closest(pts, loc).distance
+            d2 = _closest(pts, loc, hint=hint).distance
         else:
             d2 = closest_points_on_mesh(pts, mesh).distance
         if adaptive:
@@ -344,54 +349,33 @@ def _kept_rows(mesh: TriMesh, samples, skip: np.ndarray, density: int) -> np.nda
     return np.flatnonzero(rows)
 
 
-def _in_triangles(uv: np.ndarray, tri: np.ndarray) -> np.ndarray:
-    """Whether each point uv (n, 2) lies in (or on) one of the triangles tri (m, 3, 2) (closed; a triangle
-    with a NaN corner holds no point). Points are binned in a uniform grid about the triangles' median
-    box size, and each triangle tests the points of the cells its box overlaps."""
+def _locate_uv(uv: np.ndarray, tri: np.ndarray, skip: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """For (u, v) points uv (n, 2) and triangles tri (m, 3, 2): a triangle holding each point (closed; -1
+    none) and whether a triangle with `skip` holds it (`_kernels.uv_locate_kernel`). Points are binned in
+    a uniform grid about the triangles' median box size."""
     n, m = len(uv), len(tri)
-    out = np.zeros(n, dtype=bool)
-    if not n or not m:
-        return out
-    tri = tri[np.all(np.isfinite(tri.reshape(m, -1)), axis=1)]
-    if not len(tri):
-        return out
-    lo_t, hi_t = tri.min(axis=1), tri.max(axis=1)
-    fin = np.all(np.isfinite(uv), axis=1)
-    lo = np.minimum(lo_t.min(axis=0), uv[fin].min(axis=0, initial=np.inf) if fin.any() else lo_t.min(axis=0))
-    hi = np.maximum(hi_t.max(axis=0), uv[fin].max(axis=0, initial=-np.inf) if fin.any() else hi_t.max(axis=0))
+    hint = np.full(n, -1, dtype=np.int64)
+    ins = np.zeros(n, dtype=bool)
+    fin_t = np.all(np.isfinite(tri.reshape(m, -1)), axis=1) if m else np.zeros(0, dtype=bool)
+    fin = np.all(np.isfinite(uv), axis=1) if n else np.zeros(0, dtype=bool)
+    if not fin_t.any() or not fin.any():
+        return hint, ins
+    lo_t, hi_t = tri[fin_t].min(axis=1), tri[fin_t].max(axis=1)
+    lo = np.minimum(lo_t.min(axis=0), uv[fin].min(axis=0))
+    hi = np.maximum(hi_t.max(axis=0), uv[fin].max(axis=0))
     span = np.maximum(hi - lo, 1e-300)
-    ext = np.maximum(np.median(hi_t - lo_t, axis=0), span * 2.0 ** -12)
-    dims = np.minimum(np.floor(span / ext).astype(np.int64) + 1, 4096)
+    ext = np.maximum(np.median(hi_t - lo_t, axis=0), span * 2.0 ** -11)
+    dims = np.minimum(np.floor(span / ext).astype(np.int64) + 1, 2048)
     h = span / dims
-    cell = np.clip(np.floor((uv - lo) / h).astype(np.int64), 0, dims - 1)
-    cid = np.where(fin, cell[:, 0] * dims[1] + cell[:, 1], -1)
+    cell = np.clip(np.floor((np.where(fin[:, None], uv, lo) - lo) / h).astype(np.int64), 0, dims - 1)
+    cid = np.where(fin, cell[:, 0] * dims[1] + cell[:, 1], int(dims[0] * dims[1]))
     order = np.argsort(cid, kind="stable")
     start = np.searchsorted(cid[order], np.arange(int(dims[0] * dims[1]) + 1))
-    c0 = np.clip(np.floor((lo_t - lo) / h).astype(np.int64), 0, dims - 1)
-    c1 = np.clip(np.floor((hi_t - lo) / h).astype(np.int64), 0, dims - 1)
-    nu, nv = c1[:, 0] - c0[:, 0] + 1, c1[:, 1] - c0[:, 1] + 1
-    cnt = nu * nv
-    t_of = np.repeat(np.arange(len(tri)), cnt)
-    k = np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-    cu = c0[t_of, 0] + k // nv[t_of]
-    cv = c0[t_of, 1] + k % nv[t_of]
-    c = cu * dims[1] + cv
-    a, b = start[c], start[c + 1]
-    npts = b - a
-    t2 = np.repeat(t_of, npts)
-    p = order[np.repeat(a, npts) + np.arange(int(npts.sum())) - np.repeat(np.cumsum(npts) - npts, npts)]
-    if not len(p):
-        return out
-    q = uv[p]
-    x0, x1, x2 = tri[t2, 0], tri[t2, 1], tri[t2, 2]
-    e1, e2, r = x1 - x0, x2 - x0, q - x0
-    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        l1 = (r[:, 0] * e2[:, 1] - r[:, 1] * e2[:, 0]) / det
-        l2 = (e1[:, 0] * r[:, 1] - e1[:, 1] * r[:, 0]) / det
-    inside = (det != 0) & (l1 >= 0) & (l2 >= 0) & (l1 + l2 <= 1)
-    out[p[inside]] = True
-    return out
+    sk = np.zeros(m, dtype=bool) if skip is None else np.ascontiguousarray(skip, dtype=bool)
+    uv_locate_kernel(np.ascontiguousarray(uv, dtype=np.float64), order.astype(np.int64), start.astype(np.int64),
+                     lo.astype(np.float64), h.astype(np.float64), dims.astype(np.int64),
+                     np.ascontiguousarray(tri, dtype=np.float64), sk, hint, ins)
+    return hint, ins
 
 
 @dataclass(frozen=True, eq=False)
@@ -482,17 +466,23 @@ def _shell_deviation(mesh: TriMesh, shell: Shell, *, density: int, n_domain: int
     bounds = np.searchsorted(mesh.face_id[order], np.arange(n_faces + 1))
     subs = {i: mesh.submesh(np.sort(order[bounds[i]:bounds[i + 1]])) for i in range(n_faces)
             if bounds[i + 1] > bounds[i]}
-    pre = {}
     faces_order = sorted(subs)
+    flat = {}
     if skip and refine is not None and two_sided:
-        pre = {i: _prepare_face(subs[i], as_face(shell.faces[i]), density, tol_rel) for i in faces_order}
-        top = {i: float(np.max(np.where(np.isnan(p.apriori), np.inf, p.apriori))) for i, p in pre.items()}
-        faces_order = sorted(faces_order, key=lambda i: (-top[i], i))
+        # each face's bound on the interpolation term E over its whole domain: the faces where it is
+        # largest are measured first, and a face whose E is at most the maxima so far takes the skipping
+        # path (its vertices projected first, then every triangle's own A_t decides)
+        flat = {i: domain_bound(_span_bounds(as_face(shell.faces[i]).surface)) for i in faces_order}
+        faces_order = sorted(faces_order, key=lambda i: (-flat[i], i))
     m1 = m2 = -np.inf
     for i in faces_order:
+        t_skip = min(m1, m2)
+        pre = None
+        if i in flat and flat[i] <= t_skip:
+            pre = _prepare_face(subs[i], as_face(shell.faces[i]), density, tol_rel)
         dev, st = _surface_deviation(subs[i], shell.faces[i], density=density, n_domain=n_domain,
                                      two_sided=two_sided, tol_rel=tol_rel, trim_tol_uv=None,
-                                     adaptive=refine is not None, pre=pre.get(i), skip_at=min(m1, m2))
+                                     adaptive=refine is not None, pre=pre, skip_at=t_skip)
         if np.isfinite(dev.max_mesh_to_target):
             m1 = max(m1, float(dev.max_mesh_to_target))
         if np.isfinite(dev.max_target_to_mesh):

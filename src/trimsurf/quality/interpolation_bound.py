@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["SpanBounds", "span_bounds", "triangle_bounds", "MARGIN"]
+__all__ = ["SpanBounds", "span_bounds", "triangle_bounds", "domain_bound", "MARGIN"]
 
 #: relative margin added to every bound for the rounding of its own arithmetic (sums of a few dozen
 #: products of doubles, each off by at most ~1e-15 relative)
@@ -244,3 +244,16 @@ def _enclosing_radius2(p: np.ndarray) -> np.ndarray:
     obtuse = s[:, 2] >= s[:, 0] + s[:, 1]
     half = 0.25 * s[:, 2]
     return np.where(obtuse | ~np.isfinite(r2), half, np.maximum(r2, half))
+
+
+def domain_bound(sb: SpanBounds) -> float:
+    """A bound on E (module notes) for every triangle whose (u, v) lies in the domain: with the largest
+    M of all cells, ``(a du^2 + b dv^2) / 8`` (du, dv the domain's extents: the smallest disc holding a
+    triangle of the box has at most half the box's diagonal, in the scaled coordinates, as radius);
+    inf where a crease lies inside the domain (then a triangle may straddle it)."""
+    if sb.crease_u.any() or sb.crease_v.any():
+        return float("inf")
+    m = sb.m.reshape(3, -1).max(axis=1)
+    a, b = m[0] + m[1], m[2] + m[1]
+    du, dv = sb.bu[-1] - sb.bu[0], sb.bv[-1] - sb.bv[0]
+    return float((a * du * du + b * dv * dv) / 8.0 * (1.0 + MARGIN))
