@@ -117,6 +117,20 @@ def measure_mesh(mesh: TriMesh, shell: Shell, *, density: int = 3, n_domain: int
     sample spacing (1/32 of the triangle at the densest) whose curvature
     shows at none of those points can still pass unseen.
 
+    Triangles skipped, with the same figures (`quality.deviation._shell_deviation`'s ``skip``):
+    each triangle's a-priori bound A_t (`quality.interpolation_bound`: proven from the control net's
+    second differences and the corners' distances, for both directions: its points' distance to
+    the surface and the distance of the surface over its corners' feet to it) is computed for the
+    faces whose domain-wide bound is at most the maxima already measured (faces are measured in
+    decreasing order of that bound); a triangle with A_t at most both the mesh -> faces and the
+    faces -> mesh maxima so far is not sampled (only its centroid is projected, for the flip test),
+    nor are the (u, v) grid's points in its footprint: none of these samples, nor any refinement
+    of it, could exceed a maximum both sides already reach, so ``max_deviation`` and its one-sided
+    parts are the same numbers, every refinement decision on the other triangles is the same, and
+    the skipped triangle enters ``max_deviation_bound`` with A_t (below ``max_deviation``).
+    ``deviation_samples`` counts the samples measured. The (u, v) grid's points outside every
+    skipped footprint (coverage: holes, borders) are all measured as before.
+
     Shortcuts that change no figure: an edge node shared by two refined
     triangles is projected once (the same point and start give the same
     foot), and a refinement node whose warm-started projection converges
