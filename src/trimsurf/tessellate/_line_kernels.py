@@ -141,6 +141,10 @@ def _take(x, idx):
     return out
 
 
+#: `_chord_worst` inlined into the criteria loop (the same body; a call per line and interval cost ~1/3 of it)
+_chord_worst_i = njit(cache=True, nogil=True, inline="always")(_chord_worst.py_func)
+
+
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _raster_in(dil, rgeo, u, v):
     nr = dil.shape[0]
@@ -149,6 +153,13 @@ def _raster_in(dil, rgeo, u, v):
     i = min(max(i, 0), nr - 1)
     j = min(max(j, 0), nr - 1)
     return dil[i, j]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _raster_ix(rgeo, nr, axis, x):
+    """The raster index of x along axis 0 (u) or 1 (v), as `_raster_in` computes it."""
+    i = int(np.rint((x - rgeo[axis]) / rgeo[2 + axis]))
+    return min(max(i, 0), nr - 1)
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
@@ -268,6 +279,11 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
     left = np.empty(pm + 1)
     right = np.empty(pm + 1)
     ders = np.empty((1, pm + 1))
+    nr = dil.shape[0]
+    lix = np.empty(n_lines, dtype=np.int64)         # the raster index of each line (its fixed parameter)
+    if has_raster:
+        for l in range(n_lines):
+            lix[l] = _raster_ix(rgeo, nr, 1 - axis, lines_raw[l])
     prev_ok = np.zeros(n_lines, dtype=np.bool_)     # pts[l, m - 1] holds the point at prev_x on line l
     prev_x = np.nan
     w = np.empty(n_lines, dtype=np.bool_)
@@ -281,19 +297,20 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
         for k in range(m):
             xs[0, k] = min(max(a[i] + d * t[k], xr0), xr1)
         any_w = False
-        for l in range(n_lines):
-            if has_raster:
-                ln = lines_raw[l]
-                xm = 0.5 * (a[i] + b[i])
+        if has_raster:      # `_raster_in` of (a, line), (b, line), (mid, line): the moving index once
+            xm = 0.5 * (a[i] + b[i])
+            ia, ib, im = _raster_ix(rgeo, nr, axis, a[i]), _raster_ix(rgeo, nr, axis, b[i]), _raster_ix(rgeo, nr, axis, xm)
+            for l in range(n_lines):
+                jl = lix[l]
                 if axis == 0:
-                    w[l] = (_raster_in(dil, rgeo, a[i], ln) or _raster_in(dil, rgeo, b[i], ln)
-                            or _raster_in(dil, rgeo, xm, ln))
+                    w[l] = dil[ia, jl] or dil[ib, jl] or dil[im, jl]
                 else:
-                    w[l] = (_raster_in(dil, rgeo, ln, a[i]) or _raster_in(dil, rgeo, ln, b[i])
-                            or _raster_in(dil, rgeo, ln, xm))
-            else:
+                    w[l] = dil[jl, ia] or dil[jl, ib] or dil[jl, im]
+                any_w = any_w or w[l]
+        else:
+            for l in range(n_lines):
                 w[l] = True
-            any_w = any_w or w[l]
+            any_w = n_lines > 0
         lmax = 0.0
         dmax = 0.0
         if any_w:
@@ -314,11 +331,59 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
                 for q in range(3):
                     pts[l, 0, q] = pts[l, m - 1, q]
                 k0 = 1
-            for k in range(k0, m):
-                if straight and 0 < k < m - 1:
-                    continue
-                _iso_point(axis, rational, pu, pv, pw, dimw, lspan, lbasis, mspan, mbasis, tmp, pts, l, k, net, tk,
-                           stamp, cur)
+            if net:     # `_iso_point`'s net sums, in place (the same products and sums)
+                for k in range(k0, m):
+                    if straight and 0 < k < m - 1:
+                        continue
+                    base = mspan[0, k] - pu
+                    w0 = 1.0
+                    for dd_ in range(dimw):
+                        acc = 0.0
+                        for r in range(pu + 1):
+                            acc += mbasis[0, k, r] * pw[l, base + r, dd_]
+                        if dd_ < 3:
+                            pts[l, k, dd_] = acc
+                        else:
+                            w0 = acc
+                    if rational:
+                        for dd_ in range(dimw - 1):
+                            pts[l, k, dd_] = pts[l, k, dd_] / w0
+            elif axis == 1:     # `_iso_point`'s axis-1 sums, in place (the same products and sums)
+                su = lspan[0, l]
+                for k in range(k0, m):
+                    if straight and 0 < k < m - 1:
+                        continue
+                    if stamp[su, k] != cur:
+                        sv = mspan[0, k]
+                        for r in range(pu + 1):
+                            for dd_ in range(dimw):
+                                tk[su, k, r, dd_] = 0.0
+                            for s_ in range(pv + 1):
+                                bb = mbasis[0, k, s_]
+                                if bb != 0.0:
+                                    row = su - pu + r
+                                    col = sv - pv + s_
+                                    for dd_ in range(dimw):
+                                        tk[su, k, r, dd_] += bb * pw[row, col, dd_]
+                        stamp[su, k] = cur
+                    w0 = 1.0
+                    for dd_ in range(dimw):
+                        acc = 0.0
+                        for r in range(pu + 1):
+                            acc += lbasis[0, l, r] * tk[su, k, r, dd_]
+                        if dd_ < 3:
+                            pts[l, k, dd_] = acc
+                        else:
+                            w0 = acc
+                    if rational:
+                        for dd_ in range(dimw - 1):
+                            pts[l, k, dd_] = pts[l, k, dd_] / w0
+            else:
+                for k in range(k0, m):
+                    if straight and 0 < k < m - 1:
+                        continue
+                    _iso_point(axis, rational, pu, pv, pw, dimw, lspan, lbasis, mspan, mbasis, tmp, pts, l, k, net,
+                               tk, stamp, cur)
             a0, a1, a2 = pts[l, 0, 0], pts[l, 0, 1], pts[l, 0, 2]
             ab0, ab1, ab2 = pts[l, m - 1, 0] - a0, pts[l, m - 1, 1] - a1, pts[l, m - 1, 2] - a2
             den = (ab0 * ab0 + ab2 * ab2) + ab1 * ab1
@@ -326,7 +391,7 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
             if lnl > lmax:
                 lmax = lnl
             if not straight:
-                worst = _chord_worst(pts[l], m, den)
+                worst = _chord_worst_i(pts[l], m, den)
                 if worst > dmax:
                     dmax = worst
         if straight and any_w and not (lmax >= thr and lmax < np.inf):
