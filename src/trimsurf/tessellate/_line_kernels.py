@@ -1221,6 +1221,41 @@ def cell_check_kernel(d, p, devs, bounds, rows, tolerance, exact, main, dev, dia
         side_v[c] = _nanmax2(_corner_dist(p, r, 0, 3), _corner_dist(p, r, 1, 2))
 
 
+@njit(cache=True, nogil=True)
+def cell_deviation_kernel(pu, pv, ku, kv, pw, rational, d, p, uv, devs, bounds, rows, tolerance, exact, bary, main,
+                          dev, diag, diag_max, side_u, side_v):
+    """`face._CellCache.deviation` in one call: `cell_check_kernel`, then the deviation of the cells it
+    left NaN (`cell_surface_kernel` op 1, screened unless `exact`), kept in the cache's devs (exact
+    values) or bounds (values within the screen) and put into dev."""
+    cell_check_kernel(d, p, devs, bounds, rows, tolerance, exact, main, dev, diag, diag_max, side_u, side_v)
+    k = 0
+    for c in range(rows.shape[0]):
+        if np.isnan(dev[c]):
+            k += 1
+    if k == 0:
+        return
+    r = np.empty(k, dtype=np.int64)
+    m = np.empty(k, dtype=np.bool_)
+    at = np.empty(k, dtype=np.int64)
+    k = 0
+    for c in range(rows.shape[0]):
+        if np.isnan(dev[c]):
+            r[k], m[k], at[k] = rows[c], main[c], c
+            k += 1
+    got = np.empty(k)
+    bounded = np.empty(k, dtype=np.bool_)
+    no_f = np.empty(0)
+    cell_surface_kernel(1, pu, pv, ku, kv, pw, rational, no_f, no_f, r, np.empty(0, dtype=np.int64), m, bary, uv, p,
+                        0.0 if exact else tolerance, got, bounded, np.empty(0, dtype=np.bool_), np.empty((0, 2)))
+    for q in range(k):
+        col = 0 if m[q] else 1
+        if bounded[q]:
+            bounds[r[q], col] = got[q]
+        else:
+            devs[r[q], col] = got[q]
+        dev[at[q]] = got[q]
+
+
 @njit(cache=True, nogil=True, inline="always")
 def _corner_dist(p, r, i, j):
     """np.sqrt(np.add.reduce(q * q)) of q = p[r, j] - p[r, i] (the sum left to right)."""

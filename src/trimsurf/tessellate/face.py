@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -10,8 +11,8 @@ from ..errors import InputError, TrimLoopError
 from ..geom.nurbs import _homogeneous, read_only
 from ..geom.predicates import PolygonIndex
 from ..model import TriMesh, TrimmedFace
-from .domain import MAX_VALUES, adaptive_values, unique_values
-from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CF, DUMMY_CI, cell_check_kernel, cell_surface_kernel,
+from .domain import MAX_VALUES, _clipped_values, _too_many, adaptive_values, unique_values
+from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CF, DUMMY_CI, cell_deviation_kernel, cell_surface_kernel,
                             inside_grid_kernel, line_net_kernel, loop_polylines_kernel, refine_round_kernel)
 from .grid import triangulate_domain
 from .repair import remove_polygon_loops, repair_face
@@ -160,14 +161,17 @@ class IsoLines:
     pairs (interval, line) that do not count are not evaluated; the result is bit for bit the numpy one).
     """
 
-    def __init__(self, surface, axis: int, lines: np.ndarray, raster=None):
+    def __init__(self, surface, axis: int, lines: np.ndarray, raster=None, _surf=None):
         self.surface = surface
         self.axis = axis
         self.lines = np.asarray(lines, dtype=np.float64)
         self.raster = raster        # `_inside_raster`'s lookup: only intervals at the trim count (`weights`)
         s = surface
-        self._ku, self._kv = read_only(s.knots_u), read_only(s.knots_v)
-        self._pw = _homogeneous(s.control_points, s.weights)
+        if _surf is None:           # (ku, kv, pw) as `_CellCache._surf` holds them, when the caller has them
+            self._ku, self._kv = read_only(s.knots_u), read_only(s.knots_v)
+            self._pw = _homogeneous(s.control_points, s.weights)
+        else:
+            self._ku, self._kv, self._pw = _surf
         (u0, u1), (v0, v1) = s.domain
         self._xr = (u0, u1) if axis == 0 else (v0, v1)
         lr = (v0, v1) if axis == 0 else (u0, u1)
@@ -311,15 +315,19 @@ def _domain_values(face, tolerance, max_edge, strategy, n_lines, cache):
             # the cells of the whole grid are bounded too (MAX_CELLS): the v lines by what the u lines leave
             limit = MAX_VALUES if axis == 0 else max(1, min(MAX_VALUES, MAX_CELLS // max(len(out[0]) - 1, 1)))
             if axis not in families:    # the line families (and their compiled form) serve both placements
-                ev = IsoLines(s, axis, lines[axis], raster)
+                ev = IsoLines(s, axis, lines[axis], raster, _surf=cache._surf[2:5])
                 families[axis] = (ev, unique_values(np.concatenate((_linspace(lo[axis], hi[axis], 17), kin[axis]))))
             evaluate, init = families[axis]
             weights_fn = None if raster is None else evaluate.weights
             # grid size max_edge / sqrt(2): the cell diagonals (triangle edges) stay within max_edge
             try:
-                out.append(adaptive_values(evaluate, lo[axis], hi[axis], tolerance=line_tol,
-                                           max_edge=edge / np.sqrt(2.0), strategy=strategy, init=init,
-                                           weights_fn=weights_fn, max_values=limit))
+                if strategy == "equidistributed":
+                    out.append(_placed_values(evaluate, lo[axis], hi[axis], line_tol, edge / np.sqrt(2.0), init,
+                                              limit))
+                else:
+                    out.append(adaptive_values(evaluate, lo[axis], hi[axis], tolerance=line_tol,
+                                               max_edge=edge / np.sqrt(2.0), strategy=strategy, init=init,
+                                               weights_fn=weights_fn, max_values=limit))
             except InputError as exc:
                 if not hasattr(exc, "needed"):
                     raise
@@ -354,6 +362,25 @@ def _domain_values(face, tolerance, max_edge, strategy, n_lines, cache):
         if (len(alt[0]) - 1) * (len(alt[1]) - 1) < (len(best[0]) - 1) * (len(best[1]) - 1):
             best = alt
     return best
+
+
+def _placed_values(evaluate: IsoLines, a, b, tolerance: float, max_edge: float, init, max_values: int):
+    """`adaptive_values(evaluate, a, b, tolerance=..., max_edge=..., init=init, weights_fn=evaluate.weights
+    (or None without a raster), max_values=...)` of the default strategy for a face's iso-lines: the same
+    checks, the same compiled call, without the general entry's dispatch (two calls per face)."""
+    from ._line_kernels import equidistributed_kernel
+
+    tolerance, max_edge, a, b = float(tolerance), float(max_edge), float(a), float(b)
+    for name, v in (("tolerance", tolerance), ("max_edge", max_edge)):
+        if not (math.isfinite(v) and v > 0):
+            raise InputError(f"{name} must be a positive finite number; got {v!r}")
+    if not (math.isfinite(a) and math.isfinite(b) and a < b):
+        raise InputError(f"parameter interval must satisfy a < b; got [{a}, {b}]")
+    x0 = _clipped_values(a, np.asarray(init, dtype=np.float64), b)
+    x, needed = equidistributed_kernel(*evaluate.family(), x0, a, b, tolerance, max_edge, float(max_values))
+    if needed >= 0:
+        raise _too_many(needed, max_values, tolerance, max_edge)
+    return x
 
 
 def _near_trim(us, vs, polys):
@@ -679,21 +706,12 @@ class _CellCache:
         rows = self._cells(us, vs)
         k = len(rows)
         main = np.empty(k, dtype=np.bool_)
-        dev, diag, diag_max, side_u, side_v = np.empty((5, k))
-        cell_check_kernel(self._d, self._p, self._dev, self._bound, rows, float(tolerance), bool(exact), main, dev,
-                          diag, diag_max, side_u, side_v)
-        need = np.isnan(dev)
-        if need.any():
-            r, m = rows[need], main[need]
-            got, bounded = np.empty(len(r)), np.empty(len(r), dtype=np.bool_)
-            cell_surface_kernel(1, *self._surf, _NO_F, _NO_F, r, _NO_I, m, _BARY, self._uv, self._p,
-                                0.0 if exact else float(tolerance), got, bounded, _NO_B, _NO_D)
-            c = np.where(m, 0, 1)
-            self.dev[r[~bounded], c[~bounded]] = got[~bounded]
-            self.bound[r[bounded], c[bounded]] = got[bounded]
-            dev[need] = got
-        shape = (len(us) - 1, len(vs) - 1)
-        return tuple(a.reshape(shape) for a in (dev, diag, diag_max, side_u, side_v))
+        out = np.empty((5, k))
+        dev, diag, diag_max, side_u, side_v = out
+        # `cell_check_kernel`, then the deviations it left NaN (`cell_surface_kernel` op 1), kept in the cache
+        cell_deviation_kernel(*self._surf, self._d, self._p, self._uv, self._dev, self._bound, rows, float(tolerance),
+                              bool(exact), _BARY, main, dev, diag, diag_max, side_u, side_v)
+        return tuple(out.reshape(5, len(us) - 1, len(vs) - 1))
 
 
 @dataclass(eq=False)
