@@ -1386,6 +1386,29 @@ def refine_round_kernel(op, dev, diag, diag_max, side_u, side_v, near, interior,
 
 
 @njit(cache=True, nogil=True)
+def inside_grids_kernel(lo, hi, a, b, rows, dil):
+    """`face._inside_raster` of many faces: face f's raster dil[f] over the grid box lo[f], hi[f] (n x n
+    points as `face._linspace` places them) of the polygon edges a[e] -> b[e], e in rows[f, 0]:rows[f, 1]
+    (`inside_grid_kernel`, dilated)."""
+    n = dil.shape[1]
+    gu = np.empty(n)
+    gv = np.empty(n)
+    ero = np.empty((n, n), dtype=np.bool_)
+    for f in range(lo.shape[0]):
+        for axis in range(2):
+            g = gu if axis == 0 else gv
+            x0, x1 = lo[f, axis], hi[f, axis]
+            step = (x1 - x0) / (n - 1)
+            for k in range(n):
+                if step == 0.0:     # as np.linspace for a zero (subnormal) step
+                    g[k] = (k / (n - 1)) * (x1 - x0) + x0
+                else:
+                    g[k] = k * step + x0
+            g[n - 1] = x1
+        inside_grid_kernel(gu, gv, a[rows[f, 0]:rows[f, 1]], b[rows[f, 0]:rows[f, 1]], dil[f], ero)
+
+
+@njit(cache=True, nogil=True)
 def loop_polylines_kernel(si, sf, ck, cpw, n_a, n_b, out_a, out_b):
     """`model.Loop.polylines(n_a, n_b)` of the segments (p-curves) of a face's loops at once: segment j
     (si[j] = (degree, knots offset, knots count, pw offset, control points, dimw, rational), sf[j] = (t0, t1),

@@ -13,13 +13,13 @@ from ..geom.predicates import PolygonIndex
 from ..model import TriMesh, TrimmedFace
 from .domain import MAX_VALUES, _clipped_values, _too_many, adaptive_values, unique_values
 from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CF, DUMMY_CI, cell_deviation_kernel, cell_surface_kernel,
-                            inside_grid_kernel, line_net_kernel, loop_polylines_kernel, refine_round_kernel)
+                            inside_grid_kernel, inside_grids_kernel, line_net_kernel, loop_polylines_kernel, refine_round_kernel)
 from .grid import triangulate_domain
 from .repair import remove_polygon_loops, repair_face
 from .slivers import collapse_boundary_slivers
 from .trims import ChunkUse, discretize_chunk
 
-__all__ = ["tessellate_face", "face_domain_values", "grid_box", "FaceMesh", "mesh_face_from_chunks",
+__all__ = ["tessellate_face", "face_domain_values", "shell_domain_values", "grid_box", "FaceMesh", "mesh_face_from_chunks",
            "check_parameters"]
 
 _N_LINES = 24   # transversal lines per direction when the domain values are chosen (plus knot lines)
@@ -141,18 +141,7 @@ def _inside_raster(polys: list, lo: np.ndarray, hi: np.ndarray, n: int = 96, ind
         index = PolygonIndex(polys)
     dil = np.empty((n, n), dtype=np.bool_)
     inside_grid_kernel(gu, gv, index.a, index.b, dil, np.empty((n, n), dtype=np.bool_))
-    step = np.maximum((hi - lo) / (n - 1), 1e-300)
-
-    def lookup(uv: np.ndarray) -> np.ndarray:
-        i = np.clip(np.rint((uv[:, 0] - lo[0]) / step[0]).astype(np.int64), 0, n - 1)
-        j = np.clip(np.rint((uv[:, 1] - lo[1]) / step[1]).astype(np.int64), 0, n - 1)
-        return dil[i, j]
-
-    # the raster as the compiled families read it (`_line_kernels`)
-    lookup.dil = np.ascontiguousarray(dil, dtype=np.bool_)
-    lookup.lo = np.ascontiguousarray(lo, dtype=np.float64)
-    lookup.step = np.ascontiguousarray(step, dtype=np.float64)
-    return lookup
+    return _raster_lookup(dil, lo, hi, n)
 
 
 class IsoLines:
@@ -282,25 +271,182 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
         The grid's `_diagonal_fits` (the same numbers, from the refinement's cell cache): for
         `mesh_face_from_chunks(..., fits=fits)`.
     """
+    return _face_values(face, tolerance=tolerance, max_edge=max_edge, strategy=strategy, n_lines=n_lines,
+                        with_fits=with_fits)
+
+
+def shell_domain_values(faces, *, tolerance: float, max_edge: float, strategy: str = "equidistributed",
+                        n_lines: int = _N_LINES) -> list:
+    """`face_domain_values(face, ..., with_fits=True)` of each face, or the InputError it raises (the same
+    values, the same errors): the loops of all faces sampled, boxed and rasterized at once (`face_fronts`),
+    then each face's placement and refinement."""
+    out = []
+    for face, front in zip(faces, face_fronts(faces)):
+        try:
+            out.append(_face_values(face, tolerance=tolerance, max_edge=max_edge, strategy=strategy,
+                                    n_lines=n_lines, with_fits=True, front=front))
+        except InputError as exc:
+            out.append(exc)
+    return out
+
+
+def _face_values(face, *, tolerance, max_edge, strategy="equidistributed", n_lines=_N_LINES, with_fits=False,
+                 front=None):
+    """`face_domain_values`, with the face's `_Front` from `shell_domain_values` when given."""
     cache = _CellCache(face.surface)
-    us, vs = _domain_values(face, tolerance, max_edge, strategy, n_lines, cache)
+    us, vs = _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front)
     if with_fits:
         return us, vs, cache.fits(us, vs)
     return us, vs
 
 
-def _domain_values(face, tolerance, max_edge, strategy, n_lines, cache):
-    """`face_domain_values` with the face's `_CellCache`."""
+class _Front:
+    """What `_domain_values` computes first from a face's loops, computed for many faces at once by
+    `face_fronts`: the grid box (lo, hi), the trim polygons `polys` (`_loop_polys`), their index (edges
+    a -> b as `PolygonIndex` has them) and the inside raster (`_inside_raster`), the same numbers."""
+
+    __slots__ = ("lo", "hi", "polys", "index", "raster")
+
+
+class _EdgeIndex(PolygonIndex):
+    """A `PolygonIndex` whose edges (a, b) were computed by the caller (the same arrays); its slab index,
+    which only `contains` uses (the domain values use the edges), is built when first needed."""
+
+    def __init__(self, polygons, a, b):     # noqa: the base __init__ is what `_slabs` completes
+        self.polygons, self.a, self.b = polygons, a, b
+
+    def contains(self, points) -> np.ndarray:
+        if len(self.a) and not hasattr(self, "edges"):
+            from ..geom.predicates import _slab_index
+            self.y0, self.h, self.n_slab, self.start, self.edges = _slab_index(self.a, self.b)
+        return super().contains(points)
+
+
+def _raster_lookup(dil, lo, hi, n, step=None):
+    """`_inside_raster`'s lookup of the raster `dil` of the box lo, hi."""
+    if step is None:
+        step = np.maximum((hi - lo) / (n - 1), 1e-300)
+
+    def lookup(uv: np.ndarray) -> np.ndarray:
+        i = np.clip(np.rint((uv[:, 0] - lo[0]) / step[0]).astype(np.int64), 0, n - 1)
+        j = np.clip(np.rint((uv[:, 1] - lo[1]) / step[1]).astype(np.int64), 0, n - 1)
+        return dil[i, j]
+
+    # the raster as the compiled families read it (`_line_kernels`)
+    lookup.dil = np.ascontiguousarray(dil, dtype=np.bool_)
+    lookup.lo = np.ascontiguousarray(lo, dtype=np.float64)
+    lookup.step = np.ascontiguousarray(step, dtype=np.float64)
+    return lookup
+
+
+_RASTER = 96        # `_inside_raster`'s default size
+
+
+def face_fronts(faces) -> list:
+    """Per face, its `_Front` (or the TrimLoopError `grid_box` raises for it), for all faces at once: every
+    loop segment sampled in one `loop_polylines_kernel` call, the grid boxes by `np.minimum.reduceat`
+    (the same minima), the polygon edges by index, the rasters in one `inside_grids_kernel` call. The
+    numbers are those `_domain_values` computes per face (`_loop_polylines`, `grid_box`, `PolygonIndex`,
+    `_inside_raster`)."""
+    n_a, n_b = 32, 6
+    si, knots, pws, sf = [], [], [], []
+    ko = po = 0
+    loop_segs = []          # per loop: (first segment, segment count)
+    face_loops = []         # per face: (first loop, loop count)
+    for face in faces:
+        face_loops.append((len(loop_segs), len(face.loops)))
+        for loop in face.loops:
+            loop_segs.append((len(si), len(loop.segments)))
+            for seg in loop.segments:
+                c = seg.curve
+                k = np.asarray(c.knots, dtype=np.float64)
+                pw = _homogeneous(c.control_points, c.weights)
+                si.append((c.degree, ko, len(k), po, pw.shape[0], pw.shape[1], c.weights is not None))
+                sf.append((seg.t0, seg.t1))
+                knots.append(k)
+                pws.append(pw.ravel())
+                ko += len(k)
+                po += pw.size
+    m = len(si)
+    out_a, out_b = np.empty((m * (n_a - 1), 2)), np.empty((m * (n_b - 1), 2))
+    if m:
+        loop_polylines_kernel(np.array(si, dtype=np.int64), np.array(sf, dtype=np.float64),
+                              read_only(np.concatenate(knots)), read_only(np.concatenate(pws)), n_a, n_b, out_a, out_b)
+    # each loop's next vertex by index (PolygonIndex's), over all loops
+    nxt = np.arange(1, len(out_b) + 1)
+    for s0, c in loop_segs:
+        if c:
+            nxt[(s0 + c) * (n_b - 1) - 1] = s0 * (n_b - 1)
+    b_all = out_b[nxt] if len(out_b) else out_b.copy()
+    nf = len(faces)
+    fronts: list = [None] * nf
+    los, his = np.empty((nf, 2)), np.empty((nf, 2))
+    seg_rows = np.zeros((nf, 2), dtype=np.int64)   # each face's segments (its rows: x (n - 1))
+    rasterize = np.zeros(nf, dtype=np.bool_)
+    for f, face in enumerate(faces):
+        (u0, u1), (v0, v1) = face.surface.domain
+        los[f], his[f] = (u0, v0), (u1, v1)
+        l0, nl = face_loops[f]
+        if nl:
+            seg_rows[f] = (loop_segs[l0][0], loop_segs[l0 + nl - 1][0] + loop_segs[l0 + nl - 1][1])
+    have = np.flatnonzero(seg_rows[:, 1] > seg_rows[:, 0])
+    if len(have):
+        starts = seg_rows[have, 0] * (n_a - 1)
+        # reduceat over consecutive ranges: each face's rows start where the previous face's end (no gaps
+        # where faces without segments sit between: those are not in `have`), the last range runs to the end
+        ends = seg_rows[have, 1] * (n_a - 1)
+        mins = np.minimum.reduceat(out_a, starts, axis=0)
+        maxs = np.maximum.reduceat(out_a, starts, axis=0)
+        assert np.array_equal(ends[:-1], starts[1:]) and (not len(ends) or ends[-1] == len(out_a))
+        los[have] = np.maximum(los[have], mins)
+        his[have] = np.minimum(his[have], maxs)
+    ok_box = np.all(his > los, axis=1)
+    for f, face in enumerate(faces):
+        fr = _Front()
+        l0, nl = face_loops[f]
+        fr.lo, fr.hi = los[f].copy(), his[f].copy()
+        fr.polys = fr.index = fr.raster = None
+        if nl:
+            if not ok_box[f]:
+                fronts[f] = TrimLoopError(f"{face.name or 'face'}: trim loops enclose no area of the surface domain")
+                continue
+            fr.polys = [out_b[s0 * (n_b - 1):(s0 + c) * (n_b - 1)] for s0, c in loop_segs[l0:l0 + nl]]
+            r0, r1 = seg_rows[f, 0] * (n_b - 1), seg_rows[f, 1] * (n_b - 1)
+            fr.index = _EdgeIndex(fr.polys, np.ascontiguousarray(out_b[r0:r1]), np.ascontiguousarray(b_all[r0:r1]))
+            rasterize[f] = True
+        fronts[f] = fr
+    ras = np.flatnonzero(rasterize)
+    if len(ras):
+        dil = np.empty((len(ras), _RASTER, _RASTER), dtype=np.bool_)
+        rows = np.ascontiguousarray(seg_rows[ras] * (n_b - 1))
+        inside_grids_kernel(np.ascontiguousarray(los[ras]), np.ascontiguousarray(his[ras]), out_b, b_all, rows, dil)
+        steps = np.maximum((his[ras] - los[ras]) / (_RASTER - 1), 1e-300)
+        for q, f in enumerate(ras):
+            fr = fronts[f]
+            fr.raster = _raster_lookup(dil[q], fr.lo, fr.hi, _RASTER, steps[q].copy())
+    return fronts
+
+
+def _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front=None):
+    """`face_domain_values` with the face's `_CellCache` (and its `_Front` when the caller has it)."""
     s = face.surface
-    # the loops sampled for the grid box (32 per segment) and as trim polygons (`_loop_polys`, 6) at once
-    box_polys, polys = None, None
-    if face.loops:
-        box_polys, polys = _loop_polylines(face, 32, 6)
-    lo, hi = grid_box(face, box_polys)
-    raster = None
-    if polys is not None:       # refine_cells and _worst_cell_ratio index the same trim polygons
-        cache.seed(face, polys)
-        raster = _inside_raster(polys, lo, hi, index=cache.polygon_index(polys))
+    if front is not None:
+        if isinstance(front, Exception):
+            raise front
+        lo, hi, polys, raster = front.lo, front.hi, front.polys, front.raster
+        if polys is not None:
+            cache._loops = (face, front.index)
+            cache._index = (polys, front.index)
+    else:
+        # the loops sampled for the grid box (32 per segment) and as trim polygons (`_loop_polys`, 6) at once
+        box_polys, polys = None, None
+        if face.loops:
+            box_polys, polys = _loop_polylines(face, 32, 6)
+        lo, hi = grid_box(face, box_polys)
+        raster = None
+        if polys is not None:       # refine_cells and _worst_cell_ratio index the same trim polygons
+            cache.seed(face, polys)
+            raster = _inside_raster(polys, lo, hi, index=cache.polygon_index(polys))
     kin = (_knots_in(s.knots_u, lo[0], hi[0]), _knots_in(s.knots_v, lo[1], hi[1]))     # interior knots in the box
     lines = {}
     for axis in (0, 1):

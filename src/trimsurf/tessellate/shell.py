@@ -10,7 +10,7 @@ import numpy as np
 from ..errors import InputError
 from ..model import Shell, TriMesh
 from .face import (FaceMesh, _rectangle_face, check_parameters, face_domain_values, loose_chunks,
-                   mesh_face_from_chunks)
+                   mesh_face_from_chunks, shell_domain_values)
 from .repair import repair_face
 from .trims import Chunk, ChunkUse, discretize_chunks
 
@@ -357,8 +357,33 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
         f, st, grid = prepare(i)
         return (None if f is shell.faces[i] else f), st, grid
 
-    for i, (f, st, grid) in enumerate(parallel_map(prepare_face, range(n), jobs)):
-        faces.append(shell.faces[i] if f is None else f)
+    if jobs <= 1:   # the repairs, then the domain values of all faces at once (`shell_domain_values`)
+        prepared = []
+        for i in range(n):
+            face = shell.faces[i]
+            rep = repair_face(face, tolerance=face_tol)
+            f = rep.face
+            if rep.status != "failed" and not f.loops:
+                f = _rectangle_face(f)
+            prepared.append((f, rep))
+        todo = [i for i in range(n) if prepared[i][1].status != "failed"]
+        values = dict(zip(todo, shell_domain_values([prepared[i][0] for i in todo], tolerance=face_tol,
+                                                    max_edge=max_edge, strategy=strategy)))
+        results = []
+        for i, (f, rep) in enumerate(prepared):
+            name = shell.faces[i].name or f"face {i}"
+            grid = values.get(i)
+            if rep.status == "failed":
+                results.append((f, FaceStatus(i, name, "failed", tuple(rep.messages)), None))
+            elif isinstance(grid, InputError):
+                results.append((f, FaceStatus(i, name, "failed", tuple(rep.messages) + (str(grid),)), None))
+            else:
+                results.append((f, FaceStatus(i, name, rep.status, tuple(rep.messages)), grid))
+    else:
+        results = [(shell.faces[i] if f is None else f, st, grid)
+                   for i, (f, st, grid) in enumerate(parallel_map(prepare_face, range(n), jobs))]
+    for i, (f, st, grid) in enumerate(results):
+        faces.append(f)
         statuses[i] = st
         if grid is not None:
             grids[i] = grid[:2]
