@@ -299,7 +299,8 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
         any_w = False
         if has_raster:      # `_raster_in` of (a, line), (b, line), (mid, line): the moving index once
             xm = 0.5 * (a[i] + b[i])
-            ia, ib, im = _raster_ix(rgeo, nr, axis, a[i]), _raster_ix(rgeo, nr, axis, b[i]), _raster_ix(rgeo, nr, axis, xm)
+            ia, ib = _raster_ix(rgeo, nr, axis, a[i]), _raster_ix(rgeo, nr, axis, b[i])
+            im = _raster_ix(rgeo, nr, axis, xm)
             for l in range(n_lines):
                 jl = lix[l]
                 if axis == 0:

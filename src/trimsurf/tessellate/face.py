@@ -13,14 +13,15 @@ from ..geom.predicates import PolygonIndex
 from ..model import TriMesh, TrimmedFace
 from .domain import MAX_VALUES, _clipped_values, _too_many, adaptive_values, unique_values
 from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CF, DUMMY_CI, cell_deviation_kernel, cell_surface_kernel,
-                            inside_grid_kernel, inside_grids_kernel, line_net_kernel, loop_polylines_kernel, refine_round_kernel)
+                            inside_grid_kernel, inside_grids_kernel, line_net_kernel, loop_polylines_kernel,
+                            refine_round_kernel)
 from .grid import triangulate_domain
 from .repair import remove_polygon_loops, repair_face
 from .slivers import collapse_boundary_slivers
 from .trims import ChunkUse, discretize_chunk
 
-__all__ = ["tessellate_face", "face_domain_values", "shell_domain_values", "grid_box", "FaceMesh", "mesh_face_from_chunks",
-           "check_parameters"]
+__all__ = ["tessellate_face", "face_domain_values", "shell_domain_values", "grid_box", "FaceMesh",
+           "mesh_face_from_chunks", "check_parameters"]
 
 _N_LINES = 24   # transversal lines per direction when the domain values are chosen (plus knot lines)
 #: largest side ratio of a grid cell at or in the trimmed region (3D sides): its two triangles' smallest
@@ -41,6 +42,9 @@ MAX_CELLS = 250_000
 #: centroids of the three corner sub-triangles
 _BARY = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.5],
                   [2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]])
+#: `IsoLines.single_interval`: the largest bound of a placement's total density (ceil: 1 interval) taken
+#: as one interval without the compiled placement (the margin covers the sums' relative rounding)
+_ONE_INTERVAL = 0.99
 # empty arguments of the compiled cell kernels' unused members (one compiled signature for all their uses)
 _NO_I, _NO_B, _NO_F = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.bool_), np.zeros(0)
 _NO_UV, _NO_P, _NO_D = np.zeros((0, 5, 2)), np.zeros((0, 5, 3)), np.zeros((0, 2))
@@ -166,6 +170,7 @@ class IsoLines:
         lr = (v0, v1) if axis == 0 else (u0, u1)
         self._lines_c = read_only(np.clip(self.lines, lr[0], lr[1]))
         self._family = None
+        self._straight_v = None
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         uv = np.empty((len(x), len(self.lines), 2))
@@ -214,18 +219,65 @@ class IsoLines:
         sampled chord deviation the compiled criteria compute for it (rounding noise: each point is
         a two-term combination of the same two homogeneous points, divided by its weight; bounded
         here ~100x generously by the net's magnitudes)."""
+        return self._straight()[0]
+
+    def _straight(self) -> tuple[float, float]:
+        """(`straight_bound`, the bound delta of a point's rounding noise it is made of; -1, -1 if not straight)."""
+        if self._straight_v is None:
+            self._straight_v = self._straight_bounds()
+        return self._straight_v
+
+    def _straight_bounds(self) -> tuple[float, float]:
         s = self.surface
         deg, n_ctrl = (s.degree_u, s.control_points.shape[0]) if self.axis == 0 else (s.degree_v, s.control_points.shape[1])
         if deg != 1 or n_ctrl != 2:
-            return -1.0
+            return -1.0, -1.0
         big = float(np.abs(s.control_points).max(initial=0.0))
         hw = float(np.abs(self._pw).max(initial=0.0))
         wmin, wmax = (1.0, 1.0) if s.weights is None else (float(s.weights.min()), float(s.weights.max()))
         if not (np.isfinite(big) and np.isfinite(hw) and wmin > 0 and np.isfinite(wmax)):
-            return -1.0
+            return -1.0, -1.0
         eps = np.finfo(np.float64).eps
         delta = 64.0 * (s.degree_u + s.degree_v + 2) ** 2 * eps * (hw + big * wmax) / wmin
-        return 4.0 * delta + 128.0 * eps * big
+        return 4.0 * delta + 128.0 * eps * big, delta
+
+    def single_interval(self, a: float, b: float, tolerance: float, max_edge: float, n_init: int) -> bool:
+        """Whether `equidistributed_kernel` certainly places [a, b] (no value between) for this family, from
+        the fine sampling's start with `n_init` intervals: straight lines (`straight_bound` within the
+        kernel's 1e-3 tolerance, so its straight skip applies) whose fine intervals' densities cannot add
+        up to more than _ONE_INTERVAL = 0.99 (the kernel then places ceil(total) = 1 interval, or none for
+        a total of 0, and that one passes its check).
+
+        The bound: along a straight line the point moves linearly in x (degree 1, one span; rational only
+        with the same weight at both ends of each row, the denominator then constant along the line),
+        at a speed of a convex combination of the net's differences P1j - P0j across the moving direction,
+        so any chord over [x0, x1] is at most (x1 - x0) / span * D (D: the largest difference) and the
+        chords over the fine intervals add up to at most (b - a) / span * D; each computed chord is off by
+        at most 2 delta (the points' rounding noise, `straight_bound`) over at most 2 * max(n_init, 20001)
+        + 2 fine intervals (the kernel's sampling stops past 20000 values, a round at most doubles them);
+        an interval the kernel samples within (shorter than its skip length) counts at most
+        sqrt(bound / tolerance) (1 + 1e-9): only the n_init first ones can be that short (a split interval
+        is over 0.25 max_edge, its halves over the skip length). Argued bounds, as the straight skip's."""
+        s = self.surface
+        cp = s.control_points
+        if (s.degree_u, cp.shape[0]) != (1, 2) if self.axis == 0 else (s.degree_v, cp.shape[1]) != (1, 2):
+            return False
+        diff = cp[1] - cp[0] if self.axis == 0 else cp[:, 1] - cp[:, 0]
+        dmax = float(np.sqrt((diff * diff).sum(axis=-1)).max(initial=0.0))
+        k0, k1 = s.domain[self.axis]
+        lead = ((b - a) / (k1 - k0)) * dmax
+        if not lead <= _ONE_INTERVAL * max_edge:    # (the usual answer with a max edge: no need for the rest)
+            return False
+        bound, delta = self._straight()
+        if not (0.0 <= bound <= 1e-3 * tolerance):
+            return False
+        if s.weights is not None:
+            w = s.weights
+            if not np.array_equal(w[1], w[0]) if self.axis == 0 else not np.array_equal(w[:, 1], w[:, 0]):
+                return False
+        n_max = 2 * max(n_init, 20001) + 2
+        total = (lead + n_max * 2.0 * delta) / max_edge + n_init * math.sqrt(bound / tolerance) * (1.0 + 1e-9)
+        return bool(math.isfinite(total) and total <= _ONE_INTERVAL)
 
     def criteria(self, x: np.ndarray, n_sub: int, weights) -> tuple[np.ndarray, np.ndarray]:
         """`interval_criteria` of this family."""
@@ -523,6 +575,8 @@ def _placed_values(evaluate: IsoLines, a, b, tolerance: float, max_edge: float, 
     if not (math.isfinite(a) and math.isfinite(b) and a < b):
         raise InputError(f"parameter interval must satisfy a < b; got [{a}, {b}]")
     x0 = _clipped_values(a, np.asarray(init, dtype=np.float64), b)
+    if evaluate.single_interval(a, b, tolerance, max_edge, len(x0) - 1):
+        return np.array([a, b])     # what the kernel places: straight lines within max_edge (a bound)
     x, needed = equidistributed_kernel(*evaluate.family(), x0, a, b, tolerance, max_edge, float(max_values))
     if needed >= 0:
         raise _too_many(needed, max_values, tolerance, max_edge)

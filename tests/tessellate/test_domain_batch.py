@@ -1,0 +1,193 @@
+"""The shell-level domain values (`face.shell_domain_values`, `face.face_fronts`) and the one-interval
+shortcut of straight iso-lines (`IsoLines.single_interval`) against the per-face reference path they
+replace: the same values bit for bit (the meshes' hashes depend on them), the same errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from trimsurf.errors import TrimLoopError
+from trimsurf.io import read_shell
+from trimsurf.model import Loop, NurbsCurve, PCurve, TrimmedFace
+from trimsurf.tessellate import face as face_mod
+from trimsurf.tessellate._line_kernels import equidistributed_kernel
+from trimsurf.tessellate.domain import _clipped_values
+from trimsurf.tessellate.face import (_inside_raster, _loop_polylines, face_domain_values, face_fronts, grid_box,
+                                      shell_domain_values)
+from trimsurf.tessellate.repair import repair_face
+from trimsurf.tessellate.shell import SAMPLING_MARGIN
+
+_MODELS = ["trimesh__featuretype.STEP", "occt__screw.step", "gmsh__U_Joint_2.stp"]
+
+
+def _faces(path):
+    """The faces tessellate_shell meshes (repaired; an untrimmed face gets its domain rectangle)."""
+    shell = read_shell(path)
+    d = shell.diagonal()
+    out = []
+    for f in shell.faces:
+        rep = repair_face(f, tolerance=SAMPLING_MARGIN * 1e-3 * d)
+        if rep.status != "failed":
+            out.append(rep.face if rep.face.loops else face_mod._rectangle_face(rep.face))
+    return out, d
+
+
+@pytest.fixture(scope="module", params=_MODELS)
+def model(request, shared_data):
+    return _faces(shared_data / "cad" / request.param)
+
+
+def _same(a, b):
+    return a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
+def _outside_face(face):
+    """`face` with one loop outside its surface's domain (grid_box: TrimLoopError)."""
+    (u0, u1), (v0, v1) = face.surface.domain
+    du, dv = u1 - u0, v1 - v0
+    c = [(u1 + du, v1 + dv), (u1 + 2 * du, v1 + dv), (u1 + 2 * du, v1 + 2 * dv), (u1 + du, v1 + 2 * dv)]
+    segs = tuple(PCurve(NurbsCurve(1, [0.0, 0.0, 1.0, 1.0], np.array([c[i], c[(i + 1) % 4]], dtype=np.float64)),
+                        0.0, 1.0) for i in range(4))
+    return TrimmedFace(face.surface, (Loop(segs),), face.same_sense, "outside", face.tolerance)
+
+
+def test_fronts_are_the_per_face_numbers(model):
+    """Every face's grid box, trim polygons, polygon edges and inside raster from `face_fronts` (all faces
+    at once) equal `_loop_polylines`, `grid_box`, `PolygonIndex` and `_inside_raster` of the face alone."""
+    faces, _ = model
+    bad = _outside_face(faces[0])
+    fronts = face_fronts(faces + [bad])
+    assert isinstance(fronts[-1], TrimLoopError)
+    with pytest.raises(TrimLoopError, match=str(fronts[-1])):
+        grid_box(bad, _loop_polylines(bad, 32, 6)[0])
+    for f, fr in zip(faces, fronts):
+        box, polys = _loop_polylines(f, 32, 6)
+        lo, hi = grid_box(f, box)
+        assert _same(fr.lo, lo) and _same(fr.hi, hi)
+        assert len(fr.polys) == len(polys) and all(_same(a, b) for a, b in zip(fr.polys, polys))
+        index = face_mod.PolygonIndex(polys)
+        assert _same(fr.index.a, index.a) and _same(fr.index.b, index.b)
+        r = _inside_raster(polys, lo, hi, index=index)
+        assert _same(fr.raster.dil, r.dil) and _same(fr.raster.lo, r.lo) and _same(fr.raster.step, r.step)
+        # the lazily built slab index answers as the full one
+        pts = np.column_stack([np.linspace(lo[0], hi[0], 7), np.linspace(lo[1], hi[1], 7)])
+        assert np.array_equal(fr.index.contains(pts), index.contains(pts))
+
+
+@pytest.mark.parametrize("paper", [False, True])
+def test_shell_domain_values_equal_face_domain_values(model, paper):
+    """`shell_domain_values` (what tessellate_shell calls with jobs=1) gives each face the grid and fits of
+    `face_domain_values` alone (what each --jobs worker computes), and a face's error in its place."""
+    faces, d = model
+    tol, h = SAMPLING_MARGIN * 1e-3 * d, (0.03 * d if paper else d)
+    bad = _outside_face(faces[0])
+    todo = faces[:40] + [bad]
+    got = shell_domain_values(todo, tolerance=tol, max_edge=h)
+    assert len(got) == len(todo)
+    for f, g in zip(todo[:-1], got[:-1]):
+        ref = face_domain_values(f, tolerance=tol, max_edge=h, with_fits=True)
+        assert all(_same(a, b) for a, b in zip(g, ref))
+    assert isinstance(got[-1], TrimLoopError)
+    with pytest.raises(TrimLoopError, match=str(got[-1])):
+        face_domain_values(bad, tolerance=tol, max_edge=h)
+
+
+def _placements(faces, tol, h):
+    """The (family, a, b, tolerance, max_edge, x0) of every placement `shell_domain_values` asks for."""
+    seen = []
+    real = face_mod._placed_values
+
+    def record(evaluate, a, b, tolerance, max_edge, init, max_values):
+        seen.append((evaluate, float(a), float(b), float(tolerance), float(max_edge),
+                     _clipped_values(float(a), np.asarray(init, dtype=np.float64), float(b))))
+        return real(evaluate, a, b, tolerance, max_edge, init, max_values)
+
+    face_mod._placed_values = record
+    try:
+        shell_domain_values(faces, tolerance=tol, max_edge=h)
+    finally:
+        face_mod._placed_values = real
+    return seen
+
+
+def _check_single_interval(seen, scales):
+    """(fired, wrong): how often the shortcut fired over the placements at max_edge x each scale, and how
+    often the compiled placement then was not [a, b]."""
+    fired = wrong = 0
+    for ev, a, b, tol, me, x0 in seen:
+        for s in scales:
+            if not ev.single_interval(a, b, tol, me * s, len(x0) - 1):
+                continue
+            fired += 1
+            x, needed = equidistributed_kernel(*ev.family(), x0, a, b, tol, me * s, 20000.0)
+            wrong += not (needed < 0 and _same(x, np.array([a, b])))
+    return fired, wrong
+
+
+def test_single_interval_is_the_compiled_placement(model, monkeypatch):
+    """Wherever `IsoLines.single_interval` says the placement is [a, b], the compiled placement it skips
+    places [a, b] (bit for bit), at max edges from the model's tolerance-only setting down to where the
+    shortcut stops firing; and the check can fail: with the bound's margin widened to 2.5 (densities
+    up to 2.5 taken as one interval) the compiled placement differs on some of them."""
+    faces, d = model
+    tol = SAMPLING_MARGIN * 1e-3 * d
+    seen = [p for p in _placements(faces, tol, d) if p[0]._straight()[0] >= 0]
+    assert seen
+    scales = [1.0, 0.5, 0.2, 0.1, 0.05, 0.03]
+    fired, wrong = _check_single_interval(seen, scales)
+    assert fired >= len(seen) // 2 and wrong == 0
+    monkeypatch.setattr(face_mod, "_ONE_INTERVAL", 2.5)
+    for ev in {id(p[0]): p[0] for p in seen}.values():
+        ev._straight_v = None
+    fired_wide, wrong_wide = _check_single_interval(seen, scales)
+    assert fired_wide > fired and wrong_wide > 0
+
+
+def _family(cp, weights=None, degree_u=1):
+    from trimsurf.model import NurbsSurface
+    from trimsurf.tessellate.face import IsoLines
+
+    nu = cp.shape[0]
+    ku = np.r_[[0.0] * (degree_u + 1), np.linspace(0, 1, nu - degree_u + 1)[1:-1], [1.0] * (degree_u + 1)]
+    s = NurbsSurface(degree_u, 1, ku, np.array([0.0, 0.0, 1.0, 1.0]), cp, weights)
+    return IsoLines(s, 0, np.linspace(0.0, 1.0, 24))
+
+
+def _placed(ev, tol, me):
+    x, needed = equidistributed_kernel(*ev.family(), np.linspace(0.0, 1.0, 17), 0.0, 1.0, tol, me, 20000.0)
+    assert needed < 0
+    return x
+
+
+def test_single_interval_needs_the_same_weights_along_the_lines():
+    """A unit square whose u-lines are straight but rational with weights that differ along them (1 to 100
+    on v = 0, 100 to 1 on v = 1): the lines run through their chords at speeds that peak at opposite ends,
+    so the largest chord per interval adds up to about twice the bound's (b - a) / span * D. The compiled
+    placement needs 2 intervals where that bound is 0.6 max_edge; the shortcut must not fire there. With
+    the same weights along each line (a plain square) it does, and the placement is [0, 1]."""
+    cp = np.zeros((2, 2, 3))
+    cp[1, :, 0] = 1.0
+    cp[:, 1, 1] = 1.0
+    tol, me = 1e-3, 1.0 / 0.6
+    bent = _family(cp, np.array([[1.0, 100.0], [100.0, 1.0]]))
+    assert len(_placed(bent, tol, me)) > 2
+    assert not bent.single_interval(0.0, 1.0, tol, me, 16)
+    flat = _family(cp, np.array([[2.0, 3.0], [2.0, 3.0]]))
+    assert flat.single_interval(0.0, 1.0, tol, me, 16)
+    assert _same(_placed(flat, tol, me), np.array([0.0, 1.0]))
+
+
+def test_single_interval_needs_straight_lines():
+    """Degree-2 u-lines whose first two control points are close (the net's first difference small) but
+    which run on to length ~14: the compiled placement needs several intervals at max edge 5; the
+    shortcut must not fire (it applies only to degree 1 with one span along the lines)."""
+    cp = np.zeros((3, 2, 3))
+    cp[1, :, 0] = 1e-3
+    cp[2, :, 0] = 10.0
+    cp[2, :, 2] = 10.0
+    cp[:, 1, 1] = 1.0
+    ev = _family(cp, degree_u=2)
+    tol, me = 1e-3, 5.0
+    assert len(_placed(ev, tol, me)) > 3
+    assert not ev.single_interval(0.0, 1.0, tol, me, 16)
