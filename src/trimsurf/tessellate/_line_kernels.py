@@ -1223,6 +1223,46 @@ def cell_check_kernel(d, p, devs, bounds, rows, tolerance, exact, main, dev, dia
 
 
 @njit(cache=True, nogil=True)
+def cache_cells_kernel(table, iu, iv, pu, pv, ku, kv, pw, rational, us, vs, bary, uv, p, d, n0):
+    """`face._CellCache._cells` after the interval ids: the rows table[iu[a], iv[b]] of the grid's cells
+    (a, b raveled, meshgrid(..., indexing="ij")); the new ones (-1) get rows n0, n0 + 1, ... in that order,
+    their points and midpoint distances (`cell_surface_kernel` op 0) and their table entries. Returns
+    (rows, n): n the rows in use after, or -(the count of new cells) with nothing done when the buffers
+    (uv, p, d) hold fewer than n0 + that count rows."""
+    nu_, nv_ = iu.shape[0], iv.shape[0]
+    rows = np.empty(nu_ * nv_, dtype=np.int64)
+    cnt = 0
+    for a in range(nu_):
+        for b in range(nv_):
+            r = table[iu[a], iv[b]]
+            rows[a * nv_ + b] = r
+            if r < 0:
+                cnt += 1
+    if cnt == 0:
+        return rows, n0
+    if n0 + cnt > uv.shape[0]:
+        return rows, -cnt
+    ki = np.empty(cnt, dtype=np.int64)
+    kj = np.empty(cnt, dtype=np.int64)
+    q = 0
+    for idx in range(nu_ * nv_):
+        if rows[idx] < 0:
+            ki[q] = idx // nv_
+            kj[q] = idx % nv_
+            q += 1
+    cell_surface_kernel(0, pu, pv, ku, kv, pw, rational, us, vs, ki, kj, np.empty(0, dtype=np.bool_), bary,
+                        uv[n0:n0 + cnt], p[n0:n0 + cnt], 0.0, np.empty(0), np.empty(0, dtype=np.bool_),
+                        np.empty(0, dtype=np.bool_), d[n0:n0 + cnt])
+    q = 0
+    for idx in range(nu_ * nv_):
+        if rows[idx] < 0:
+            rows[idx] = n0 + q
+            table[iu[ki[q]], iv[kj[q]]] = n0 + q
+            q += 1
+    return rows, n0 + cnt
+
+
+@njit(cache=True, nogil=True)
 def cell_deviation_kernel(pu, pv, ku, kv, pw, rational, d, p, uv, devs, bounds, rows, tolerance, exact, bary, main,
                           dev, diag, diag_max, side_u, side_v):
     """`face._CellCache.deviation` in one call: `cell_check_kernel`, then the deviation of the cells it

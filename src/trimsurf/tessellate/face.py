@@ -12,7 +12,8 @@ from ..geom.nurbs import _homogeneous, read_only
 from ..geom.predicates import PolygonIndex
 from ..model import TriMesh, TrimmedFace
 from .domain import MAX_VALUES, _clipped_values, _too_many, adaptive_values, unique_values
-from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CF, DUMMY_CI, cell_deviation_kernel, cell_surface_kernel,
+from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CF, DUMMY_CI, cache_cells_kernel, cell_deviation_kernel,
+                            cell_surface_kernel,
                             inside_grid_kernel, inside_grids_kernel, line_net_kernel, loop_polylines_kernel,
                             refine_round_kernel)
 from .grid import triangulate_domain
@@ -878,20 +879,16 @@ class _CellCache:
                         dtype=np.int64)
             t[:self._table.shape[0], :self._table.shape[1]] = self._table
             self._table = t
-        rows = t[iu[:, None], iv[None, :]].ravel()
-        new = np.flatnonzero(rows < 0)
-        if len(new):
-            nv = len(vs) - 1
-            ki, kj = new // nv, new % nv        # meshgrid(..., indexing="ij") raveled
-            k, first = len(new), self.n
-            self._reserve(first + k)
-            cell_surface_kernel(0, *self._surf, np.ascontiguousarray(us, dtype=np.float64),
-                                np.ascontiguousarray(vs, dtype=np.float64), ki, kj, _NO_B, _BARY,
-                                self._uv[first:first + k], self._p[first:first + k], 0.0, _NO_F, _NO_B, _NO_B,
-                                self._d[first:first + k])
-            rows[new] = first + np.arange(k)
-            t[iu[ki], iv[kj]] = rows[new]
-            self.n = first + k
+        us = np.ascontiguousarray(us, dtype=np.float64)
+        vs = np.ascontiguousarray(vs, dtype=np.float64)
+        if self.n == 0:     # every cell is new
+            self._reserve(len(iu) * len(iv))
+        # the rows, the new cells' points and distances (`cell_surface_kernel` op 0) in one compiled call
+        rows, n = cache_cells_kernel(t, iu, iv, *self._surf, us, vs, _BARY, self._uv, self._p, self._d, self.n)
+        if n < 0:       # the buffers first
+            self._reserve(self.n - n)
+            rows, n = cache_cells_kernel(t, iu, iv, *self._surf, us, vs, _BARY, self._uv, self._p, self._d, self.n)
+        self.n = n
         return rows
 
     def fits(self, us, vs) -> np.ndarray:
