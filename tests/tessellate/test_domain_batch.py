@@ -191,3 +191,66 @@ def test_single_interval_needs_straight_lines():
     tol, me = 1e-3, 5.0
     assert len(_placed(ev, tol, me)) > 3
     assert not ev.single_interval(0.0, 1.0, tol, me, 16)
+
+
+def _deviations(surface, us, vs, tol, lin=None):
+    """`_CellCache.deviation(..., exact=False)` of a fresh cache (its bilinear bound replaced by `lin`)."""
+    cache = face_mod._CellCache(surface)
+    if lin is not None:
+        cache._lin = np.asarray(lin, dtype=np.float64)
+    return cache.deviation(us, vs, tol, exact=False)[0]
+
+
+def _screen_agrees(surface, us, vs, tol, lin=None):
+    """Whether the cells over the tolerance (the only use of the screened values, with their exact
+    values) are the same with the bilinear bound as with every sample evaluated; and the cells the
+    bound settles (values changed) are within the tolerance where every sample is evaluated."""
+    ref = _deviations(surface, us, vs, tol, lin=(-1.0, 0.0))
+    got = _deviations(surface, us, vs, tol, lin=lin)
+    over = ref > tol
+    return bool(np.array_equal(got > tol, over) and np.array_equal(got[over], ref[over])
+                and np.all(ref[got != ref] <= tol))
+
+
+def test_bilinear_screen_on_planar_faces(shared_data):
+    """On the planar (degree 1 x 1) faces of featuretype, at grids of 4 to 40 lines and tolerances down to
+    where cells leave them, the bilinear bound gives the same cells over the tolerance as the screened
+    kernel, and settles most cells."""
+    faces, d = _faces(shared_data / "cad" / "trimesh__featuretype.STEP")
+    planar = [f for f in faces if (f.surface.degree_u, f.surface.degree_v) == (1, 1)][:12]
+    assert planar
+    settled = total = 0
+    for f in planar:
+        assert face_mod._CellCache(f.surface)._lin[0] >= 0
+        (u0, u1), (v0, v1) = f.surface.domain
+        for n in (4, 13, 40):
+            us, vs = np.linspace(u0, u1, n), np.linspace(v0, v1, n + 3)
+            for tol in (1e-3 * d, 1e-9 * d, 1e-13 * d):
+                assert _screen_agrees(f.surface, us, vs, tol)
+                ref = _deviations(f.surface, us, vs, tol, lin=(-1.0, 0.0))
+                got = _deviations(f.surface, us, vs, tol)
+                settled += int(np.count_nonzero(got != ref))
+                total += got.size
+    assert settled > total // 3
+
+
+def test_bilinear_screen_on_a_twisted_patch():
+    """A twisted bilinear patch (a hyperbolic paraboloid, |E| = 2): where the twist puts samples off the
+    surface by about |E| du dv / 8, tolerances around that value give the same cells over them with the
+    bound as without; the bound without its twist term (e = 0) would settle cells that are over."""
+    from trimsurf.model import NurbsSurface
+
+    cp = np.array([[[0.0, 0.0, 0.0], [0.0, 1.0, 0.0]], [[1.0, 0.0, 0.0], [1.0, 1.0, 1.0]]])
+    cp[1, 1, 2] = 2.0
+    s = NurbsSurface(1, 1, np.array([0.0, 0.0, 1.0, 1.0]), np.array([0.0, 0.0, 1.0, 1.0]), cp)
+    lin = face_mod._CellCache(s)._lin
+    assert lin[0] >= 2.0
+    us, vs = np.linspace(0, 1, 9), np.linspace(0, 1, 7)
+    ref = _deviations(s, us, vs, 1.0, lin=(-1.0, 0.0))
+    fired = 0
+    for tol in np.geomspace(0.2, 5.0, 12) * float(np.max(ref)):
+        assert _screen_agrees(s, us, vs, tol)
+        fired += int(np.count_nonzero(_deviations(s, us, vs, tol) != _deviations(s, us, vs, tol, (-1.0, 0.0))))
+    assert fired > 0
+    tol = 0.5 * float(np.max(ref))
+    assert not _screen_agrees(s, us, vs, tol, lin=(0.0, lin[1]))

@@ -1264,11 +1264,24 @@ def cache_cells_kernel(table, iu, iv, pu, pv, ku, kv, pw, rational, us, vs, bary
 
 @njit(cache=True, nogil=True)
 def cell_deviation_kernel(pu, pv, ku, kv, pw, rational, d, p, uv, devs, bounds, rows, tolerance, exact, bary, main,
-                          dev, diag, diag_max, side_u, side_v):
+                          dev, diag, diag_max, side_u, side_v, lin):
     """`face._CellCache.deviation` in one call: `cell_check_kernel`, then the deviation of the cells it
     left NaN (`cell_surface_kernel` op 1, screened unless `exact`), kept in the cache's devs (exact
-    values) or bounds (values within the screen) and put into dev."""
+    values) or bounds (values within the screen) and put into dev.
+
+    lin = (e, noise), e >= 0 for a bilinear patch (`face._CellCache._bilinear`): a cell of extents du, dv
+    whose bound e du dv + noise of its samples' start distances is within the screen gets that bound
+    (a bound within the screen, as the screened kernel would give) without its samples evaluated."""
     cell_check_kernel(d, p, devs, bounds, rows, tolerance, exact, main, dev, diag, diag_max, side_u, side_v)
+    screened = not exact and tolerance > 0
+    if screened and lin[0] >= 0.0:
+        for c in range(rows.shape[0]):
+            if np.isnan(dev[c]):
+                rc = rows[c]
+                bb = lin[0] * ((uv[rc, 2, 0] - uv[rc, 0, 0]) * (uv[rc, 2, 1] - uv[rc, 0, 1])) + lin[1]
+                if bb <= tolerance:
+                    bounds[rc, 0 if main[c] else 1] = bb
+                    dev[c] = bb
     k = 0
     for c in range(rows.shape[0]):
         if np.isnan(dev[c]):

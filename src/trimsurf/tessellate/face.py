@@ -821,10 +821,37 @@ class _CellCache:
         self._d = np.empty((0, 2))          # distances of the two diagonals' midpoints
         self._dev = np.empty((0, 2))        # deviation of the main / anti split (NaN: not yet)
         self._bound = np.empty((0, 2))      # an upper bound of it (the screen of `deviation(exact=False)`)
+        self._lin = self._bilinear(surface)
         self._loops = None                  # (face, PolygonIndex of its `_loop_polys`)
         self._index = None                  # (polygons, their PolygonIndex)
         #: refine_cells' first grid: (us, vs, tolerance, deviation, diagonal (masked by the trim), index)
         self.checked = None
+
+    @staticmethod
+    def _bilinear(surface) -> np.ndarray:
+        """(e, noise) for a polynomial patch of degree 1 x 1 and one span (a plane, or a twisted bilinear
+        patch), else (-1, 0): a bound of the start distance |S(uv) - x| of every sample of a split cell
+        of extents du x dv is e du dv + noise (`cell_deviation_kernel` uses it where only "within the
+        screen" counts).
+
+        The sample is x = sum b_k S(uv_k) over a triangle's corners, uv = sum b_k uv_k; on the bilinear
+        S = P00 + s (P10 - P00) + t (P01 - P00) + s t E (s, t the patch's normalised parameters, E = P11 -
+        P10 - P01 + P00) S(uv) - x = -E sum b_k (s_k - s)(t_k - t), at most |E| ds dt, so e = |E| /
+        (span_u span_v) (x (1 + 1e-9) for the extents' rounding); noise: 4 x the rounding bound of a
+        computed point of `IsoLines.straight_bound` (the corner points, the sample, its surface point).
+        An argued bound, as that one."""
+        s = surface
+        cp = s.control_points
+        if not (s.degree_u == 1 and s.degree_v == 1 and cp.shape[:2] == (2, 2) and s.weights is None):
+            return np.array([-1.0, 0.0])
+        big = float(np.abs(cp).max(initial=0.0))
+        e = cp[1, 1] - cp[1, 0] - cp[0, 1] + cp[0, 0]
+        (u0, u1), (v0, v1) = s.domain
+        e = float(np.sqrt(e @ e)) / ((u1 - u0) * (v1 - v0)) * (1.0 + 1e-9)
+        if not (np.isfinite(big) and np.isfinite(e)):
+            return np.array([-1.0, 0.0])
+        delta = 64.0 * 16 * np.finfo(np.float64).eps * 2.0 * big
+        return np.array([e, 4.0 * delta])
 
     def loop_index(self, face):
         """`PolygonIndex` of the face's `_loop_polys` (computed once: the face of this cache)."""
@@ -907,7 +934,7 @@ class _CellCache:
         dev, diag, diag_max, side_u, side_v = out
         # `cell_check_kernel`, then the deviations it left NaN (`cell_surface_kernel` op 1), kept in the cache
         cell_deviation_kernel(*self._surf, self._d, self._p, self._uv, self._dev, self._bound, rows, float(tolerance),
-                              bool(exact), _BARY, main, dev, diag, diag_max, side_u, side_v)
+                              bool(exact), _BARY, main, dev, diag, diag_max, side_u, side_v, self._lin)
         return tuple(out.reshape(5, len(us) - 1, len(vs) - 1))
 
 
