@@ -31,6 +31,7 @@ if not DATA.exists():
 STAGES = [  # (module, attribute, label, shell-level)
     ("trimsurf.tessellate.shell", "repair_face", "repair", False),
     ("trimsurf.tessellate.shell", "face_domain_values", "domain_values", False),
+    ("trimsurf.tessellate.shell", "shell_domain_values", "domain_values", False),     # jobs=1 since session 25
     ("trimsurf.tessellate.shell", "_conforming_chunks", "edges", False),
     ("trimsurf.tessellate.shell", "loose_chunks", "loose_chunks", False),
     ("trimsurf.tessellate.shell", "mesh_face_from_chunks", "mesh_faces", False),
@@ -83,7 +84,7 @@ def main(argv=None) -> None:
     from trimsurf.tessellate import tessellate_shell
 
     files = sorted(p.name for p in DATA.iterdir() if p.suffix.lower() in (".step", ".stp", ".iges", ".igs"))
-    labels = [s[2] for s in STAGES] + ["rest", "shell"]
+    labels = list(dict.fromkeys(s[2] for s in STAGES)) + ["rest", "shell"]
     print(f"{'model':14s} {'tris':>6s} {'total':>6s} " + " ".join(f"{x[:11]:>11s}" for x in labels))
     for key in args.models.split(","):
         name = next(n for n in files if key in n)

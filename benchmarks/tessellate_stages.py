@@ -25,6 +25,7 @@ if not DATA.exists():
 STAGES = [  # (module, attribute, label)
     ("trimsurf.tessellate.shell", "repair_face", "repair"),
     ("trimsurf.tessellate.shell", "face_domain_values", "domain_values"),
+    ("trimsurf.tessellate.shell", "shell_domain_values", "domain_values"),    # jobs=1 since session 25
     ("trimsurf.tessellate.face", "refine_cells", "refine_cells"),
     ("trimsurf.tessellate.shell", "_conforming_chunks", "edges"),
     ("trimsurf.tessellate.shell", "mesh_face_from_chunks", "mesh_faces"),
@@ -63,7 +64,7 @@ def main(argv=None) -> None:
     from trimsurf.tessellate import tessellate_shell
 
     files = sorted(p.name for p in DATA.iterdir() if p.suffix.lower() in (".step", ".stp", ".iges", ".igs"))
-    labels = [s[2] for s in STAGES]
+    labels = list(dict.fromkeys(s[2] for s in STAGES))
     print(f"{'model':28s} {'total':>6s} " + " ".join(f"{x:>13s}" for x in labels))
     for key in args.models.split(","):
         name = next(n for n in files if key in n)
