@@ -142,7 +142,7 @@ def _take(x, idx):
 
 
 #: `_chord_worst` inlined into the criteria loop (the same body; a call per line and interval cost ~1/3 of it)
-_chord_worst_i = njit(cache=True, nogil=True, inline="always")(_chord_worst.py_func)
+_chord_worst_i = njit(cache=True, nogil=True, inline="always")(getattr(_chord_worst, "py_func", _chord_worst))
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
