@@ -1250,7 +1250,8 @@ def cache_cells_kernel(table, iu, iv, pu, pv, ku, kv, pw, rational, us, vs, bary
             ki[q] = idx // nv_
             kj[q] = idx % nv_
             q += 1
-    cell_surface_kernel(0, pu, pv, ku, kv, pw, rational, us, vs, ki, kj, np.empty(0, dtype=np.bool_), bary,
+    op = np.zeros(1, dtype=np.int64)[0]    # op 0 as a run-time value (no compiled version per literal)
+    cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, us, vs, ki, kj, np.empty(0, dtype=np.bool_), bary,
                         uv[n0:n0 + cnt], p[n0:n0 + cnt], 0.0, np.empty(0), np.empty(0, dtype=np.bool_),
                         np.empty(0, dtype=np.bool_), d[n0:n0 + cnt])
     q = 0
@@ -1299,7 +1300,8 @@ def cell_deviation_kernel(pu, pv, ku, kv, pw, rational, d, p, uv, devs, bounds, 
     got = np.empty(k)
     bounded = np.empty(k, dtype=np.bool_)
     no_f = np.empty(0)
-    cell_surface_kernel(1, pu, pv, ku, kv, pw, rational, no_f, no_f, r, np.empty(0, dtype=np.int64), m, bary, uv, p,
+    op = np.ones(1, dtype=np.int64)[0]     # op 1 as a run-time value (no compiled version per literal)
+    cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, no_f, no_f, r, np.empty(0, dtype=np.int64), m, bary, uv, p,
                         0.0 if exact else tolerance, got, bounded, np.empty(0, dtype=np.bool_), np.empty((0, 2)))
     for q in range(k):
         col = 0 if m[q] else 1
