@@ -365,7 +365,7 @@ class _EdgeIndex(PolygonIndex):
     """A `PolygonIndex` whose edges (a, b) were computed by the caller (the same arrays); its slab index,
     which only `contains` uses (the domain values use the edges), is built when first needed."""
 
-    def __init__(self, polygons, a, b):     # noqa: the base __init__ is what `_slabs` completes
+    def __init__(self, polygons, a, b):     # (not the base __init__: its slab index is built in `contains`)
         self.polygons, self.a, self.b = polygons, a, b
 
     def contains(self, points) -> np.ndarray:
