@@ -254,8 +254,8 @@ class IsoLines:
         at a speed of a convex combination of the net's differences P1j - P0j across the moving direction,
         so any chord over [x0, x1] is at most (x1 - x0) / span * D (D: the largest difference) and the
         chords over the fine intervals add up to at most (b - a) / span * D; each computed chord is off by
-        at most 2 delta (the points' rounding noise, `straight_bound`) over at most 2 * max(n_init, 20001)
-        + 2 fine intervals (the kernel's sampling stops past 20000 values, a round at most doubles them);
+        at most 2 delta (the points' rounding noise, `straight_bound`; plus an ulp of the parameter at an
+        interval's end) over at most 2 * max(n_init, 20001) + 2 fine intervals (the kernel's sampling stops past 20000 values, a round at most doubles them);
         an interval the kernel samples within (shorter than its skip length) counts at most
         sqrt(bound / tolerance) (1 + 1e-9): only the n_init first ones can be that short (a split interval
         is over 0.25 max_edge, its halves over the skip length). Argued bounds, as the straight skip's."""
@@ -277,7 +277,11 @@ class IsoLines:
             if not np.array_equal(w[1], w[0]) if self.axis == 0 else not np.array_equal(w[:, 1], w[:, 0]):
                 return False
         n_max = 2 * max(n_init, 20001) + 2
-        total = (lead + n_max * 2.0 * delta) / max_edge + n_init * math.sqrt(bound / tolerance) * (1.0 + 1e-9)
+        # an interval's last sample a + (b - a) * 1.0 may miss b by an ulp: the chords' parameters overlap by
+        # at most 2 eps max(|a|, |b|) per interval
+        slack = 2.0 * np.finfo(np.float64).eps * max(abs(a), abs(b)) / (k1 - k0) * dmax
+        total = (lead + n_max * (2.0 * delta + slack)) / max_edge \
+            + n_init * math.sqrt(bound / tolerance) * (1.0 + 1e-9)
         return bool(math.isfinite(total) and total <= _ONE_INTERVAL)
 
     def criteria(self, x: np.ndarray, n_sub: int, weights) -> tuple[np.ndarray, np.ndarray]:
@@ -838,8 +842,9 @@ class _CellCache:
         S = P00 + s (P10 - P00) + t (P01 - P00) + s t E (s, t the patch's normalised parameters, E = P11 -
         P10 - P01 + P00) S(uv) - x = -E sum b_k (s_k - s)(t_k - t), at most |E| ds dt, so e = |E| /
         (span_u span_v) (x (1 + 1e-9) for the extents' rounding); noise: 4 x the rounding bound of a
-        computed point of `IsoLines.straight_bound` (the corner points, the sample, its surface point).
-        An argued bound, as that one."""
+        computed point of `IsoLines.straight_bound` (the corner points, the sample, its surface point),
+        plus the surface's move over the rounding of the sample's parameters. An argued bound, as that
+        one."""
         s = surface
         cp = s.control_points
         if not (s.degree_u == 1 and s.degree_v == 1 and cp.shape[:2] == (2, 2) and s.weights is None):
@@ -848,10 +853,16 @@ class _CellCache:
         e = cp[1, 1] - cp[1, 0] - cp[0, 1] + cp[0, 0]
         (u0, u1), (v0, v1) = s.domain
         e = float(np.sqrt(e @ e)) / ((u1 - u0) * (v1 - v0)) * (1.0 + 1e-9)
-        if not (np.isfinite(big) and np.isfinite(e)):
+        # the sample's parameters are rounded (an ulp or two of |u|, |v|): the surface moves by at most
+        # its speed (the net's largest difference / span) times that
+        eps = np.finfo(np.float64).eps
+        d_u = float(np.sqrt(np.sum((cp[1] - cp[0]) ** 2, axis=-1)).max()) / (u1 - u0)
+        d_v = float(np.sqrt(np.sum((cp[:, 1] - cp[:, 0]) ** 2, axis=-1)).max()) / (v1 - v0)
+        par = 4.0 * eps * (d_u * max(abs(u0), abs(u1)) + d_v * max(abs(v0), abs(v1)))
+        if not (np.isfinite(big) and np.isfinite(e) and np.isfinite(par)):
             return np.array([-1.0, 0.0])
-        delta = 64.0 * 16 * np.finfo(np.float64).eps * 2.0 * big
-        return np.array([e, 4.0 * delta])
+        delta = 64.0 * 16 * eps * 2.0 * big
+        return np.array([e, 4.0 * delta + par])
 
     def loop_index(self, face):
         """`PolygonIndex` of the face's `_loop_polys` (computed once: the face of this cache)."""
