@@ -256,9 +256,10 @@ class IsoLines:
         chords over the fine intervals add up to at most (b - a) / span * D; each computed chord is off by
         at most 2 delta (the points' rounding noise, `straight_bound`; plus an ulp of the parameter at an
         interval's end) over at most 2 * max(n_init, 20001) + 2 fine intervals (the kernel's sampling
-        stops past 20000 values, a round at most doubles them); an interval the kernel samples within (shorter than its skip length) counts at most
-        sqrt(bound / tolerance) (1 + 1e-9): only the n_init first ones can be that short (a split interval
-        is over 0.25 max_edge, its halves over the skip length). Argued bounds, as the straight skip's."""
+        stops past 20000 values, a round at most doubles them); an interval the kernel samples within
+        (shorter than its skip length) counts at most sqrt(bound / tolerance) (1 + 1e-9): only the n_init
+        first ones can be that short (a split interval is over 0.25 max_edge, its halves over the skip
+        length). Argued bounds, as the straight skip's."""
         s = self.surface
         cp = s.control_points
         if (s.degree_u, cp.shape[0]) != (1, 2) if self.axis == 0 else (s.degree_v, cp.shape[1]) != (1, 2):
