@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..errors import FaceSkippedWarning, FileFormatError
+from . import _server
 
 if TYPE_CHECKING:  # not imported at run time: `trimsurf.io._server` must stay cheap to import (trimsurf.cli)
     from ..model import Shell, TriMesh
@@ -57,6 +58,11 @@ def check_readable(path, error: type[FileFormatError] = FileFormatError) -> Path
 
 def read_shell(path: str | os.PathLike) -> Shell:
     """Read a STEP, IGES, BREP (Open CASCADE) or VDAFS file into a `Shell`."""
+    if _suffix(path) in _CAD_MODULES:
+        check_readable(path)
+        # the reader server (a fresh interpreter importing Open CASCADE) starts before this process imports the
+        # readers and the model (numba), so the two overlap on a first read
+        _server.start_for(path)
     module = _cad_module(path)
     check_readable(path)
     return module.read(path)

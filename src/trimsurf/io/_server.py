@@ -28,7 +28,7 @@ import threading
 import time
 from pathlib import Path
 
-__all__ = ["start_early", "server", "discard_server", "take_read_timing", "LOCK"]
+__all__ = ["start_early", "start_for", "server", "discard_server", "take_read_timing", "LOCK"]
 
 #: allowance for starting the server (importing Open CASCADE on a loaded machine)
 SERVER_START_S = 120.0
@@ -147,6 +147,17 @@ def server() -> Server:
     if _SERVER is None or not _SERVER.alive():
         _SERVER = Server()
     return _SERVER
+
+
+def start_for(path) -> None:
+    """Start the server now (without waiting for it) if reading `path` will go through it and none runs."""
+    if _SERVER is not None and _SERVER.alive():
+        return
+    if in_process() or Path(path).suffix.lower() not in _SERVER_SUFFIXES:
+        return
+    with LOCK:
+        with contextlib.suppress(OSError):  # no fork/exec possible now: the read itself tries again (and says so)
+            server()
 
 
 def discard_server() -> None:

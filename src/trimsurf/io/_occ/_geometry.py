@@ -51,6 +51,74 @@ def _cartesian(pw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 # --------------------------------------------------------------------------------------------------------------
+# evaluation without the compiled kernels
+# --------------------------------------------------------------------------------------------------------------
+
+def curve_points(curve: NurbsCurve, t) -> np.ndarray:
+    """Points C(t) of a `NurbsCurve`, shape (n, dim): bit for bit ``curve.evaluate(t)``, without numba.
+
+    The reader evaluates p-curves (the (u, v) range a face uses, the seam repair). Through
+    ``NurbsCurve.evaluate`` that is the compiled kernel ``geom._nurbs_kernels.curve_points_kernel``, and
+    loading the first compiled kernel makes numba import scipy.linalg: ~0.2 s CPU in the reader server's
+    start, which a ``trimsurf`` command reading one file waits for. This is the kernel's arithmetic
+    (A2.1 span, A2.2 basis functions, A4.1 rational point), every operation in the same order on the
+    same float64 values, batched over t with numpy (numba compiles without fast-math: no contraction
+    into FMA, so the results are the same floats; `benchmarks/read_identity.py` and
+    ``tests/io/test_step.py`` compare them).
+    """
+    p = int(curve.degree)
+    knots = curve.knots
+    cp = curve.control_points
+    n_ctrl = cp.shape[0]
+    t = np.minimum(np.maximum(np.asarray(t, dtype=np.float64).ravel(), knots[p]), knots[n_ctrl])
+    spans = np.searchsorted(knots, t, side="right") - 1
+    np.clip(spans, p, n_ctrl - 1, out=spans)
+    at_end = t >= knots[n_ctrl]
+    if at_end.any():
+        last = n_ctrl - 1
+        while last > p and knots[last] >= knots[n_ctrl]:
+            last -= 1
+        spans[at_end] = last
+    n = t.shape[0]
+    # ndu[j][r]: the triangle of A2.2 (rows of basis values, columns of knot differences), one value per point
+    ndu = [[None] * (p + 1) for _ in range(p + 1)]
+    ndu[0][0] = np.ones(n)
+    left = [None] * (p + 1)
+    right = [None] * (p + 1)
+    for j in range(1, p + 1):
+        left[j] = t - knots[spans + 1 - j]
+        right[j] = knots[spans + j] - t
+        saved = np.zeros(n)
+        for r in range(j):
+            ndu[j][r] = right[r + 1] + left[j - r]
+            temp = ndu[r][j - 1] / ndu[j][r]
+            ndu[r][j] = saved + right[r + 1] * temp
+            saved = left[j - r] * temp
+        ndu[j][j] = saved
+    basis = [ndu[r][p] for r in range(p + 1)]
+    rows = [spans - p + r for r in range(p + 1)]
+    dim = cp.shape[1]
+    out = np.empty((n, dim))
+    if curve.weights is None:
+        for d in range(dim):
+            acc = np.zeros(n)
+            for r in range(p + 1):
+                acc = acc + basis[r] * cp[rows[r], d]
+            out[:, d] = acc
+        return out
+    w = curve.weights
+    wsum = np.zeros(n)
+    for r in range(p + 1):
+        wsum = wsum + basis[r] * w[rows[r]]
+    for d in range(dim):
+        acc = np.zeros(n)
+        for r in range(p + 1):
+            acc = acc + basis[r] * (cp[rows[r], d] * w[rows[r]])
+        out[:, d] = acc / wsum
+    return out
+
+
+# --------------------------------------------------------------------------------------------------------------
 # curves
 # --------------------------------------------------------------------------------------------------------------
 

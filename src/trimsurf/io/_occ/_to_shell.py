@@ -10,7 +10,7 @@ import numpy as np
 
 from ...errors import FaceSkippedWarning, GeometryError
 from ...model import Edge, Loop, NurbsCurve, PCurve, Shell, TrimmedFace
-from ._geometry import curve_from_occ, surface_from_occ
+from ._geometry import curve_from_occ, curve_points, surface_from_occ
 
 # p-curve samples per segment when measuring the (u, v) range a face uses
 _RANGE_SAMPLES = 65
@@ -56,7 +56,7 @@ def _wire_edges(wire, face) -> list:
 
 
 def _segment_uv_range(curves: Sequence[PCurve]) -> tuple[np.ndarray, np.ndarray]:
-    pts = [c.curve.evaluate(np.linspace(c.t0, c.t1, _RANGE_SAMPLES)) for c in curves]
+    pts = [curve_points(c.curve, np.linspace(c.t0, c.t1, _RANGE_SAMPLES)) for c in curves]
     allp = np.concatenate(pts, axis=0)
     return allp.min(axis=0), allp.max(axis=0)
 
@@ -295,7 +295,7 @@ def _repair_seam_pcurves(segs: list, closed: list, surface) -> set:
     tol = 1e-6 * span
 
     def ends(curve, t0, t1):
-        p = curve.evaluate(np.array([t0, t1]))
+        p = curve_points(curve, np.array([t0, t1]))
         return p[0], p[1]
 
     def gap(si, curve):

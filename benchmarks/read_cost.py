@@ -1,0 +1,141 @@
+"""What reading a CAD file costs against meshing it (issue 17, item 2: reading at most the meshing time).
+
+Per model, three measurements, each the best of ``--reps`` fresh processes (runs interleaved model by
+model and, with two ``--src``, tree by tree, so both trees see the same load):
+
+* ``cli read`` / ``cli mesh`` / ``early``: the report of ``python -m trimsurf tessellate FILE -o x.ply
+  --report r.json`` (defaults): ``seconds_read`` (wall time of the read call plus what the command paid to
+  start the reader server early), ``seconds_mesh``, and ``seconds_read_started_early`` (the server's
+  start-up that ran on another core before the read was asked for; not in ``seconds_read``);
+  ``read/mesh`` = cli read / cli mesh.
+* ``script read``: wall time of the first ``trimsurf.io.read_shell(FILE)`` in a fresh ``python -c`` after
+  ``import trimsurf`` (a library caller: the reader server starts at this first read, nothing overlaps
+  it), and ``script cpu``: the CPU of that read in the calling process, the server and its child
+  together (``RUSAGE_CHILDREN`` after the server is stopped).
+* ``in-proc cpu``: CPU (``time.process_time``) of ``read_shell`` in the calling process
+  (``TRIMSURF_OCC_IN_PROCESS=1``: Open CASCADE's read, ``BRepBuilderAPI_NurbsConvert`` and the copy
+  into the model, no server), the second call in the process (the first pays one-time set-up).
+
+One untimed run per tree first fills numba's cache. ``--src DIR`` times another source tree (e.g.
+``--src /tmp/main25/src --src src`` for before/after).
+
+Usage: python benchmarks/read_cost.py [--models screw,t20] [--reps 3] [--src OLD --src NEW] [--json out.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "cad"
+MODELS = {"screw": "occt__screw.step", "t20": "gmsh__t20_data.step", "featuretype": "trimesh__featuretype.STEP",
+          "U_Joint": "gmsh__U_Joint_2.stp", "crankshaft": "gmsh__SampleCrankshaft4A.stp",
+          "soapbox": "occtpr946__ec_soapbox-A.stp"}
+
+_SCRIPT = r"""
+import json, resource, sys, time
+import trimsurf
+t0 = time.perf_counter(); c0 = time.process_time()
+from trimsurf.io import read_shell
+shell = read_shell(sys.argv[1])
+wall = time.perf_counter() - t0
+cpu = time.process_time() - c0
+from trimsurf.io import _server
+_server.discard_server()
+ch = resource.getrusage(resource.RUSAGE_CHILDREN)
+print(json.dumps({"wall": wall, "cpu": cpu + ch.ru_utime + ch.ru_stime, "faces": len(shell.faces)}))
+"""
+
+_IN_PROCESS = r"""
+import json, sys, time, warnings
+warnings.simplefilter("ignore")
+from trimsurf.io import read_shell
+best = None
+for i in range(int(sys.argv[2]) + 1):
+    c = time.process_time(); read_shell(sys.argv[1]); c = time.process_time() - c
+    if i:
+        best = c if best is None else min(best, c)
+print(json.dumps({"cpu": best}))
+"""
+
+
+def _env(src: str, **extra) -> dict:
+    env = dict(os.environ, PYTHONPATH=src, **extra)
+    if "TRIMSURF_OCC_IN_PROCESS" not in extra:
+        env.pop("TRIMSURF_OCC_IN_PROCESS", None)
+    return env
+
+
+def cli_run(src: str, path: Path, tmp: Path) -> dict:
+    report = tmp / "r.json"
+    run = subprocess.run([sys.executable, "-m", "trimsurf", "tessellate", str(path), "-o", str(tmp / "x.ply"),
+                          "--report", str(report)], env=_env(src), capture_output=True, text=True, timeout=900)
+    if run.returncode not in (0, 1):
+        raise SystemExit(f"{path}: trimsurf failed ({run.returncode}): {run.stderr[-2000:]}")
+    e = json.loads(report.read_text())["inputs"][0]
+    return {"read": e["seconds_read"], "mesh": e["seconds_mesh"], "early": e.get("seconds_read_started_early", 0.0)}
+
+
+def script_run(src: str, path: Path) -> dict:
+    run = subprocess.run([sys.executable, "-c", _SCRIPT, str(path)], env=_env(src), capture_output=True, text=True,
+                         timeout=900, check=True)
+    return json.loads(run.stdout.strip().splitlines()[-1])
+
+
+def in_process_run(src: str, path: Path, reps: int) -> dict:
+    run = subprocess.run([sys.executable, "-c", _IN_PROCESS, str(path), str(reps)],
+                         env=_env(src, TRIMSURF_OCC_IN_PROCESS="1"), capture_output=True, text=True, timeout=900,
+                         check=True)
+    return json.loads(run.stdout.strip().splitlines()[-1])
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--models", default=",".join(MODELS), help=f"names ({', '.join(MODELS)}) or file names")
+    p.add_argument("--reps", type=int, default=3)
+    p.add_argument("--src", action="append", help="source tree(s) to time (default: this checkout's src)")
+    p.add_argument("--json")
+    a = p.parse_args(argv)
+    srcs = [str(Path(s).resolve()) for s in (a.src or [Path(__file__).resolve().parents[1] / "src"])]
+    models = [(m, DATA / MODELS.get(m, m)) for m in a.models.split(",")]
+    rows: dict[str, dict[str, dict]] = {s: {} for s in srcs}
+    with tempfile.TemporaryDirectory() as tmpdir:
+        tmp = Path(tmpdir)
+        for src in srcs:  # fill numba's cache of each tree
+            cli_run(src, models[0][1], tmp)
+        for name, path in models:
+            best = {s: {} for s in srcs}
+            for _ in range(a.reps):
+                for src in srcs:
+                    got = cli_run(src, path, tmp)
+                    got |= {"script_" + k: v for k, v in script_run(src, path).items() if k != "faces"}
+                    for k, v in got.items():
+                        best[src][k] = min(best[src].get(k, v), v)
+            for src in srcs:
+                best[src]["in_process_cpu"] = in_process_run(src, path, a.reps)["cpu"]
+                rows[src][name] = best[src]
+            for src in srcs:
+                b = best[src]
+                print(f"{name:12} {Path(src).parent.name + '/' + Path(src).name:24} cli read {b['read']:.3f}  "
+                      f"mesh {b['mesh']:.3f}  read/mesh {b['read'] / b['mesh']:.2f}  early {b['early']:.3f}  "
+                      f"script read {b['script_wall']:.3f} cpu {b['script_cpu']:.3f}  "
+                      f"in-proc cpu {b['in_process_cpu']:.3f}", file=sys.stderr, flush=True)
+    for src in srcs:
+        print(f"\ntrimsurf from {src}; best of {a.reps} fresh processes per model (seconds)")
+        print(f"{'model':12} {'cli read':>8} {'cli mesh':>8} {'read/mesh':>9} {'early':>6} {'script read':>11} "
+              f"{'script cpu':>10} {'in-proc cpu':>11}")
+        for name, b in rows[src].items():
+            print(f"{name:12} {b['read']:8.3f} {b['mesh']:8.3f} {b['read'] / b['mesh']:9.2f} {b['early']:6.3f} "
+                  f"{b['script_wall']:11.3f} {b['script_cpu']:10.3f} {b['in_process_cpu']:11.3f}")
+    if a.json:
+        Path(a.json).write_text(json.dumps(rows, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
