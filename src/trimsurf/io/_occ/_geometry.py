@@ -60,62 +60,108 @@ def curve_points(curve: NurbsCurve, t) -> np.ndarray:
     The reader evaluates p-curves (the (u, v) range a face uses, the seam repair). Through
     ``NurbsCurve.evaluate`` that is the compiled kernel ``geom._nurbs_kernels.curve_points_kernel``, and
     loading the first compiled kernel makes numba import scipy.linalg: ~0.2 s CPU in the reader server's
-    start, which a ``trimsurf`` command reading one file waits for. This is the kernel's arithmetic
-    (A2.1 span, A2.2 basis functions, A4.1 rational point), every operation in the same order on the
-    same float64 values, batched over t with numpy (numba compiles without fast-math: no contraction
+    start, which a ``trimsurf`` command reading one file waits for. `curves_points` is the kernel's
+    arithmetic (A2.1 span, A2.2 basis functions, A4.1 rational point), every operation in the same order
+    on the same float64 values, batched with numpy (numba compiles without fast-math: no contraction
     into FMA, so the results are the same floats; `benchmarks/read_identity.py` and
     ``tests/io/test_step.py`` compare them).
     """
-    p = int(curve.degree)
-    knots = curve.knots
-    cp = curve.control_points
-    n_ctrl = cp.shape[0]
-    t = np.minimum(np.maximum(np.asarray(t, dtype=np.float64).ravel(), knots[p]), knots[n_ctrl])
-    spans = np.searchsorted(knots, t, side="right") - 1
-    np.clip(spans, p, n_ctrl - 1, out=spans)
-    at_end = t >= knots[n_ctrl]
-    if at_end.any():
-        last = n_ctrl - 1
-        while last > p and knots[last] >= knots[n_ctrl]:
-            last -= 1
-        spans[at_end] = last
-    n = t.shape[0]
-    # ndu[j][r]: the triangle of A2.2 (rows of basis values, columns of knot differences), one value per point
-    ndu = [[None] * (p + 1) for _ in range(p + 1)]
-    ndu[0][0] = np.ones(n)
-    left = [None] * (p + 1)
-    right = [None] * (p + 1)
-    for j in range(1, p + 1):
-        left[j] = t - knots[spans + 1 - j]
-        right[j] = knots[spans + j] - t
-        saved = np.zeros(n)
-        for r in range(j):
-            ndu[j][r] = right[r + 1] + left[j - r]
-            temp = ndu[r][j - 1] / ndu[j][r]
-            ndu[r][j] = saved + right[r + 1] * temp
-            saved = left[j - r] * temp
-        ndu[j][j] = saved
-    basis = [ndu[r][p] for r in range(p + 1)]
-    rows = [spans - p + r for r in range(p + 1)]
-    dim = cp.shape[1]
-    out = np.empty((n, dim))
-    if curve.weights is None:
-        for d in range(dim):
-            acc = np.zeros(n)
-            for r in range(p + 1):
-                acc = acc + basis[r] * cp[rows[r], d]
-            out[:, d] = acc
-        return out
-    w = curve.weights
-    wsum = np.zeros(n)
-    for r in range(p + 1):
-        wsum = wsum + basis[r] * w[rows[r]]
-    for d in range(dim):
-        acc = np.zeros(n)
+    return curves_points([curve], [np.asarray(t, dtype=np.float64).ravel()])[0]
+
+
+def curves_points(curves, ts) -> list[np.ndarray]:
+    """`curve_points` of each curve at its own parameters (same dimension), batched over all of them.
+
+    Curves of one degree are evaluated together on one concatenated knot vector and control net: the
+    kernel's span search (a binary search, and at the domain end the last non-empty span) runs on all
+    points at once, then the basis functions and the sums. A polynomial curve gets weight 1 in the shared
+    sums (its homogeneous points are its points) but its result is the plain sum, as the kernel's; a
+    rational curve's is the weighted sum divided by the weight sum.
+    """
+    out: list = [None] * len(curves)
+    by_degree: dict[int, list[int]] = {}
+    for i, c in enumerate(curves):
+        by_degree.setdefault(int(c.degree), []).append(i)
+    for p, members in by_degree.items():
+        group = [curves[i] for i in members]
+        counts = np.array([ts[i].shape[0] for i in members])
+        n_ctrl = np.array([c.control_points.shape[0] for c in group])
+        k_off = np.concatenate([[0], np.cumsum(n_ctrl + p + 1)[:-1]])
+        c_off = np.concatenate([[0], np.cumsum(n_ctrl)[:-1]])
+        knots = np.concatenate([c.knots for c in group])
+        cp = np.concatenate([c.control_points for c in group])
+        w = np.concatenate([np.ones(c.control_points.shape[0]) if c.weights is None else c.weights for c in group])
+        t = np.concatenate([ts[i] for i in members])
+        ko = np.repeat(k_off, counts)
+        lo_i = ko + p
+        end_i = ko + np.repeat(n_ctrl, counts)
+        t = np.minimum(np.maximum(t, knots[lo_i]), knots[end_i])
+        # the kernel's _span: the largest i in [p, n_ctrl) with knots[i] <= t, or at the domain end
+        # (t >= knots[n_ctrl]) with knots[i] < knots[n_ctrl], else p
+        at_end = t >= knots[end_i]
+        if len(group) == 1:  # one curve: numpy's search (few calls), then the domain end
+            spans = np.searchsorted(knots, t, side="right") - 1
+            np.clip(spans, p, n_ctrl[0] - 1, out=spans)
+            if at_end.any():
+                last = n_ctrl[0] - 1
+                while last > p and knots[last] >= knots[n_ctrl[0]]:
+                    last -= 1
+                spans[at_end] = last
+        else:  # the kernel's binary search, on all points at once
+            lo, hi = lo_i.copy(), end_i.copy()
+            while True:
+                open_ = hi - lo > 1
+                if not open_.any():
+                    break
+                mid = (lo + hi) // 2
+                km = knots[mid]
+                left_ = open_ & ((t < km) | (at_end & (t <= km)))
+                hi = np.where(left_, mid, hi)
+                lo = np.where(open_ & ~left_, mid, lo)
+            spans = lo
+        first = spans - ko - p + np.repeat(c_off, counts)
+        n = t.shape[0]
+        # ndu[j][r]: the triangle of A2.2 (basis values and knot differences), one value per point
+        ndu = [[None] * (p + 1) for _ in range(p + 1)]
+        ndu[0][0] = np.ones(n)
+        left = [None] * (p + 1)
+        right = [None] * (p + 1)
+        for j in range(1, p + 1):
+            left[j] = t - knots[spans + 1 - j]
+            right[j] = knots[spans + j] - t
+            saved = np.zeros(n)
+            for r in range(j):
+                ndu[j][r] = right[r + 1] + left[j - r]
+                temp = ndu[r][j - 1] / ndu[j][r]
+                ndu[r][j] = saved + right[r + 1] * temp
+                saved = left[j - r] * temp
+            ndu[j][j] = saved
+        cw = cp * w[:, None]  # the kernel's homogeneous points (cp itself for a polynomial curve)
+        acc = np.zeros((n, cp.shape[1]))
+        wsum = np.zeros(n)
         for r in range(p + 1):
-            acc = acc + basis[r] * (cp[rows[r], d] * w[rows[r]])
-        out[:, d] = acc / wsum
+            b = ndu[r][p]
+            acc = acc + b[:, None] * cw[first + r]
+            wsum = wsum + b * w[first + r]
+        rational = np.repeat([c.weights is not None for c in group], counts)
+        if rational.any():
+            acc[rational] = acc[rational] / wsum[rational, None]
+        o = 0
+        for i, k in zip(members, counts.tolist()):
+            out[i] = acc[o:o + k]
+            o += k
     return out
+
+
+def linspaces(t0: np.ndarray, t1: np.ndarray, num: int) -> np.ndarray:
+    """``np.linspace(t0[i], t1[i], num)`` for every i, shape (len(t0), num): the same floats (its arithmetic:
+    ``arange(num) * step + start``, the end exact), in one pass. num >= 2; a zero step falls back to it."""
+    step = (t1 - t0) / (num - 1)
+    if not np.all(step != 0):
+        return np.stack([np.linspace(a, b, num) for a, b in zip(t0.tolist(), t1.tolist())])
+    y = np.arange(num, dtype=np.float64)[None, :] * step[:, None] + t0[:, None]
+    y[:, -1] = t1
+    return y
 
 
 # --------------------------------------------------------------------------------------------------------------

@@ -10,7 +10,7 @@ import numpy as np
 
 from ...errors import FaceSkippedWarning, GeometryError
 from ...model import Edge, Loop, NurbsCurve, PCurve, Shell, TrimmedFace
-from ._geometry import curve_from_occ, curve_points, surface_from_occ
+from ._geometry import curve_from_occ, curve_points, curves_points, linspaces, surface_from_occ
 
 # p-curve samples per segment when measuring the (u, v) range a face uses
 _RANGE_SAMPLES = 65
@@ -55,10 +55,21 @@ def _wire_edges(wire, face) -> list:
     return edges if len(edges) == len(stored) else stored
 
 
-def _segment_uv_range(curves: Sequence[PCurve]) -> tuple[np.ndarray, np.ndarray]:
-    pts = [curve_points(c.curve, np.linspace(c.t0, c.t1, _RANGE_SAMPLES)) for c in curves]
-    allp = np.concatenate(pts, axis=0)
-    return allp.min(axis=0), allp.max(axis=0)
+def _segment_uv_ranges(faces: Sequence[Sequence[PCurve]]) -> list:
+    """Per face, (min, max) in (u, v) of `_RANGE_SAMPLES` equally spaced points of each of its p-curves (None
+    for a face without any), all faces in one batch."""
+    curves = [c for segs in faces for c in segs]
+    if not curves:
+        return [None] * len(faces)
+    ts = linspaces(np.array([c.t0 for c in curves]), np.array([c.t1 for c in curves]), _RANGE_SAMPLES)
+    pts = np.stack(curves_points([c.curve for c in curves], list(ts)))  # (curves, samples, 2)
+    lo_c, hi_c = pts.min(axis=1), pts.max(axis=1)
+    out, k = [], 0
+    for segs in faces:
+        n = len(segs)
+        out.append((lo_c[k:k + n].min(axis=0), hi_c[k:k + n].max(axis=0)) if n else None)
+        k += n
+    return out
 
 
 def _same_parameter_deviation(edge, face) -> float:
@@ -169,16 +180,28 @@ def shape_to_shell(shape, *, name: str = "", skip_bad_faces: bool = False) -> Sh
     edge_uses: list[list[tuple[int, int, int]]] = [[] for _ in topo.edges]
     edge_dev = [0.0] * len(topo.edges)
     converted: list[tuple] = []  # (surface, loops_raw, same_sense, name, tolerance)
-    skipped: list[str] = []
+    failed: dict[int, Exception] = {}
+    # first every face's loops (p-curves, edge curves, seam repair), then the (u, v) range their p-curves
+    # sample, for all faces in one batch, then every face's surface: each face meets the same steps in the
+    # same order as one face at a time; a face's failure is that of its first failing step
+    pending = []
+    stop: Exception | None = None
     for fi, (face, face_loops) in enumerate(zip(topo.faces, topo.loops)):
         try:
-            item, uses, devs = _convert_face(fi, face, face_loops, emap, edge_curves, edge_done, name)
+            pending.append((fi, face, *_face_loops(fi, face, face_loops, emap, edge_curves, edge_done, name)))
         except Exception as exc:  # GeometryError from the model, Standard_Failure from Open CASCADE
             if not skip_bad_faces:
+                stop = exc  # raised below unless an earlier face fails at its surface
+                break
+            failed[fi] = exc
+    ranges = _segment_uv_ranges([item[4] for item in pending])
+    for (fi, face, fwd, loops_raw, all_segs, repaired, uses, devs), seg_range in zip(pending, ranges):
+        try:
+            item = _face_item(fi, face, fwd, loops_raw, all_segs, repaired, seg_range, name)
+        except Exception as exc:
+            if not skip_bad_faces:
                 raise
-            message = f"{name + ': ' if name else ''}face {fi} skipped: {type(exc).__name__}: {exc}"
-            skipped.append(" ".join(message.split()))
-            warnings.warn(skipped[-1], FaceSkippedWarning, stacklevel=2)
+            failed[fi] = exc
             continue
         out_index = len(converted)
         converted.append(item)
@@ -186,6 +209,14 @@ def shape_to_shell(shape, *, name: str = "", skip_bad_faces: bool = False) -> Sh
             edge_uses[ei].append((out_index, li, si))
         for ei, dev in devs.items():
             edge_dev[ei] = max(edge_dev[ei], dev)
+    if stop is not None:
+        raise stop
+    skipped: list[str] = []
+    for fi in sorted(failed):
+        exc = failed[fi]
+        message = f"{name + ': ' if name else ''}face {fi} skipped: {type(exc).__name__}: {exc}"
+        skipped.append(" ".join(message.split()))
+        warnings.warn(skipped[-1], FaceSkippedWarning, stacklevel=2)
     if skipped and not converted:
         raise GeometryError(f"{name + ': ' if name else ''}no face could be converted ({len(skipped)} skipped; "
                             f"first: {skipped[0]})")
@@ -212,13 +243,12 @@ def shape_to_shell(shape, *, name: str = "", skip_bad_faces: bool = False) -> Sh
     return Shell(tuple(faces), tuple(edges), vertices, name=name)
 
 
-def _convert_face(fi: int, face, face_loops, emap, edge_curves, edge_done, name: str):
-    """One face: ((surface, loops_raw, same_sense, name, tolerance), [(edge, loop, segment)], {edge: deviation})."""
+def _face_loops(fi: int, face, face_loops, emap, edge_curves, edge_done, name: str):
+    """One face's loops: (FORWARD face, loops_raw, [PCurve], repaired, [(edge, loop, segment)], {edge: deviation})."""
     from OCP.BRep import BRep_Tool
     from OCP.TopAbs import TopAbs_FORWARD, TopAbs_REVERSED
     from OCP.TopoDS import TopoDS
 
-    same_sense = face.Orientation() != TopAbs_REVERSED
     fwd = TopoDS.Face(face.Oriented(TopAbs_FORWARD))
     loops_raw: list[list[tuple[NurbsCurve, float, float, int]]] = []
     uses: list[tuple[int, int, int]] = []
@@ -246,17 +276,25 @@ def _convert_face(fi: int, face, face_loops, emap, edge_curves, edge_done, name:
                 devs[ei] = max(devs.get(ei, 0.0), _same_parameter_deviation(edge, fwd))
         loops_raw.append(segs)
     all_segs = [PCurve(c, t0, t1) for segs in loops_raw for c, t0, t1, _ in segs]
+    return fwd, loops_raw, all_segs, repaired, uses, devs
+
+
+def _face_item(fi: int, face, fwd, loops_raw, all_segs, repaired: bool, seg_range, name: str) -> tuple:
+    """One face's (surface, loops_raw, same_sense, name, tolerance); `seg_range`: its p-curves' (u, v) range."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_REVERSED
+
+    same_sense = face.Orientation() != TopAbs_REVERSED
     if all_segs and repaired:       # UVBounds would count the seam p-curves replaced
-        lo, hi = _segment_uv_range(all_segs)
+        lo, hi = seg_range
     else:
         u0, u1, v0, v1 = _uv_bounds(fwd)
         lo, hi = np.array([u0, v0]), np.array([u1, v1])
         if all_segs:
-            slo, shi = _segment_uv_range(all_segs)
+            slo, shi = seg_range
             lo, hi = np.minimum(lo, slo), np.maximum(hi, shi)
     surface = surface_from_occ(BRep_Tool.Surface_s(fwd), lo, hi)
-    item = (surface, loops_raw, same_sense, f"{name} face {fi}".strip(), BRep_Tool.Tolerance_s(fwd))
-    return item, uses, devs
+    return surface, loops_raw, same_sense, f"{name} face {fi}".strip(), BRep_Tool.Tolerance_s(fwd)
 
 
 def _repair_seam_pcurves(segs: list, closed: list, surface) -> set:
