@@ -182,7 +182,8 @@ def _curve_to_bspline(curve, first: float, last: float, dim: int):
 
 
 def _is_clamped(flat_knots: np.ndarray, degree: int) -> bool:
-    return bool(np.all(flat_knots[:degree + 1] == flat_knots[0]) and np.all(flat_knots[-degree - 1:] == flat_knots[-1]))
+    """End knots of multiplicity degree + 1 (the sequence is non-decreasing: first == (degree+1)-th is enough)."""
+    return bool(flat_knots[0] == flat_knots[degree] and flat_knots[-1] == flat_knots[-degree - 1])
 
 
 def _insert_knot(bs, u: float, mult: int, tol: float) -> None:
@@ -230,8 +231,10 @@ def curve_from_occ(curve, first: float, last: float, dim: int) -> NurbsCurve:
             else:  # pragma: no cover - insertion always leaves the knot
                 shift = 0.0
         bs.SetNotPeriodic()
-    if not _is_clamped(_reals(bs.KnotSequence()), bs.Degree()):
+    flat = _reals(bs.KnotSequence())
+    if not _is_clamped(flat, bs.Degree()):
         bs.Segment(bs.FirstParameter(), bs.LastParameter())
+        flat = None
     # [first, last] beyond the knot range: Open CASCADE continues the end polynomials; so do we, exactly
     p = bs.Degree()
     d0, d1 = bs.FirstParameter() + shift, bs.LastParameter() + shift
@@ -240,9 +243,11 @@ def curve_from_occ(curve, first: float, last: float, dim: int) -> NurbsCurve:
     n_knots = bs.NbKnots()
     if need_hi and n_knots > 2:
         _insert_knot(bs, bs.Knot(n_knots - 1), p, 0.0)
+        flat = None
     if need_lo and n_knots > 2:
         _insert_knot(bs, bs.Knot(2), p, 0.0)
-    knots = _reals(bs.KnotSequence()) + shift
+        flat = None
+    knots = (_reals(bs.KnotSequence()) if flat is None else flat) + shift
     poles = _points1(bs.Poles(), dim)
     weights = _reals(bs.WeightsArray()) if bs.IsRational() else None
     if need_lo or need_hi:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import warnings
 from collections.abc import Sequence
 from typing import NamedTuple
@@ -72,21 +73,27 @@ def _segment_uv_ranges(faces: Sequence[Sequence[PCurve]]) -> list:
     return out
 
 
-def _same_parameter_deviation(edge, face) -> float:
-    """max |S(p(t)) - C(t)| of an edge on a face, by Open CASCADE's BRepLib_ValidateEdge."""
+@functools.cache
+def _validate_classes() -> tuple:
+    """The Open CASCADE classes `_same_parameter_deviation` builds (imported once: ~10 us a call otherwise)."""
     from OCP.Adaptor3d import Adaptor3d_CurveOnSurface
-    from OCP.BRep import BRep_Tool
     from OCP.BRepAdaptor import BRepAdaptor_Curve
     from OCP.BRepLib import BRepLib_ValidateEdge
     from OCP.Geom2dAdaptor import Geom2dAdaptor_Curve
     from OCP.GeomAdaptor import GeomAdaptor_Surface
 
-    pc = BRep_Tool.CurveOnSurface_s(edge, face, 0.0, 0.0)
-    if pc is None:
-        return 0.0
-    a, b = BRep_Tool.Range_s(edge, face)
-    cos = Adaptor3d_CurveOnSurface(Geom2dAdaptor_Curve(pc, a, b), GeomAdaptor_Surface(BRep_Tool.Surface_s(face)))
-    check = BRepLib_ValidateEdge(BRepAdaptor_Curve(edge), cos, True)
+    return Adaptor3d_CurveOnSurface, BRepAdaptor_Curve, BRepLib_ValidateEdge, Geom2dAdaptor_Curve, GeomAdaptor_Surface
+
+
+def _same_parameter_deviation(edge, pc, a: float, b: float, surface) -> float:
+    """max |S(p(t)) - C(t)| of an edge on a face, by Open CASCADE's BRepLib_ValidateEdge.
+
+    `pc`, `a`, `b`: the edge's p-curve on the face and its range (``BRep_Tool::CurveOnSurface``), `surface`:
+    the face's surface (``BRep_Tool::Surface``).
+    """
+    curve_on_surface, edge_curve, validate, pcurve_adaptor, surface_adaptor = _validate_classes()
+    cos = curve_on_surface(pcurve_adaptor(pc, a, b), surface_adaptor(surface))
+    check = validate(edge_curve(edge), cos, True)
     check.SetControlPointsNumber(_VALIDATE_POINTS)
     check.Process()
     return float(check.GetMaxDistance()) if check.IsDone() else 0.0
@@ -254,8 +261,9 @@ def _face_loops(fi: int, face, face_loops, emap, edge_curves, edge_done, name: s
     uses: list[tuple[int, int, int]] = []
     devs: dict[int, float] = {}
     repaired = False
+    surface = None
     for li, edges in enumerate(face_loops):
-        segs = []
+        segs, occ_pcurves = [], []
         for si, edge in enumerate(edges):
             ei = emap.FindIndex(edge) - 1
             if not edge_done[ei]:
@@ -268,12 +276,15 @@ def _face_loops(fi: int, face, face_loops, emap, edge_curves, edge_done, name: s
             t0, t1 = (b, a) if edge.Orientation() == TopAbs_REVERSED else (a, b)
             uses.append((ei, li, si))
             segs.append((curve_from_occ(pc, a, b, 2), t0, t1, ei))
-        fixed = _repair_seam_pcurves(segs, [BRep_Tool.IsClosed_s(e, fwd) for e in edges], BRep_Tool.Surface_s(fwd))
+            occ_pcurves.append((pc, a, b))
+        if surface is None:
+            surface = BRep_Tool.Surface_s(fwd)
+        fixed = _repair_seam_pcurves(segs, [BRep_Tool.IsClosed_s(e, fwd) for e in edges], surface)
         repaired = repaired or bool(fixed)
         for si, edge in enumerate(edges):
             ei = segs[si][3]
             if edge_curves[ei] is not None and si not in fixed:
-                devs[ei] = max(devs.get(ei, 0.0), _same_parameter_deviation(edge, fwd))
+                devs[ei] = max(devs.get(ei, 0.0), _same_parameter_deviation(edge, *occ_pcurves[si], surface))
         loops_raw.append(segs)
     all_segs = [PCurve(c, t0, t1) for segs in loops_raw for c, t0, t1, _ in segs]
     return fwd, loops_raw, all_segs, repaired, uses, devs
