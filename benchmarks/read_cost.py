@@ -12,6 +12,15 @@ model and, with two ``--src``, tree by tree, so both trees see the same load):
   ``import trimsurf`` (a library caller: the reader server starts at this first read, nothing overlaps
   it), and ``script cpu``: the CPU of that read in the calling process, the server and its child
   together (``RUSAGE_CHILDREN`` after the server is stopped).
+* ``cli cpu@read``: the command's own CPU when it asks the server for the read (the same runs, through a
+  wrapper that records ``time.process_time()`` on entry of ``trimsurf.io._server.Server.run``), and
+  ``est. idle read`` = max(0, server cpu - cli cpu@read) + in-proc cpu: what ``seconds_read`` would be on
+  an idle machine if the command and the server each had a core (an estimate from CPU times, for runs
+  under load, where the wall times are mostly waiting for a core; the transfer of the result is left out).
+* ``server cpu``: CPU (``time.process_time``, interpreter start included) of a fresh interpreter doing
+  what the reader server does before it can fork its first reader (``trimsurf.io._occ._worker.serve``: the
+  imports, then ``_warm_up``): what a command's first read waits for when the command reaches it sooner.
+  One value per tree (it does not depend on the file).
 * ``in-proc cpu``: CPU (``time.process_time``) of ``read_shell`` in the calling process
   (``TRIMSURF_OCC_IN_PROCESS=1``: Open CASCADE's read, ``BRepBuilderAPI_NurbsConvert`` and the copy
   into the model, no server), the second call in the process (the first pays one-time set-up).
@@ -64,6 +73,33 @@ print(json.dumps({"cpu": best}))
 """
 
 
+_SERVER_START = r"""
+import gc, json, time
+gc.disable()
+import numpy, OCP.BRepBuilderAPI, OCP.BRepTools, OCP.IGESControl, OCP.STEPControl
+from trimsurf.io import _brep, _iges, _step
+from trimsurf.io._occ import _isolate, _worker
+_worker._warm_up()
+print(json.dumps({"cpu": time.process_time()}))
+"""
+
+
+# `python -m trimsurf ...` with the command's CPU recorded when it first asks the reader server for a read
+_CLI = r"""
+import json, os, runpy, sys, time
+from trimsurf.io import _server
+_run = _server.Server.run
+def run(self, *args, **kwargs):
+    if not os.path.exists(os.environ["READ_COST_OUT"]):
+        with open(os.environ["READ_COST_OUT"], "w") as fh:
+            json.dump({"cpu_at_read": time.process_time()}, fh)
+    return _run(self, *args, **kwargs)
+_server.Server.run = run
+sys.argv = [os.path.join(os.path.dirname(sys.argv[0]), "trimsurf"), *sys.argv[1:]]
+runpy.run_module("trimsurf", run_name="__main__", alter_sys=True)
+"""
+
+
 def _env(src: str, **extra) -> dict:
     env = dict(os.environ, PYTHONPATH=src, **extra)
     if "TRIMSURF_OCC_IN_PROCESS" not in extra:
@@ -72,13 +108,16 @@ def _env(src: str, **extra) -> dict:
 
 
 def cli_run(src: str, path: Path, tmp: Path) -> dict:
-    report = tmp / "r.json"
-    run = subprocess.run([sys.executable, "-m", "trimsurf", "tessellate", str(path), "-o", str(tmp / "x.ply"),
-                          "--report", str(report)], env=_env(src), capture_output=True, text=True, timeout=900)
+    report, at_read = tmp / "r.json", tmp / "at_read.json"
+    at_read.unlink(missing_ok=True)
+    run = subprocess.run([sys.executable, "-c", _CLI, "tessellate", str(path), "-o", str(tmp / "x.ply"),
+                          "--report", str(report)], env=_env(src, READ_COST_OUT=str(at_read)),
+                         capture_output=True, text=True, timeout=900)
     if run.returncode not in (0, 1):
         raise SystemExit(f"{path}: trimsurf failed ({run.returncode}): {run.stderr[-2000:]}")
     e = json.loads(report.read_text())["inputs"][0]
-    return {"read": e["seconds_read"], "mesh": e["seconds_mesh"], "early": e.get("seconds_read_started_early", 0.0)}
+    return {"read": e["seconds_read"], "mesh": e["seconds_mesh"], "early": e.get("seconds_read_started_early", 0.0),
+            "cpu_at_read": json.loads(at_read.read_text())["cpu_at_read"]}
 
 
 def script_run(src: str, path: Path) -> dict:
@@ -92,6 +131,12 @@ def in_process_run(src: str, path: Path, reps: int) -> dict:
                          env=_env(src, TRIMSURF_OCC_IN_PROCESS="1"), capture_output=True, text=True, timeout=900,
                          check=True)
     return json.loads(run.stdout.strip().splitlines()[-1])
+
+
+def server_start_run(src: str) -> float:
+    run = subprocess.run([sys.executable, "-c", _SERVER_START], env=_env(src), capture_output=True, text=True,
+                         timeout=900, check=True)
+    return json.loads(run.stdout.strip().splitlines()[-1])["cpu"]
 
 
 def main(argv=None) -> int:
@@ -108,6 +153,7 @@ def main(argv=None) -> int:
         tmp = Path(tmpdir)
         for src in srcs:  # fill numba's cache of each tree
             cli_run(src, models[0][1], tmp)
+        server_cpu = {s: min(server_start_run(s) for _ in range(a.reps)) for s in srcs}
         for name, path in models:
             best = {s: {} for s in srcs}
             for _ in range(a.reps):
@@ -121,19 +167,23 @@ def main(argv=None) -> int:
                 rows[src][name] = best[src]
             for src in srcs:
                 b = best[src]
+                b["est_idle_read"] = max(0.0, server_cpu[src] - b["cpu_at_read"]) + b["in_process_cpu"]
                 print(f"{name:12} {Path(src).parent.name + '/' + Path(src).name:24} cli read {b['read']:.3f}  "
                       f"mesh {b['mesh']:.3f}  read/mesh {b['read'] / b['mesh']:.2f}  early {b['early']:.3f}  "
                       f"script read {b['script_wall']:.3f} cpu {b['script_cpu']:.3f}  "
-                      f"in-proc cpu {b['in_process_cpu']:.3f}", file=sys.stderr, flush=True)
+                      f"in-proc cpu {b['in_process_cpu']:.3f}  cli cpu@read {b['cpu_at_read']:.3f}  "
+                      f"est. idle read {b['est_idle_read']:.3f}", file=sys.stderr, flush=True)
     for src in srcs:
-        print(f"\ntrimsurf from {src}; best of {a.reps} fresh processes per model (seconds)")
+        print(f"\ntrimsurf from {src}; best of {a.reps} fresh processes per model (seconds); "
+              f"server cpu {server_cpu[src]:.3f}")
         print(f"{'model':12} {'cli read':>8} {'cli mesh':>8} {'read/mesh':>9} {'early':>6} {'script read':>11} "
-              f"{'script cpu':>10} {'in-proc cpu':>11}")
+              f"{'script cpu':>10} {'in-proc cpu':>11} {'cli cpu@read':>12} {'est. idle read':>14}")
         for name, b in rows[src].items():
             print(f"{name:12} {b['read']:8.3f} {b['mesh']:8.3f} {b['read'] / b['mesh']:9.2f} {b['early']:6.3f} "
-                  f"{b['script_wall']:11.3f} {b['script_cpu']:10.3f} {b['in_process_cpu']:11.3f}")
+                  f"{b['script_wall']:11.3f} {b['script_cpu']:10.3f} {b['in_process_cpu']:11.3f} "
+                  f"{b['cpu_at_read']:12.3f} {b['est_idle_read']:14.3f}")
     if a.json:
-        Path(a.json).write_text(json.dumps(rows, indent=1))
+        Path(a.json).write_text(json.dumps({"server_cpu": server_cpu, "rows": rows}, indent=1))
     return 0
 
 

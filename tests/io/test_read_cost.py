@@ -124,3 +124,52 @@ def test_failures_of_both_passes_are_reported_in_face_order(shared_data, monkeyp
     _fail(monkeypatch, 3, 5)  # the surface of face 5 would fail, but face 3 comes first
     with pytest.raises(GeometryError, match="loops of face 3 broken"):
         _occ.shape_to_shell(shape, name="t20")
+
+
+def test_read_shell_starts_the_server_before_importing_the_readers_and_only_for_server_reads(tmp_path, monkeypatch):
+    from trimsurf.errors import FileFormatError
+    from trimsurf.io import _server, read_shell
+
+    started = []
+
+    class FakeServer:
+        def __init__(self, *, early=False):
+            started.append(early)
+
+        def alive(self):
+            return True
+
+    monkeypatch.setattr(_server, "Server", FakeServer)
+    monkeypatch.setattr(_server, "_SERVER", None)
+    monkeypatch.delenv("TRIMSURF_OCC_IN_PROCESS", raising=False)
+    step = tmp_path / "a.step"
+    step.write_text("ISO-10303-21;\n")
+    vda = tmp_path / "a.vda"
+    vda.write_text("x\n")
+    with pytest.raises(FileFormatError):
+        read_shell(tmp_path / "missing.step")        # refused before any server starts
+    _server.start_for(vda)                           # VDAFS is read by hand, in process
+    assert started == []
+    monkeypatch.setenv("TRIMSURF_OCC_IN_PROCESS", "1")
+    _server.start_for(step)
+    assert started == []
+    monkeypatch.delenv("TRIMSURF_OCC_IN_PROCESS")
+    _server.start_for(step)
+    _server.start_for(step)                          # one server
+    assert started == [False]
+    # and read_shell asks for it before it imports the readers (and the model, numba) for the read
+    order = []
+    monkeypatch.setattr(_server, "start_for", lambda path: order.append("server"))
+    import trimsurf.io as tio
+
+    class Stop(Exception):
+        pass
+
+    def readers(path):
+        order.append("readers")
+        raise Stop
+
+    monkeypatch.setattr(tio, "_cad_module", readers)
+    with pytest.raises(Stop):
+        read_shell(step)
+    assert order == ["server", "readers"]
