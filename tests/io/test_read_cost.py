@@ -173,3 +173,15 @@ def test_read_shell_starts_the_server_before_importing_the_readers_and_only_for_
     with pytest.raises(Stop):
         read_shell(step)
     assert order == ["server", "readers"]
+
+
+def test_batches_of_a_few_points_give_the_same_floats(shared_data, monkeypatch):
+    from trimsurf.io._occ import _geometry
+
+    shell = _step.read_in_process(shared_data / "cad" / "occt__screw.step")
+    pcs, _, _ = _curves(shell)
+    ts = [np.linspace(*c.domain, 23) for c in pcs]
+    whole = curves_points(pcs, ts)
+    monkeypatch.setattr(_geometry, "_BATCH_POINTS", 50)  # two curves a batch, or one
+    for a, b, c, t in zip(curves_points(pcs, ts), whole, pcs, ts):
+        assert a.tobytes() == b.tobytes() == c.evaluate(t).tobytes()

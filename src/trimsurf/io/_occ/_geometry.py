@@ -69,6 +69,10 @@ def curve_points(curve: NurbsCurve, t) -> np.ndarray:
     return curves_points([curve], [np.asarray(t, dtype=np.float64).ravel()])[0]
 
 
+#: points evaluated together at most (plus one curve's): 2^16 points of degree 3 hold ~10 MB of work arrays
+_BATCH_POINTS = 1 << 16
+
+
 def curves_points(curves, ts) -> list[np.ndarray]:
     """`curve_points` of each curve at its own parameters (same dimension), batched over all of them.
 
@@ -82,7 +86,16 @@ def curves_points(curves, ts) -> list[np.ndarray]:
     by_degree: dict[int, list[int]] = {}
     for i, c in enumerate(curves):
         by_degree.setdefault(int(c.degree), []).append(i)
+    batches = []  # (degree, members) with at most _BATCH_POINTS points each (bounds the (p+1)^2 work arrays)
     for p, members in by_degree.items():
+        start, points = 0, 0
+        for k, i in enumerate(members):
+            points += ts[i].shape[0]
+            if points > _BATCH_POINTS and k > start:
+                batches.append((p, members[start:k]))
+                start, points = k, ts[i].shape[0]
+        batches.append((p, members[start:]))
+    for p, members in batches:
         group = [curves[i] for i in members]
         counts = np.array([ts[i].shape[0] for i in members])
         n_ctrl = np.array([c.control_points.shape[0] for c in group])
