@@ -10,6 +10,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .._numba_load import install as _install_lazy_bitcode
+
+# every trimsurf kernel module imports this one (through trimsurf.model or trimsurf.geom) before its first call
+_install_lazy_bitcode()
+
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _span(degree, knots, n_ctrl, t):
