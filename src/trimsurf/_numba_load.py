@@ -23,7 +23,7 @@ from __future__ import annotations
 import os
 import struct
 
-__all__ = ["install", "installed", "elf_defined_symbols"]
+__all__ = ["install", "installed", "elf_defined_symbols", "load_cached"]
 
 #: the numba versions whose ``CPUCodeLibrary._unserialize`` this module re-implements (read and checked)
 NUMBA_VERSIONS = ("0.62.1",)
@@ -117,3 +117,40 @@ def install() -> bool:
     lib_cls._get_module_for_linking = _get_module_for_linking
     _installed = True
     return True
+
+
+def load_cached(dispatcher) -> int:
+    """Load every specialization of a numba `dispatcher` that numba's cache holds, without compiling.
+
+    What a call with those argument types would load (``Dispatcher.compile``: the cache lookup, then
+    ``insert_user_function`` and ``add_overload``), done ahead of the call; a specialization not in the
+    cache, or cached for another CPU or another version of the function's code, is left alone (the call
+    compiles it, as before). Returns the number loaded.
+    """
+    from numba.core import sigutils
+    from numba.core.compiler_lock import global_compiler_lock
+
+    cache = getattr(dispatcher, "_cache", None)
+    cache_file = getattr(cache, "_cache_file", None)
+    if cache_file is None:          # not cache=True (numba's NullCache)
+        return 0
+    n = 0
+    with global_compiler_lock:
+        ctx = dispatcher.targetctx
+        ctx.refresh()
+        codegen = ctx.codegen()
+        for key in cache_file._load_index():
+            sig = key[0]
+            if key != cache._index_key(sig, codegen):
+                continue
+            args, _ = sigutils.normalize_signature(sig)
+            if tuple(args) in dispatcher.overloads:
+                continue
+            cres = cache.load_overload(sig, ctx)
+            if cres is None or cres.objectmode:
+                continue
+            ctx.insert_user_function(cres.entry_point, cres.fndesc, [cres.library])
+            dispatcher.add_overload(cres)
+            dispatcher._cache_hits[sig] += 1
+            n += 1
+    return n

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import time
 from pathlib import Path
@@ -223,7 +224,6 @@ def check_tessellate_budget(shell, path, tolerance, max_edge) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..io import read_shell, skipped_faces, write_mesh
     from ..io._server import take_read_timing
-    from ..tessellate import tessellate_shell
 
     for name in ("tolerance", "max_edge", "grid_size"):
         v = getattr(args, name, None)
@@ -244,9 +244,13 @@ def run(args: argparse.Namespace) -> int:
             if t.suffix.lower() not in (".obj", ".ply"):
                 raise InputError(f"{t}: --quads needs an OBJ or PLY output; got {t.suffix!r}")
     entries, status, unreadable, n_failed = [], EXIT_OK, 0, 0
-    with progress(len(inputs), "tessellate") as bar:
+    # while the reader server reads the first file, a thread loads what the tessellation will certainly
+    # run (modules, numba, its kernels: cli._preload); joined right after that read
+    preload = _start_preload(inputs[0], targets[0])
+    with progress(len(inputs), "tessellate") as bar, _joined(preload):
         for path, target in zip(inputs, targets):
             t0 = time.perf_counter()
+            kernels: dict = {}
             try:
                 with skipped_faces() as skipped:
                     shell = read_shell(path)
@@ -255,6 +259,12 @@ def run(args: argparse.Namespace) -> int:
                 # reported apart, as seconds_read_started_early
                 read_timing = take_read_timing()
                 seconds_read = time.perf_counter() - t0 + read_timing.get("spawn_cost_s", 0.0)
+                if preload is not None:     # what the thread ran during the read, and what is waited for now
+                    preload.join()
+                    kernels = {"seconds_kernels_early": preload.seconds, "seconds_kernels_wait": preload.waited}
+                    preload = None
+                from ..tessellate import tessellate_shell
+
                 check_tessellate_budget(shell, path, args.tolerance, args.max_edge)
                 res = tessellate_shell(shell, tolerance=args.tolerance, max_edge=args.max_edge,
                                        mode="loose" if args.loose else "auto",
@@ -296,7 +306,7 @@ def run(args: argparse.Namespace) -> int:
             seconds = time.perf_counter() - t0 + read_timing.get("spawn_cost_s", 0.0)
             entries.append(_entry(path, res, seconds) | {
                 "output": written, "faces_skipped_at_read": skipped, "seconds_read": seconds_read,
-                "seconds_read_started_early": read_timing.get("early_start_s", 0.0)})
+                "seconds_read_started_early": read_timing.get("early_start_s", 0.0)} | kernels)
             bar.advance(1, description=path.name)
     if unreadable == len(inputs):
         status = EXIT_INPUT
@@ -320,6 +330,33 @@ def run(args: argparse.Namespace) -> int:
         print_warning(f"{n_failed} of {len(inputs)} inputs failed: "
                       + ", ".join(Path(e["input"]).name for e in entries if "error" in e))
     return status
+
+
+def _start_preload(first: Path, target: Path):
+    """The started `cli._preload.Preload` if `first` is read by the reader server (so that this process
+    waits idle meanwhile), else None: a VDAFS file or TRIMSURF_OCC_IN_PROCESS=1 (the read itself runs
+    here), or TRIMSURF_PRELOAD=0."""
+    import os
+
+    from ..io import _server
+    from ..io._meshfile import MESHIO_FORMATS
+
+    if (os.environ.get("TRIMSURF_PRELOAD", "").strip() == "0" or _server.in_process()
+            or first.suffix.lower() not in _server._SERVER_SUFFIXES):
+        return None
+    from . import _preload
+
+    return _preload.Preload("meshio" if target.suffix.lower() in MESHIO_FORMATS else "trimesh").start()
+
+
+@contextlib.contextmanager
+def _joined(preload):
+    """On the way out (an error, Ctrl-C): the preload thread is stopped and joined if it still runs."""
+    try:
+        yield
+    finally:
+        if preload is not None:
+            preload.join(stop=True)
 
 
 def _guarantees_met(path: Path, target: Path, res, shell) -> bool:

@@ -1,0 +1,105 @@
+"""``trimsurf tessellate``: load what the command will certainly run while the reader reads the first file.
+
+A STEP, IGES or BREP file is read by a child of the reader server (`trimsurf.io._occ._isolate`); the
+command itself only waits on a pipe, holding no lock and no CPU. Everything its first tessellation then
+needs on top of the work itself is the same for every file (`trimsurf.tessellate`'s modules, numba's own
+start -- its typing and target registries, the runtime it compiles once per process -- the 28 compiled
+kernels every conforming tessellation with its report calls, `trimsurf.quality` and trimesh, which
+reads the written mesh back): `Preload` does it in a thread during that wait. The command joins the
+thread as soon as the read is done, before any work of its own, so that a forked worker (``--jobs``)
+never inherits a running thread; whatever the thread had not finished then is waited for (reported as
+``seconds_kernels_wait``). Kernels are loaded from numba's cache only (`trimsurf._numba_load.load_cached`):
+a kernel not cached yet (a first run) is compiled by the tessellation that calls it, as before.
+The outputs do not change: the same machine code runs, only loaded earlier.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from importlib import import_module
+
+__all__ = ["KERNELS", "MODULES", "Preload"]
+
+#: modules the first tessellation with its report imports (in this order; the kernels' modules come with them);
+#: the written mesh is read back with trimesh, or meshio for its formats (`Preload`'s `read_back`)
+MODULES = ("trimsurf.tessellate", "trimsurf.tessellate.measure", "trimsurf.quality", "trimsurf.io._meshfile")
+
+#: the compiled kernels (numba dispatchers) that ``trimsurf tessellate`` calls on every model with shared edges,
+#: with its report (measured: the same 28 on occt__screw, trimesh__featuretype, gmsh__U_Joint_2, gmsh__t20_data,
+#: gmsh__wrenchnut, occt__linkrods; tests/cli/test_preload.py checks they are all called)
+KERNELS = {
+    "trimsurf.geom._nurbs_kernels": ("curve_points_kernel", "surface_derivatives_kernel", "surface_distance_kernel",
+                                     "project_newton_kernel"),
+    "trimsurf.geom._seed_kernels": ("seed_grid_kernel",),
+    "trimsurf.geom.predicates": ("_slab_index", "_points_in_polygons_kernel", "_segments_apart_kernel"),
+    "trimsurf.tessellate._line_kernels": ("equidistributed_kernel", "line_net_kernel", "inside_grid_kernel",
+                                          "cell_surface_kernel", "cell_check_kernel", "refine_round_kernel",
+                                          "loop_polylines_kernel"),
+    "trimsurf.tessellate._chunk_kernels": ("discretize_chunks_kernel",),
+    "trimsurf.tessellate.grid": ("_grid_nodes_kernel", "_crossed_cells_kernel", "_keep_cells_kernel",
+                                 "_side_pairs_kernel", "_cdt_keep_kernel"),
+    "trimsurf.tessellate.pslg": ("_is_clean_kernel",),
+    "trimsurf.tessellate._mesh_kernels": ("deviation_samples",),
+    "trimsurf.tessellate.slivers": ("_select_collapses_kernel",),
+    "trimsurf.quality._kernels": ("grid_build_kernel", "grid_closest_kernel", "hint_closest_kernel",
+                                  "segments_distance_kernel"),
+}
+
+
+class Preload:
+    """The preload thread: `start`, then `join` (returns the seconds waited for it).
+
+    `read_back` is the module that will read the written mesh back ("trimesh", or "meshio" for its formats).
+
+    Attributes after `join`: ``seconds`` (the thread's wall time), ``cpu_seconds`` (its own CPU time),
+    ``waited`` (what `join` waited), ``loaded`` (kernel specializations loaded from the cache),
+    ``error`` (an exception the thread stopped on, else None; the command then loads what is missing
+    itself, as without preloading).
+    """
+
+    def __init__(self, read_back: str = "trimesh") -> None:
+        self.modules = MODULES + (read_back,)
+        self.seconds = self.cpu_seconds = self.waited = 0.0
+        self.loaded = 0
+        self.error: BaseException | None = None
+        self._stop = threading.Event()
+        self._joined = False
+        self._thread = threading.Thread(target=self._run, name="trimsurf-preload", daemon=True)
+
+    def start(self) -> Preload:
+        self._thread.start()
+        return self
+
+    def _run(self) -> None:
+        t0, c0 = time.perf_counter(), time.thread_time()
+        try:
+            from .._numba_load import load_cached
+
+            for name in self.modules:
+                if self._stop.is_set():
+                    return
+                import_module(name)
+            for module, names in KERNELS.items():
+                mod = import_module(module)
+                for name in names:
+                    if self._stop.is_set():
+                        return
+                    self.loaded += load_cached(getattr(mod, name))
+        except BaseException as exc:  # noqa: BLE001 -- the command goes on; it loads what it needs itself
+            self.error = exc
+        finally:
+            self.seconds = time.perf_counter() - t0
+            self.cpu_seconds = time.thread_time() - c0
+
+    def join(self, *, stop: bool = False) -> float:
+        """Wait for the thread (after asking it to stop between two steps if `stop`); the seconds waited."""
+        if stop:
+            self._stop.set()
+        if self._thread.ident is None or self._joined:
+            return 0.0
+        t = time.perf_counter()
+        self._thread.join()
+        self._joined = True
+        self.waited = time.perf_counter() - t
+        return self.waited
