@@ -185,12 +185,13 @@ def main(argv=None) -> None:
                     row = best.setdefault((model, label), {})
                     for k, (cpu, wall) in r.items():
                         old = row.get(k, (None, None))
-                        row[k] = tuple(v if o is None else (o if v is None else min(o, v)) for o, v in zip(old, (cpu, wall)))
+                        row[k] = tuple(v if o is None else (o if v is None else min(o, v))
+                                       for o, v in zip(old, (cpu, wall)))
                 print(f"  {model}: run done", file=sys.stderr, flush=True)
     how = "CLI" if args.cli else "library"
-    print(f"first_call.py ({how}; best of {args.runs} fresh processes; "
-          f"{'own bytecode cache' if args.pyc else 'PYTHONDONTWRITEBYTECODE=' + os.environ.get('PYTHONDONTWRITEBYTECODE', '')}); "
-          "CPU / wall seconds")
+    pyc_note = ("own bytecode cache" if args.pyc
+                else "PYTHONDONTWRITEBYTECODE=" + os.environ.get("PYTHONDONTWRITEBYTECODE", ""))
+    print(f"first_call.py ({how}; best of {args.runs} fresh processes; {pyc_note}); CPU / wall seconds")
     diffs = [("main1", "main_warm")] if args.cli else [("mesh1", "mesh_warm"), ("full1", "full_warm")]
     print("| model | variant | " + " | ".join(columns) + "".join(f" | {a}-warm" for a, _ in diffs) + " |")
     print("|---" * (len(columns) + 2 + len(diffs)) + "|")
