@@ -15,8 +15,9 @@ numba does (same machine code, so results are bit-identical), the symbols it def
 the object file's ELF symbol table, and the bitcode is parsed (and its symbols noted, as numba would
 have) only if a new compilation asks to link the library (``_get_module_for_linking``). Object files
 that are not ELF (macOS, Windows), another numba version, or ``TRIMSURF_NUMBA_LAZY_BITCODE=0`` keep
-numba's own loading. Measured over the 28 kernels of a ``trimsurf tessellate``: 120 ms -> 25 ms of CPU,
-from about 1.0 ms + 40 us per kB of bitcode per kernel to 0.6 ms + 8 us per kB of machine code.
+numba's own loading. Measured over the 28 kernels a ``trimsurf tessellate`` called before main e036f2c
+added four: 120 ms -> 25 ms of CPU, from about 1.0 ms + 40 us per kB of bitcode per kernel to 0.6 ms +
+8 us per kB of machine code.
 
 `load_cached` loads a dispatcher's cached specializations ahead of its first call (never compiling);
 the ``trimsurf tessellate`` command uses it to load its kernels while the reader reads (`trimsurf.cli._preload`).

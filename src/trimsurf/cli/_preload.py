@@ -3,7 +3,7 @@
 A STEP, IGES or BREP file is read by a child of the reader server (`trimsurf.io._occ._isolate`); the
 command itself only waits on a pipe, holding no lock and no CPU. Everything its first tessellation then
 needs on top of the work itself is the same for every file (`trimsurf.tessellate`'s modules, numba's own
-start -- its typing and target registries, the runtime it compiles once per process -- the 28 compiled
+start -- its typing and target registries, the runtime it compiles once per process -- the 30 compiled
 kernels every conforming tessellation with its report calls, `trimsurf.quality` and trimesh, which
 reads the written mesh back): `Preload` does it in a thread during that wait. The command joins the
 thread as soon as the read is done, before any work of its own, so that a forked worker (``--jobs``)
@@ -26,16 +26,18 @@ __all__ = ["KERNELS", "MODULES", "Preload"]
 MODULES = ("trimsurf.tessellate", "trimsurf.tessellate.measure", "trimsurf.quality", "trimsurf.io._meshfile")
 
 #: the compiled kernels (numba dispatchers) that ``trimsurf tessellate`` calls on every model with shared edges,
-#: with its report (measured: the same 28 on occt__screw, trimesh__featuretype, gmsh__U_Joint_2, gmsh__t20_data,
-#: gmsh__wrenchnut, occt__linkrods; tests/cli/test_preload.py checks they are all called)
+#: with its report (measured: these 30 on each of occt__screw, trimesh__featuretype, gmsh__U_Joint_2, gmsh__t20_data,
+#: gmsh__wrenchnut, occt__linkrods, one specialization each; `cell_surface_kernel`, called from Python only when
+#: cells must be split (3 of the 6), is left to its call; tests/cli/test_preload.py checks the list against what
+#: the command calls on the screw)
 KERNELS = {
     "trimsurf.geom._nurbs_kernels": ("curve_points_kernel", "surface_derivatives_kernel", "surface_distance_kernel",
                                      "project_newton_kernel"),
     "trimsurf.geom._seed_kernels": ("seed_grid_kernel",),
     "trimsurf.geom.predicates": ("_slab_index", "_points_in_polygons_kernel", "_segments_apart_kernel"),
-    "trimsurf.tessellate._line_kernels": ("equidistributed_kernel", "line_net_kernel", "inside_grid_kernel",
-                                          "cell_surface_kernel", "cell_check_kernel", "refine_round_kernel",
-                                          "loop_polylines_kernel"),
+    "trimsurf.tessellate._line_kernels": ("loop_polylines_kernel", "inside_grids_kernel", "equidistributed_kernel",
+                                          "line_net_kernel", "inside_grid_kernel", "cache_cells_kernel",
+                                          "cell_deviation_kernel", "refine_round_kernel"),
     "trimsurf.tessellate._chunk_kernels": ("discretize_chunks_kernel",),
     "trimsurf.tessellate.grid": ("_grid_nodes_kernel", "_crossed_cells_kernel", "_keep_cells_kernel",
                                  "_side_pairs_kernel", "_cdt_keep_kernel"),
@@ -43,7 +45,7 @@ KERNELS = {
     "trimsurf.tessellate._mesh_kernels": ("deviation_samples",),
     "trimsurf.tessellate.slivers": ("_select_collapses_kernel",),
     "trimsurf.quality._kernels": ("grid_build_kernel", "grid_closest_kernel", "hint_closest_kernel",
-                                  "segments_distance_kernel"),
+                                  "segments_distance_kernel", "uv_locate_kernel"),
 }
 
 
