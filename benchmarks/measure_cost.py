@@ -5,7 +5,10 @@ For every model, at eps = 1e-3 x diagonal, tolerance only (max edge = diagonal) 
 ``tessellate_shell(..., measure=False)`` and of ``tessellate.measure.measure_result`` on that mesh (the
 report's figures, as ``--report`` writes them), with the seed-grid cache of ``geom.projection`` emptied
 before each measurement (a fresh process measures each face's surface for the first time), and the
-figures measured: ``max_deviation`` and ``max_deviation_bound`` (x eps), flipped triangles.
+figures measured: ``max_deviation`` and ``max_deviation_bound`` (x eps), flipped triangles. ``kern s``: the CPU
+of the compiled kernels (Newton, surface evaluation, seed grids and their k-d queries, mesh search, point in
+polygon, (u, v) location) within one more measurement, timed per call; ``floor`` = kern s / mesh s, what
+the measurement would cost against the meshing with no Python around the kernels at all.
 
 ``--reference SRC`` times another checkout's ``src`` in a child process on the same meshes (pickled), e.g.
 ``--reference /work/main/src``, so old and new measure the same triangles.
@@ -40,8 +43,33 @@ for _ in range(reps):
     P._SEED_CACHE.clear()
     t = time.process_time(); m = measure_result(res, shell); t = time.process_time() - t
     best = t if best is None else min(best, t)
+# one more run with the compiled kernels (and the seed k-d queries) timed: their CPU is the floor that no
+# batching of the per-face Python can go below
+import importlib
+acc = [0.0]
+def _timed(f):
+    def g(*a, **k):
+        t0 = time.process_time()
+        try:
+            return f(*a, **k)
+        finally:
+            acc[0] += time.process_time() - t0
+    return g
+for mod, names in (("trimsurf.geom.projection", ("project_newton_kernel", "surface_derivatives_kernel",
+                                                 "seed_grid_kernel", "_nearest_seeds")),
+                   ("trimsurf.geom.nurbs", ("surface_derivatives_kernel", "curve_points_kernel")),
+                   ("trimsurf.quality.closest_point", ("grid_build_kernel", "grid_closest_kernel",
+                                                      "hint_closest_kernel", "packed_closest_kernel")),
+                   ("trimsurf.quality.sampling", ("_points_in_polygons_kernel", "segments_distance_kernel")),
+                   ("trimsurf.quality.deviation", ("uv_locate_kernel",))):
+    mm = importlib.import_module(mod)
+    for n in names:
+        if hasattr(mm, n):
+            setattr(mm, n, _timed(getattr(mm, n)))
+P._SEED_CACHE.clear()
+measure_result(res, shell)
 print(json.dumps({"cpu": best, "max": m["max_deviation"], "bound": m["max_deviation_bound"],
-                  "flipped": m["flipped"]}))
+                  "flipped": m["flipped"], "kernels": acc[0]}))
 """
 
 
@@ -67,7 +95,7 @@ def main(argv=None) -> int:
 
     rows = []
     head = (f"{'model':30} {'mode':8} {'tris':>6} {'mesh s':>7} {'measure s':>9} {'ratio':>5} {'max/eps':>9} "
-            f"{'bnd/eps':>8}")
+            f"{'bnd/eps':>8} {'kern s':>6} {'floor':>5}")
     if a.reference:
         head += f" {'ref s':>6} {'ref max/eps':>11}"
     print(head, flush=True)
@@ -86,9 +114,10 @@ def main(argv=None) -> int:
                 new = _measure(None, shell, res, a.reps, Path(tmp))
                 row = {"model": name, "mode": mode, "triangles": res.mesh.n_triangles, "seconds_mesh": mesh_s,
                        "seconds_measure": new["cpu"], "max_deviation": new["max"], "max_deviation_bound": new["bound"],
-                       "flipped": new["flipped"], "eps": eps}
+                       "flipped": new["flipped"], "eps": eps, "seconds_kernels": new["kernels"]}
                 line = (f"{name:30} {mode:8} {res.mesh.n_triangles:6d} {mesh_s:7.3f} {new['cpu']:9.3f} "
-                        f"{new['cpu'] / mesh_s:5.2f} {new['max'] / eps:9.6f} {new['bound'] / eps:8.4f}")
+                        f"{new['cpu'] / mesh_s:5.2f} {new['max'] / eps:9.6f} {new['bound'] / eps:8.4f} "
+                        f"{new['kernels']:6.3f} {new['kernels'] / mesh_s:5.2f}")
                 if a.reference:
                     ref = _measure(a.reference, shell, res, a.reps, Path(tmp))
                     row.update(reference_seconds_measure=ref["cpu"], reference_max_deviation=ref["max"],
