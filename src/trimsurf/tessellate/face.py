@@ -1135,11 +1135,9 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
     if fits is None or len(fits) != (len(us) - 1) * (len(vs) - 1):
         fits = _diagonal_fits(s, us, vs)
     prefer = None if tol is None else _prefer_main(s, us, vs, fits)
-    n_v = len(vs) - 1
-
-    def split(ki, kj):
-        return _split_from_fits(fits[np.asarray(ki) * n_v + np.asarray(kj)], tol, prefer)
-
+    # every cell's diagonal (`_split_from_fits` is elementwise with the preference given): what a split
+    # callback would answer for the cells the triangulation keeps
+    cell_main = _split_from_fits(fits, tol, prefer)
 
     trim_xyz = np.concatenate(xyzs)
 
@@ -1150,7 +1148,7 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
             xyz[dt.n_trim:] = s.evaluate(dt.uv[dt.n_trim:])
         return xyz
 
-    dt = triangulate_domain(us, vs, polys, split=split, tie_main=prefer)
+    dt = triangulate_domain(us, vs, polys, cell_main=cell_main, tie_main=prefer)
     xyz = lift(dt)
     known = _TriangleDeviations(s)
     # a plane: a triangle with its corners on it lies in it, its deviation is its corners' offsets at most
@@ -1174,7 +1172,7 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
                 break
             extra = np.concatenate([extra, dt.uv[dt.triangles[bad]].mean(axis=1)])
             n_before = len(dt.uv)
-            dt = triangulate_domain(us, vs, polys, split=split, extra=extra, tie_main=prefer)
+            dt = triangulate_domain(us, vs, polys, cell_main=cell_main, extra=extra, tie_main=prefer)
             xyz = lift(dt)
             dev = None
             if len(dt.uv) == n_before:

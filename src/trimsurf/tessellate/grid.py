@@ -20,8 +20,8 @@ import triangle as tr
 from numba import njit
 
 from ..errors import TrimLoopError
-from ..geom.predicates import PolygonIndex, _point_in_index
-from .pslg import clean_pslg
+from ..geom.predicates import _CCW_BOUND, PolygonIndex, _point_in_index, _slab_index
+from .pslg import _is_clean_kernel, clean_pslg
 
 __all__ = ["outcodes", "cohen_sutherland_cells", "DomainTriangulation", "triangulate_domain"]
 
@@ -430,6 +430,360 @@ def _cdt_keep_kernel(uv, tri, us, vs, crossed, a, b, y0, h, n_slab, start, edges
         ok[k] = crossed[ti, tj] and _point_in_index(cx, cy, a, b, y0, h, n_slab, start, edges)
 
 
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _less2(a, b, i, j):
+    """(a[i], b[i], i) < (a[j], b[j], j): np.lexsort((b, a))'s order (stable)."""
+    if a[i] != a[j]:
+        return a[i] < a[j]
+    if b[i] != b[j]:
+        return b[i] < b[j]
+    return i < j
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _argsort2(a, b):
+    """np.lexsort((b, a)) of finite a, b (a merge sort; -0.0 equal to 0.0, equal keys in index order)."""
+    n = a.shape[0]
+    idx = np.arange(n)
+    tmp = np.empty(n, dtype=np.int64)
+    width = 1
+    while width < n:
+        for lo in range(0, n, 2 * width):
+            mid = min(lo + width, n)
+            hi = min(lo + 2 * width, n)
+            i, j, k = lo, mid, lo
+            while i < mid and j < hi:
+                if _less2(a, b, idx[j], idx[i]):
+                    tmp[k] = idx[j]
+                    j += 1
+                else:
+                    tmp[k] = idx[i]
+                    i += 1
+                k += 1
+            while i < mid:
+                tmp[k] = idx[i]
+                i += 1
+                k += 1
+            while j < hi:
+                tmp[k] = idx[j]
+                j += 1
+                k += 1
+        idx, tmp = tmp, idx
+        width *= 2
+    return idx
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _in_sorted(values, x):
+    """`_is_in` of one value."""
+    if values.shape[0] == 0:
+        return False
+    pos = min(_bisect(values, x, np.bool_(False)), values.shape[0] - 1)
+    return values[pos] == x
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _domain_cells(pts, lens, us, vs, extra):
+    """Steps 1-2 of `triangulate_domain`: each trim point's next (p1), the crossed cells (the extra points'
+    cells too, `extra` unique rows: which of them count), the `PolygonIndex` of the polygons and the kept
+    cells."""
+    n_trim = pts.shape[0]
+    nu, nv = us.shape[0], vs.shape[0]
+    seg_b = np.empty(n_trim, dtype=np.int64)
+    s0 = 0
+    for L in lens:
+        for k in range(L):
+            seg_b[s0 + k] = s0 + k + 1
+        seg_b[s0 + L - 1] = s0
+        s0 += L
+    p1 = np.empty((n_trim, 2))
+    for t in range(n_trim):
+        p1[t, 0] = pts[seg_b[t], 0]
+        p1[t, 1] = pts[seg_b[t], 1]
+    crossed = np.zeros((nu - 1, nv - 1), dtype=np.bool_)
+    _crossed_cells_kernel(pts, p1, us, vs, crossed)
+    ne = extra.shape[0]
+    e_ok = np.zeros(ne, dtype=np.bool_)
+    for k in range(ne):
+        ex, ey = extra[k, 0], extra[k, 1]
+        ei = _bisect(us, ex, np.bool_(False)) - 1
+        ej = _bisect(vs, ey, np.bool_(False)) - 1
+        if 0 <= ei < nu - 1 and 0 <= ej < nv - 1 and not _in_sorted(us, ex) and not _in_sorted(vs, ey):
+            crossed[ei, ej] = True
+            e_ok[k] = True
+    y0, h, n_slab, start, edges = _slab_index(pts, p1)
+    keep = np.zeros_like(crossed)
+    _keep_cells_kernel(us, vs, crossed, pts, p1, y0, h, n_slab, start, edges, keep)
+    return seg_b, p1, crossed, e_ok, y0, h, n_slab, start, edges, keep
+
+
+@njit(cache=True, nogil=True)
+def _domain_keep_kernel(pts, lens, us, vs, extra):
+    """The kept cells of `triangulate_domain` (untouched, centre inside)."""
+    return _domain_cells(pts, lens, us, vs, extra)[9]
+
+
+@njit(cache=True, nogil=True)
+def _domain_prepare_kernel(pts, lens, us, vs, extra, cell_main, has_main, shear, snap, bound):
+    """`_triangulate_domain_numpy` up to Triangle, for strictly increasing us, vs and finite points.
+
+    Returns (status, uv, grid_node, grid_tris, quads, crossed, p1, PolygonIndex arrays (y0, h, n_slab,
+    start, edges), Triangle's vertices q and segments, the vertices used (rows of uv), scale_lo, scale):
+    status 0 no crossed cell (no Triangle), 1 Triangle's input is ready (what `clean_pslg` returns at
+    once), 2 the graph needs `clean_pslg`'s rounds (not done here)."""
+    n_trim = pts.shape[0]
+    nu, nv = us.shape[0], vs.shape[0]
+    seg_b, p1, crossed, e_ok, y0, h, n_slab, start, edges, keep = _domain_cells(pts, lens, us, vs, extra)
+    nq = 0
+    for i in range(nu - 1):
+        for j in range(nv - 1):
+            if keep[i, j]:
+                nq += 1
+    ki = np.empty(nq, dtype=np.int64)
+    kj = np.empty(nq, dtype=np.int64)
+    main = np.ones(nq, dtype=np.bool_)
+    k = 0
+    for i in range(nu - 1):
+        for j in range(nv - 1):
+            if keep[i, j]:
+                ki[k], kj[k] = i, j
+                if has_main:
+                    main[k] = cell_main[i * (nv - 1) + j]
+                k += 1
+    # the first trim point equal to each (`_first_equal`)
+    order = _argsort2(pts[:, 0].copy(), pts[:, 1].copy())
+    vmap = np.empty(n_trim, dtype=np.int64)
+    head = -1
+    for r in range(n_trim):
+        t = order[r]
+        if r == 0 or pts[t, 0] != pts[order[r - 1], 0] or pts[t, 1] != pts[order[r - 1], 1]:
+            head = t
+        vmap[t] = head
+    node_uv, node_gn, trim_gn, grid_tris = _grid_nodes_kernel(pts, us, vs, crossed, keep, ki, kj, main)
+    n_node = node_uv.shape[0]
+    n_e = 0
+    for k in range(e_ok.shape[0]):
+        if e_ok[k]:
+            n_e += 1
+    any_crossed = False
+    for i in range(nu - 1):
+        for j in range(nv - 1):
+            if crossed[i, j]:
+                any_crossed = True
+    n_uv = n_trim + n_node + (n_e if any_crossed else 0)
+    uv = np.empty((n_uv, 2))
+    grid_node = np.empty(n_uv, dtype=np.int64)
+    uv[:n_trim] = pts
+    uv[n_trim:n_trim + n_node] = node_uv
+    grid_node[:n_trim] = trim_gn
+    grid_node[n_trim:n_trim + n_node] = node_gn
+    quads = np.empty((nq, 2), dtype=np.int64)
+    for k in range(nq):
+        quads[k, 0] = k
+        quads[k, 1] = nq + k
+    q = np.empty((0, 2))
+    lseg = np.empty((0, 2), dtype=np.int64)
+    used = np.empty(0, dtype=np.int64)
+    lo = np.zeros(2)
+    scale = np.ones(2)
+    if not any_crossed:
+        return (0, uv, grid_node, grid_tris, quads, crossed, p1, y0, h, n_slab, start, edges, q, lseg, used,
+                lo, scale)
+    n_base = n_trim + n_node
+    # constraint segments: the trim segments, then the crossed cells' sides (`_side_segments`)
+    sides = []
+    for axis in range(2):
+        line_vals = vs if axis == 0 else us
+        n_c = 0
+        for t in range(n_base):
+            if _in_sorted(line_vals, uv[t, 1 - axis]):
+                n_c += 1
+        if n_c < 2:
+            continue
+        cand = np.empty(n_c, dtype=np.int64)
+        line = np.empty(n_c, dtype=np.int64)
+        key = np.empty(n_c)
+        c = 0
+        for t in range(n_base):
+            if _in_sorted(line_vals, uv[t, 1 - axis]):
+                cand[c] = t
+                line[c] = _bisect(line_vals, uv[t, 1 - axis], np.bool_(False))
+                key[c] = uv[t, axis]
+                c += 1
+        o = _argsort2(line.astype(np.float64), key)
+        sides.append(_side_pairs_kernel(uv[:n_base], us, vs, crossed, axis, cand[o], line[o]))
+    n_side = 0
+    for sp in sides:
+        n_side += sp.shape[0]
+    seg = np.empty((n_trim + n_side, 2), dtype=np.int64)
+    m = 0
+    for t in range(n_trim):
+        a, b = vmap[t], vmap[seg_b[t]]
+        if a != b:
+            seg[m, 0], seg[m, 1] = a, b
+            m += 1
+    for sp in sides:
+        for r in range(sp.shape[0]):
+            if sp[r, 0] != sp[r, 1]:
+                seg[m, 0], seg[m, 1] = sp[r, 0], sp[r, 1]
+                m += 1
+    seg = seg[:m]
+    mark = np.zeros(n_uv, dtype=np.bool_)
+    for r in range(m):
+        mark[seg[r, 0]] = True
+        mark[seg[r, 1]] = True
+    n_used = 0
+    for t in range(n_base):
+        if mark[t]:
+            n_used += 1
+    used = np.empty(n_used + n_e, dtype=np.int64)
+    c = 0
+    for t in range(n_base):
+        if mark[t]:
+            used[c] = t
+            c += 1
+    r = n_base
+    for k in range(e_ok.shape[0]):
+        if e_ok[k]:
+            uv[r, 0], uv[r, 1] = extra[k, 0], extra[k, 1]
+            grid_node[r] = -1
+            used[c] = r
+            c += 1
+            r += 1
+    local = np.full(n_uv, -1, dtype=np.int64)
+    for c in range(used.shape[0]):
+        local[used[c]] = c
+    n_q = used.shape[0]
+    if n_q == 0:
+        return (2, uv, grid_node, grid_tris, quads, crossed, p1, y0, h, n_slab, start, edges, q, lseg, used,
+                lo, scale)
+    lo = uv[used[0]].copy()
+    hi = uv[used[0]].copy()
+    for c in range(n_q):
+        for d in range(2):
+            lo[d] = min(lo[d], uv[used[c], d])
+            hi[d] = max(hi[d], uv[used[c], d])
+    for d in range(2):
+        scale[d] = max(hi[d] - lo[d], 1e-300)
+    q = np.empty((n_q, 2))
+    finite = True
+    for c in range(n_q):
+        for d in range(2):
+            q[c, d] = (uv[used[c], d] - lo[d]) / scale[d]
+        if shear != 0.0:
+            q[c, 0] += shear * q[c, 1]
+        finite &= np.isfinite(q[c, 0]) and np.isfinite(q[c, 1])
+    lseg = np.empty((m, 2), dtype=np.int64)
+    for r in range(m):
+        lseg[r, 0], lseg[r, 1] = local[seg[r, 0]], local[seg[r, 1]]
+    if not finite or not _is_clean_kernel(q, lseg, snap, bound):
+        return (2, uv, grid_node, grid_tris, quads, crossed, p1, y0, h, n_slab, start, edges, q, lseg, used,
+                lo, scale)
+    # `_unique_segments`: sorted by (lower end, higher end), repeated ones once
+    keys = np.empty(m, dtype=np.int64)
+    n_k = 1
+    for r in range(m):
+        n_k = max(n_k, max(lseg[r, 0], lseg[r, 1]) + 1)
+    for r in range(m):
+        keys[r] = min(lseg[r, 0], lseg[r, 1]) * n_k + max(lseg[r, 0], lseg[r, 1])
+    keys = np.sort(keys)
+    u = 0
+    for r in range(m):
+        if r == 0 or keys[r] != keys[r - 1]:
+            keys[u] = keys[r]
+            u += 1
+    out = np.empty((u, 2), dtype=np.int64)
+    for r in range(u):
+        out[r, 0] = keys[r] // n_k
+        out[r, 1] = keys[r] % n_k
+    return (1, uv, grid_node, grid_tris, quads, crossed, p1, y0, h, n_slab, start, edges, q, out, used, lo,
+            scale)
+
+
+@njit(cache=True, nogil=True)
+def _domain_finish_kernel(uv, grid_node, grid_tris, quads, out_v, out_t, used, lo, scale, shear, us, vs, crossed,
+                          a, b, y0, h, n_slab, start, edges):
+    """`_triangulate_domain_numpy` after Triangle (whose input `_domain_prepare_kernel` made): Triangle's
+    new points back in (u, v), its triangles in crossed cells and inside the trim kept, grid triangles
+    that lost a corner dropped with their quads, every triangle counter-clockwise in (u, v).
+
+    Returns (uv, triangles, grid_node, quads, number of crossed cells)."""
+    n_q = used.shape[0]
+    n_uv = uv.shape[0]
+    n_out = out_v.shape[0]
+    n_new = max(n_out - n_q, 0)
+    glob = np.empty(n_out, dtype=np.int64)
+    for r in range(min(n_out, n_q)):
+        glob[r] = used[r]
+    if n_new:
+        uv2 = np.empty((n_uv + n_new, 2))
+        uv2[:n_uv] = uv
+        gn2 = np.full(n_uv + n_new, -1, dtype=np.int64)
+        gn2[:n_uv] = grid_node
+        for k in range(n_new):
+            x, y = out_v[n_q + k, 0], out_v[n_q + k, 1]
+            if shear != 0.0:
+                x -= shear * y
+            uv2[n_uv + k, 0] = x * scale[0] + lo[0]
+            uv2[n_uv + k, 1] = y * scale[1] + lo[1]
+            glob[n_q + k] = n_uv + k
+        uv, grid_node = uv2, gn2
+    tri = np.empty((out_t.shape[0], 3), dtype=np.int64)
+    for k in range(out_t.shape[0]):
+        for c in range(3):
+            tri[k, c] = glob[out_t[k, c]]
+    ok = np.zeros(tri.shape[0], dtype=np.bool_)
+    _cdt_keep_kernel(uv, tri, us, vs, crossed, a, b, y0, h, n_slab, start, edges, ok)
+    n_g = grid_tris.shape[0]
+    new_row = np.empty(n_g, dtype=np.int64)
+    n_keep = 0
+    for k in range(n_g):
+        p, q, r = grid_tris[k, 0], grid_tris[k, 1], grid_tris[k, 2]
+        if p == q or q == r or p == r:
+            new_row[k] = -1
+        else:
+            new_row[k] = n_keep
+            n_keep += 1
+    if n_keep < n_g:        # a cell narrower than SNAP lost a corner: its triangles go, and the quad
+        nq = 0
+        for k in range(quads.shape[0]):
+            if new_row[quads[k, 0]] >= 0 and new_row[quads[k, 1]] >= 0:
+                nq += 1
+        qd = np.empty((nq, 2), dtype=np.int64)
+        nq = 0
+        for k in range(quads.shape[0]):
+            if new_row[quads[k, 0]] >= 0 and new_row[quads[k, 1]] >= 0:
+                qd[nq, 0], qd[nq, 1] = new_row[quads[k, 0]], new_row[quads[k, 1]]
+                nq += 1
+        quads = qd
+    n_cdt = 0
+    for k in range(ok.shape[0]):
+        if ok[k]:
+            n_cdt += 1
+    tris = np.empty((n_keep + n_cdt, 3), dtype=np.int64)
+    m = 0
+    for k in range(n_g):
+        if new_row[k] >= 0:
+            tris[m] = grid_tris[k]
+            m += 1
+    for k in range(tri.shape[0]):
+        if ok[k]:
+            tris[m] = tri[k]
+            m += 1
+    for k in range(m):          # counter-clockwise in (u, v)
+        p, q, r = tris[k, 0], tris[k, 1], tris[k, 2]
+        area = ((uv[q, 0] - uv[p, 0]) * (uv[r, 1] - uv[p, 1])
+                - (uv[r, 0] - uv[p, 0]) * (uv[q, 1] - uv[p, 1]))
+        if area < 0:
+            tris[k, 0], tris[k, 2] = r, p
+    n_crossed = 0
+    for i in range(crossed.shape[0]):
+        for j in range(crossed.shape[1]):
+            if crossed[i, j]:
+                n_crossed += 1
+    return uv, tris, grid_node, quads, n_crossed
+
+
 @dataclass(eq=False)
 class DomainTriangulation:
     """A triangulation of the trimmed region in (u, v).
@@ -460,7 +814,8 @@ class DomainTriangulation:
 
 
 def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=None,
-                       extra=None, metric=None, tie_main: bool | None = None) -> DomainTriangulation:
+                       extra=None, metric=None, tie_main: bool | None = None,
+                       cell_main: np.ndarray | None = None) -> DomainTriangulation:
     """Triangulate the region bounded by `polygons` on the grid us x vs (paper Sec. 4.3, 5.1).
 
     Parameters
@@ -485,6 +840,9 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
         diagonal (i,j)-(i+1,j+1), False toward the other, None: Triangle's choice.
         A consistent direction keeps reflection lines from wandering where the
         trims run along grid lines (a strip of crossed cells).
+    cell_main : ((len(us) - 1) * (len(vs) - 1),) bool or None
+        Per cell (flat index i * (len(vs) - 1) + j) what `split` would answer for it; takes the place of
+        `split` (one compiled pass over the grid, no call back).
     metric : (2,) float64 or None
         3D length per unit of u and of v (e.g. mean |S_u|, |S_v|): the crossed cells'
         Delaunay triangulation is computed in (u * metric[0], v * metric[1]), so that
@@ -500,6 +858,79 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
     TrimLoopError
         Polygons with fewer than 3 points or outside the grid.
     """
+
+    us = np.asarray(us, dtype=np.float64)
+    vs = np.asarray(vs, dtype=np.float64)
+    polys = [np.asarray(p, dtype=np.float64) for p in polygons]
+    if any(len(p) < 3 for p in polys) or not polys:
+        raise TrimLoopError("a trim polygon has fewer than 3 points")
+    nu, nv = len(us), len(vs)
+    if metric is None and nu >= 2 and nv >= 2 and np.all(us[1:] > us[:-1]) and np.all(vs[1:] > vs[:-1]):
+        pts = np.concatenate(polys) if len(polys) > 1 else polys[0]
+        e = _EMPTY2 if extra is None or not len(extra) else np.unique(
+            np.asarray(extra, dtype=np.float64).reshape(-1, 2), axis=0)
+        if np.isfinite(pts).all() and np.isfinite(e).all():
+            if cell_main is None and split is not None:
+                cell_main = _split_all(us, vs, polys, pts, e, split)
+            out = _triangulate_compiled(us, vs, pts, polys, e, cell_main, tie_main)
+            if out is not None:
+                return out
+    if cell_main is not None and split is None:
+        n_v = nv - 1
+        cm = np.asarray(cell_main, dtype=bool)
+
+        def split(ki, kj):
+            return cm[np.asarray(ki) * n_v + np.asarray(kj)]
+    return _triangulate_domain_numpy(us, vs, polys, split=split, extra=extra, metric=metric, tie_main=tie_main)
+
+
+_EMPTY2 = np.zeros((0, 2))
+
+
+def _split_all(us, vs, polys, pts, e, split) -> np.ndarray:
+    """`split` asked for the cells `_domain_prepare_kernel` keeps, as a flat per-cell array (True elsewhere)."""
+    lens = np.array([len(p) for p in polys], dtype=np.int64)
+    keep = _domain_keep_kernel(np.ascontiguousarray(pts), lens, us, vs, np.ascontiguousarray(e))
+    ki, kj = np.nonzero(keep)
+    out = np.ones(keep.size, dtype=np.bool_)
+    if len(ki):
+        out[ki * keep.shape[1] + kj] = np.asarray(split(ki, kj), dtype=bool)
+    return out
+
+
+def _triangulate_compiled(us, vs, pts, polys, e, cell_main, tie_main):
+    """`_triangulate_domain_numpy` in two compiled passes around Triangle (strictly increasing us, vs,
+    finite points, no metric); None when the graph for Triangle needs `clean_pslg`'s rounds (the caller
+    takes the numpy path then)."""
+    lens = np.array([len(p) for p in polys], dtype=np.int64)
+    shear = 0.0 if tie_main is None else (-1e-3 if tie_main else 1e-3)
+    has_main = cell_main is not None
+    cm = np.ascontiguousarray(cell_main, dtype=np.bool_) if has_main else _EMPTY_BOOL
+    (status, uv, grid_node, grid_tris, quads, crossed, p1, y0, h, n_slab, start, edges, q, lseg, used, lo,
+     scale) = _domain_prepare_kernel(np.ascontiguousarray(pts), lens, us, vs, np.ascontiguousarray(e), cm,
+                                     np.bool_(has_main), shear, SNAP, _CCW_BOUND)
+    if status == 2:
+        return None
+    if status == 1:
+        res = tr.triangulate({"vertices": q, "segments": lseg}, "pQ")
+        out_v, out_t = res["vertices"], res["triangles"]
+    else:
+        out_v, out_t = _EMPTY2, _EMPTY_TRI
+    uv, tris, grid_node, quads, n_crossed = _domain_finish_kernel(
+        uv, grid_node, grid_tris, quads, np.ascontiguousarray(out_v, dtype=np.float64),
+        np.ascontiguousarray(out_t, dtype=np.int64), used, lo, scale, shear, us, vs, crossed, pts, p1, y0, h,
+        n_slab, start, edges)
+    return DomainTriangulation(uv, tris, len(pts), grid_node, quads, int(n_crossed), int(crossed.size))
+
+
+_EMPTY_BOOL = np.zeros(0, dtype=np.bool_)
+_EMPTY_TRI = np.zeros((0, 3), dtype=np.int64)
+
+
+def _triangulate_domain_numpy(us, vs, polygons, *, split=None, extra=None, metric=None,
+                              tie_main=None) -> DomainTriangulation:
+    """`triangulate_domain` in numpy (any grid values, any graph: the reference of the compiled path, and
+    its fallback)."""
     us = np.asarray(us, dtype=np.float64)
     vs = np.asarray(vs, dtype=np.float64)
     nu, nv = len(us), len(vs)

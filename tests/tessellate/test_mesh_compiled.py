@@ -1,0 +1,186 @@
+"""The compiled per-face triangulation (issue 17) against its numpy reference, value for value.
+
+`triangulate_domain` runs two compiled passes around Triangle (`_domain_prepare_kernel`,
+`_domain_finish_kernel`); `_triangulate_domain_numpy` is the reference and the fallback. Every field of
+the result must be the same arrays (values and dtypes), on random trims made to hit the special cases
+(trim points on grid lines and nodes, repeated points, holes, extra points, both tie directions), and on
+the faces of a real model.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import trimsurf.tessellate.grid as grid_mod
+from trimsurf.tessellate.grid import _triangulate_domain_numpy, triangulate_domain
+
+FIELDS = ("uv", "triangles", "grid_node", "quads")
+
+
+def _same(a, b) -> bool:
+    return (all(np.array_equal(getattr(a, f), getattr(b, f)) and getattr(a, f).dtype == getattr(b, f).dtype
+                for f in FIELDS)
+            and (a.n_trim, a.n_crossed_cells, a.n_cells) == (b.n_trim, b.n_crossed_cells, b.n_cells))
+
+
+def _star(rng, c, r, n, us, vs):
+    t = np.sort(rng.uniform(0, 2 * np.pi, n))
+    rad = r * rng.uniform(0.6, 1.0, n)
+    p = np.column_stack([c[0] + rad * np.cos(t), c[1] + rad * np.sin(t)])
+    # some points exactly on grid lines, some on grid nodes, one repeated
+    k = rng.integers(0, n, 6)
+    p[k[:2], 0] = us[np.abs(us[:, None] - p[k[:2], 0]).argmin(axis=0)]
+    p[k[2:4], 1] = vs[np.abs(vs[:, None] - p[k[2:4], 1]).argmin(axis=0)]
+    p[k[4], 0] = us[np.abs(us - p[k[4], 0]).argmin()]
+    p[k[4], 1] = vs[np.abs(vs - p[k[4], 1]).argmin()]
+    return p
+
+
+def _insert_iso(p, us, vs):
+    """The polygon with a point wherever a segment crosses a grid line (the coordinate set exactly), as
+    the trims `triangulate_domain` gets."""
+    out = []
+    for a, b in zip(p, np.roll(p, -1, axis=0)):
+        ts, pts = [0.0], [a]
+        for axis, vals in ((0, us), (1, vs)):
+            lo, hi = sorted((a[axis], b[axis]))
+            for x in vals[(vals > lo) & (vals < hi)]:
+                t = (x - a[axis]) / (b[axis] - a[axis])
+                q = a + t * (b - a)
+                q[axis] = x
+                ts.append(t)
+                pts.append(q)
+        out.extend(pts[k] for k in np.argsort(ts, kind="stable"))
+    return np.array(out)
+
+
+def _simple(polys) -> bool:
+    from trimsurf.tessellate.pslg import crossing_segments
+
+    pts = np.concatenate(polys)
+    a = np.arange(len(pts))
+    lens = np.array([len(p) for p in polys])
+    b = a + 1
+    b[np.cumsum(lens) - 1] = np.cumsum(lens) - lens
+    return not len(crossing_segments(pts, np.column_stack([a, b])))
+
+
+def _case(rng):
+    while True:
+        out = _case1(rng)
+        if _simple(out[2]):
+            return out
+
+
+def _case1(rng):
+    us = np.r_[0.0, np.sort(rng.uniform(0, 1, rng.integers(2, 9))), 1.0]
+    vs = np.r_[0.0, np.sort(rng.uniform(0, 2, rng.integers(2, 9))), 2.0]
+    outer = _insert_iso(_star(rng, (0.5, 1.0), 0.45, int(rng.integers(8, 40)), us, vs), us, vs)
+    polys = [outer]
+    if rng.uniform() < 0.5:
+        polys.append(_insert_iso(_star(rng, (0.5, 1.0), 0.12, int(rng.integers(4, 12)), us, vs)[::-1], us, vs))
+    if rng.uniform() < 0.3:     # a repeated point
+        o = polys[0]
+        polys[0] = np.insert(o, 3, o[3], axis=0)
+    extra = None
+    if rng.uniform() < 0.5:
+        extra = np.column_stack([rng.uniform(0.1, 0.9, 6), rng.uniform(0.2, 1.8, 6)])
+        extra[0, 0] = us[1]                          # on a grid line: ignored
+        extra = np.r_[extra, extra[:2]]              # repeated
+    cell_main = rng.uniform(size=(len(us) - 1) * (len(vs) - 1)) < 0.5
+    tie = [None, True, False][int(rng.integers(0, 3))]
+    return us, vs, polys, extra, cell_main, tie
+
+
+def test_compiled_triangulation_equals_numpy(monkeypatch):
+    rng = np.random.default_rng(17)
+    calls = {"numpy": 0}
+    real = grid_mod._triangulate_domain_numpy
+
+    def counting(*a, **k):
+        calls["numpy"] += 1
+        return real(*a, **k)
+
+    monkeypatch.setattr(grid_mod, "_triangulate_domain_numpy", counting)
+    n_cases, n_extra, n_cdt_new = 150, 0, 0
+    for _ in range(n_cases):
+        us, vs, polys, extra, cell_main, tie = _case(rng)
+        nv1 = len(vs) - 1
+        got = triangulate_domain(us, vs, polys, cell_main=cell_main, extra=extra, tie_main=tie)
+        want = real(us, vs, polys, split=lambda ki, kj: cell_main[ki * nv1 + kj], extra=extra, tie_main=tie)
+        assert _same(got, want)
+        # the callback form gives the same
+        got2 = triangulate_domain(us, vs, polys, split=lambda ki, kj: cell_main[ki * nv1 + kj], extra=extra,
+                                  tie_main=tie)
+        assert _same(got2, want)
+        n_extra += extra is not None
+        n_cdt_new += int((got.grid_node[got.n_trim:] < 0).sum())
+    assert n_extra > 30 and n_cdt_new > 30
+    # the compiled path answered most (the numpy one only for graphs needing clean_pslg's rounds: here the
+    # repeated points and points within 2e-10 of a cell side), both kinds are compared
+    assert 0 < calls["numpy"] < 0.5 * 2 * n_cases
+
+
+def test_compiled_triangulation_fallbacks():
+    """Equal grid values, a metric, and crossing trims (clean_pslg's rounds) go the numpy way, same result."""
+    us = np.array([0.0, 0.5, 0.5, 1.0])
+    vs = np.array([0.0, 0.5, 1.0])
+    sq = np.array([[0.1, 0.1], [0.9, 0.1], [0.9, 0.9], [0.1, 0.9]])
+    assert _same(triangulate_domain(us, vs, [sq]), _triangulate_domain_numpy(us, vs, [sq]))
+    us = np.array([0.0, 0.5, 1.0])
+    assert _same(triangulate_domain(us, vs, [sq], metric=np.array([1.0, 3.0])),
+                 _triangulate_domain_numpy(us, vs, [sq], metric=np.array([1.0, 3.0])))
+    bow = np.array([[0.1, 0.1], [0.9, 0.9], [0.9, 0.1], [0.1, 0.9]])       # crosses itself
+    assert _same(triangulate_domain(us, vs, [bow], tie_main=True), _triangulate_domain_numpy(us, vs, [bow], tie_main=True))
+
+
+def test_argsort2_is_lexsort():
+    from trimsurf.tessellate.grid import _domain_keep_kernel  # noqa: F401  (compiled module loads)
+
+    rng = np.random.default_rng(2)
+    a = rng.integers(0, 5, 400).astype(float)
+    b = rng.integers(0, 5, 400).astype(float) * 0.5
+    b[rng.integers(0, 400, 40)] *= -1.0      # -0.0 among 0.0
+    from numba import njit
+
+    @njit
+    def call(a, b):
+        return grid_mod._argsort2(a, b)
+
+    assert np.array_equal(call(a, b), np.lexsort((b, a)))
+
+
+@pytest.mark.parametrize("mode", ["tol", "paper"])
+def test_compiled_triangulation_on_real_faces(shared_data, monkeypatch, mode):
+    """Every triangulation of the screw's faces (the extra-point rounds too) equals the numpy reference."""
+    import trimsurf.tessellate.face as face_mod
+    from trimsurf.io import read_shell
+    from trimsurf.tessellate import tessellate_shell
+
+    shell = read_shell(shared_data / "cad" / "occt__screw.step")
+    d = shell.diagonal()
+    real = face_mod.triangulate_domain
+    n = [0, 0]
+
+    def check(us, vs, polys, *, cell_main=None, extra=None, tie_main=None, **k):
+        out = real(us, vs, polys, cell_main=cell_main, extra=extra, tie_main=tie_main, **k)
+        nv1 = len(vs) - 1
+        ref = numpy_path(us, vs, polys, split=lambda ki, kj: cell_main[ki * nv1 + kj], extra=extra,
+                                        tie_main=tie_main)
+        n[0] += 1
+        n[1] += _same(out, ref)
+        return out
+
+    fallback = [0]
+    numpy_path = grid_mod._triangulate_domain_numpy
+
+    def counting(*a, **k):
+        fallback[0] += 1
+        return numpy_path(*a, **k)
+
+    monkeypatch.setattr(face_mod, "triangulate_domain", check)
+    monkeypatch.setattr(grid_mod, "_triangulate_domain_numpy", counting)
+    tessellate_shell(shell, tolerance=1e-3 * d, max_edge=d if mode == "tol" else 3e-2 * d, measure=False)
+    assert n[0] >= 10 and n[1] == n[0]
+    assert fallback[0] == 0         # every face of the screw took the compiled path
