@@ -184,3 +184,57 @@ def test_compiled_triangulation_on_real_faces(shared_data, monkeypatch, mode):
     tessellate_shell(shell, tolerance=1e-3 * d, max_edge=d if mode == "tol" else 3e-2 * d, measure=False)
     assert n[0] >= 10 and n[1] == n[0]
     assert fallback[0] == 0         # every face of the screw took the compiled path
+
+
+def _sliver_calls(shell, mode):
+    """The arguments of every `collapse_boundary_slivers` call of a tessellation."""
+    import trimsurf.tessellate.face as face_mod
+    from trimsurf.tessellate import tessellate_shell
+
+    calls = []
+    real = face_mod.collapse_boundary_slivers
+
+    def rec(*a, **k):
+        calls.append((a, k))
+        return real(*a, **k)
+
+    d = shell.diagonal()
+    face_mod.collapse_boundary_slivers = rec
+    try:
+        tessellate_shell(shell, tolerance=1e-3 * d, max_edge=d if mode == "tol" else 3e-2 * d, measure=False)
+    finally:
+        face_mod.collapse_boundary_slivers = real
+    return calls
+
+
+def test_compiled_slivers_equal_numpy(shared_data):
+    """`collapse_boundary_slivers` (compiled candidates and picks, the arc cosine only where a cosine
+    bound cannot settle "thin or not") equals its numpy reference on every face of t20 and the screw, at
+    the default angle and at larger ones (many collapses), and with the threshold set to a triangle's own
+    smallest angle and the next float above it (the exact boundary)."""
+    from trimsurf.io import read_shell
+    from trimsurf.tessellate.slivers import (_collapse_boundary_slivers_numpy, _min_angles_deg,
+                                             collapse_boundary_slivers)
+
+    n_cmp = n_collapsed = n_edge = 0
+    for name in ("gmsh__t20_data.step", "occt__screw.step"):
+        shell = read_shell(shared_data / "cad" / name)
+        for mode in ("tol", "paper"):
+            for (s, uv, xyz, tris, fixed), k in _sliver_calls(shell, mode):
+                tt = fixed[tris]
+                mixed = tt.any(axis=1) & ~tt.all(axis=1)
+                ang = _min_angles_deg(xyz[tris[mixed]])
+                limits = [12.0, 30.0, 55.0]
+                if len(ang):
+                    a0 = float(np.sort(ang)[len(ang) // 3])
+                    limits += [a0, float(np.nextafter(a0, np.inf))]
+                for lim in limits:
+                    for tol in (k["tolerance"], 100 * k["tolerance"]):
+                        kw = dict(k, tolerance=tol, min_angle_deg=lim, max_edge=np.inf)
+                        t1, kept1 = collapse_boundary_slivers(s, uv, xyz, tris, fixed, **kw)
+                        t2, kept2 = _collapse_boundary_slivers_numpy(s, uv, xyz, tris, fixed, **kw)
+                        assert np.array_equal(t1, t2) and np.array_equal(kept1, kept2)
+                        n_cmp += 1
+                        n_collapsed += len(t2) < len(tris)
+                        n_edge += lim not in (12.0, 30.0, 55.0) and len(t2) < len(tris)
+    assert n_cmp > 300 and n_collapsed > 30 and n_edge > 10, (n_cmp, n_collapsed, n_edge)

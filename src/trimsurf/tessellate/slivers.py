@@ -134,6 +134,119 @@ def _select_collapses_kernel(T, idx, nv, inner, trim):
     return qs[:n_sel], moved[:n_moved], ms[:n_sel + 1], gone[:n_gone], gs[:n_sel + 1]
 
 
+@njit(cache=True, nogil=True, error_model="numpy")
+def _sliver_candidates_kernel(T, alive, is_trim, xyz, uv, angle, cos_lim, with_sign):
+    """One round's candidates of `collapse_boundary_slivers`: the alive triangles (idx), those with trim
+    and inner corners (mixed), and of those whose smallest angle is not known yet (NaN in `angle`) the
+    ones it cannot settle (unsure). Where every corner's cosine (the sides and the law of cosines of
+    `_min_angles_deg`, the same arithmetic) is at most cos_lim, the cosine of an angle a little above
+    the threshold, the triangle is not thin whatever the last bits of the arc cosine: its `angle` is set
+    to inf (only "thin or not" is read of a triangle that is not thin); the unsure ones get
+    `_min_angles_deg` itself. with_sign: also the face's (u, v) sense (the sign of the sum of the
+    triangles' orientation signs, as np.sum(np.sign(_uv_area)) >= 0; else 0.0)."""
+    m = T.shape[0]
+    sgn = 0.0
+    if with_sign:
+        tot = 0.0
+        for t in range(m):
+            a, b, c = T[t, 0], T[t, 1], T[t, 2]
+            area = ((uv[b, 0] - uv[a, 0]) * (uv[c, 1] - uv[a, 1])
+                    - (uv[c, 0] - uv[a, 0]) * (uv[b, 1] - uv[a, 1]))
+            if area > 0:
+                tot += 1.0
+            elif area < 0:
+                tot -= 1.0
+            elif area != area:
+                tot = np.nan
+        sgn = 1.0 if tot >= 0 else -1.0
+    n_alive = 0
+    for t in range(m):
+        if alive[t]:
+            n_alive += 1
+    idx = np.empty(n_alive, dtype=np.int64)
+    mixed = np.empty(n_alive, dtype=np.int64)
+    unsure = np.empty(n_alive, dtype=np.int64)
+    k = n_mixed = n_unsure = 0
+    L = np.empty(3)
+    for t in range(m):
+        if not alive[t]:
+            continue
+        idx[k] = t
+        k += 1
+        n_tr = 0
+        for c in range(3):
+            if is_trim[T[t, c]]:
+                n_tr += 1
+        if n_tr == 0 or n_tr == 3:
+            continue
+        mixed[n_mixed] = t
+        n_mixed += 1
+        if angle[t] == angle[t]:
+            continue
+        for c in range(3):      # side c opposite corner c: P[c + 1] - P[c + 2]
+            p, q = T[t, (c + 1) % 3], T[t, (c + 2) % 3]
+            dx, dy, dz = xyz[p, 0] - xyz[q, 0], xyz[p, 1] - xyz[q, 1], xyz[p, 2] - xyz[q, 2]
+            L[c] = np.sqrt((dx * dx + dy * dy) + dz * dz)
+        sure = True
+        for c in range(3):
+            l1, l2 = L[(c + 1) % 3], L[(c + 2) % 3]
+            cs = (l1 * l1 + l2 * l2 - L[c] * L[c]) / (2 * l1 * l2)
+            if not cs <= cos_lim:       # NaN too
+                sure = False
+        if sure:
+            angle[t] = np.inf
+        else:
+            unsure[n_unsure] = t
+            n_unsure += 1
+    return sgn, idx, mixed[:n_mixed], unsure[:n_unsure]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _sliver_pick_kernel(T, idx, mixed, angle, is_trim, xyz, min_angle, nv):
+    """The thin triangles of a round (mixed ones with `angle` below min_angle), per thin triangle its
+    shortest edge between an inner and a trim vertex (the first shortest, a NaN length first, as
+    np.argmin), and the collapses `_select_collapses_kernel` takes of them.
+
+    Returns (thin angles, inner, trim, and `_select_collapses_kernel`'s five arrays)."""
+    n = 0
+    for r in range(mixed.shape[0]):
+        if angle[mixed[r]] < min_angle:
+            n += 1
+    thin_ang = np.empty(n)
+    inner = np.empty(n, dtype=np.int64)
+    trim = np.empty(n, dtype=np.int64)
+    k = 0
+    for r in range(mixed.shape[0]):
+        t = mixed[r]
+        if not angle[t] < min_angle:
+            continue
+        thin_ang[k] = angle[t]
+        best = np.inf
+        bc = -1
+        for c in range(3):
+            a, b = T[t, c], T[t, (c + 1) % 3]
+            if is_trim[a] != is_trim[b]:
+                dx, dy, dz = xyz[a, 0] - xyz[b, 0], xyz[a, 1] - xyz[b, 1], xyz[a, 2] - xyz[b, 2]
+                e = np.sqrt((dx * dx + dy * dy) + dz * dz)
+            else:
+                e = np.inf
+            if best != best:            # a NaN came first: np.argmin's answer
+                continue
+            if e != e or bc < 0 or e < best:
+                best, bc = e, c
+        a, b = T[t, bc], T[t, (bc + 1) % 3]
+        if is_trim[a]:
+            inner[k], trim[k] = b, a
+        else:
+            inner[k], trim[k] = a, b
+        k += 1
+    if n == 0:
+        e = np.empty(0, dtype=np.int64)
+        return thin_ang, inner, trim, e, e, np.zeros(1, dtype=np.int64), e, np.zeros(1, dtype=np.int64)
+    qs, mv, ms, gn, gs = _select_collapses_kernel(T, idx, nv, inner, trim)
+    return thin_ang, inner, trim, qs, mv, ms, gn, gs
+
+
 def collapse_boundary_slivers(surface, uv: np.ndarray, xyz: np.ndarray, triangles: np.ndarray, is_trim: np.ndarray,
                               *, tolerance: float, max_edge: float, min_angle_deg: float = 12.0,
                               rounds: int = 3) -> tuple[np.ndarray, np.ndarray]:
@@ -158,6 +271,57 @@ def collapse_boundary_slivers(surface, uv: np.ndarray, xyz: np.ndarray, triangle
     kept : (m,) int64
         For every input triangle its index in the output, -1 if removed or changed.
     """
+    T = triangles.copy()
+    alive = np.ones(len(T), dtype=bool)
+    changed = np.zeros(len(T), dtype=bool)
+    nv = len(uv)
+    angle = np.full(len(T), np.nan)
+    # a triangle whose every cosine is at most this one is not thin (a margin far above the arc cosine's
+    # rounding): `_sliver_candidates_kernel`
+    cos_lim = float(np.cos(np.radians(min_angle_deg + 1e-6)))
+    sgn = None
+    for _ in range(rounds):
+        # candidates: triangles with trim and inner vertices, thin (their angles only: per triangle the same;
+        # computed again once it changed)
+        sg, idx, mixed, unsure = _sliver_candidates_kernel(T, alive, is_trim, xyz, uv, angle, cos_lim,
+                                                           np.bool_(sgn is None))
+        if sgn is None:
+            sgn = sg
+        if not len(idx):
+            break
+        if len(unsure):
+            angle[unsure] = _min_angles_deg(xyz[T[unsure]])
+        # per thin triangle the shortest edge from an inner vertex to a trim vertex, and the collapses of
+        # this round whose stars do not overlap, in the thin triangles' order (the topology of
+        # `collapse_sets`, compiled)
+        thin_ang, inner, trim, qs, mv, ms, gn, gs = _sliver_pick_kernel(T, idx, mixed, angle, is_trim, xyz,
+                                                                        float(min_angle_deg), nv)
+        if not len(qs):
+            break
+        cv, cu = inner[qs], trim[qs]
+        ci = np.repeat(np.arange(len(qs)), np.diff(ms))
+        ok = _check(surface, uv, xyz, T, cv, cu, thin_ang[qs], mv, ci, sgn, tolerance, max_edge)
+        if not ok.any():
+            break
+        # the good collapses at once (their stars do not overlap): v becomes u in the moved triangles
+        good = ok[ci]
+        if good.any():
+            mvg = mv[good]
+            tm = T[mvg]
+            T[mvg] = np.where(tm == cv[ci[good], None], cu[ci[good], None], tm)
+            changed[mvg] = True
+            angle[mvg] = np.nan
+        alive[gn[np.repeat(ok, np.diff(gs))]] = False
+    kept = np.full(len(T), -1, dtype=np.int64)
+    kept[alive] = np.arange(int(alive.sum()))
+    kept[changed] = -1
+    return T[alive], kept
+
+
+def _collapse_boundary_slivers_numpy(surface, uv: np.ndarray, xyz: np.ndarray, triangles: np.ndarray,
+                                     is_trim: np.ndarray, *, tolerance: float, max_edge: float,
+                                     min_angle_deg: float = 12.0, rounds: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """`collapse_boundary_slivers` in numpy (the reference of the compiled rounds, for the tests)."""
     T = triangles.copy()
     alive = np.ones(len(T), dtype=bool)
     changed = np.zeros(len(T), dtype=bool)
