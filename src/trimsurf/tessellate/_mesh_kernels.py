@@ -5,7 +5,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["deviation_samples"]
+from ..geom.predicates import _segments_apart_kernel
+
+__all__ = ["deviation_samples", "trim_loop_kernel"]
 
 
 @njit(cache=True, nogil=True)
@@ -74,3 +76,47 @@ def deviation_samples(bary, uv, xyz, tris):
             for d in range(3):
                 sx[k, d] = bary[b, 0] * xyz[p, d] + bary[b, 1] * xyz[q, d] + bary[b, 2] * xyz[r, d]
     return suv, sx, rows
+
+
+@njit(cache=True, nogil=True)
+def trim_loop_kernel(poly, xyz, vid, has_vid, bound):
+    """One trim loop of `trimsurf.tessellate.face.mesh_face_from_chunks` as its polygon: consecutive
+    duplicates in (u, v) dropped (and a last point equal to the first), then whether the polygon is
+    certainly simple (`repair.remove_polygon_loops` keeps every point then: fewer than 4 points, or
+    every pair of segments apart by `predicates._segments_apart_kernel`).
+
+    Returns (poly, xyz, vid of the kept points (vid -1 without has_vid), keep mask, status): status 0
+    fewer than 3 points left, 1 simple, 2 `remove_polygon_loops` must decide."""
+    n = poly.shape[0]
+    keep = np.empty(n, dtype=np.bool_)
+    m = 0
+    for i in range(n):
+        k = i == 0 or poly[i, 0] != poly[i - 1, 0] or poly[i, 1] != poly[i - 1, 1]
+        if i == n - 1 and n > 1 and poly[i, 0] == poly[0, 0] and poly[i, 1] == poly[0, 1]:
+            k = False
+        keep[i] = k
+        if k:
+            m += 1
+    p2 = np.empty((m, 2))
+    x2 = np.empty((m, 3))
+    v2 = np.empty(m, dtype=np.int64)
+    j = 0
+    finite = True
+    for i in range(n):
+        if keep[i]:
+            p2[j, 0], p2[j, 1] = poly[i, 0], poly[i, 1]
+            x2[j, 0], x2[j, 1], x2[j, 2] = xyz[i, 0], xyz[i, 1], xyz[i, 2]
+            v2[j] = vid[i] if has_vid else -1
+            finite &= np.isfinite(poly[i, 0]) and np.isfinite(poly[i, 1])
+            j += 1
+    if m < 3:
+        return p2, x2, v2, keep, 0
+    if m < 4:
+        return p2, x2, v2, keep, 1
+    if finite:
+        b = np.empty((m, 2))
+        b[:m - 1] = p2[1:]
+        b[m - 1] = p2[0]
+        if _segments_apart_kernel(p2, b, True, bound):
+            return p2, x2, v2, keep, 1
+    return p2, x2, v2, keep, 2

@@ -1056,6 +1056,13 @@ def _check_cut_loop(face: TrimmedFace, poly: np.ndarray, xyz: np.ndarray, seg: n
         f"the face cannot be repaired")
 
 
+# the mesh side's own imports (kept here, below the domain values' part of this module)
+from ..geom.predicates import _CCW_BOUND  # noqa: E402
+from ._mesh_kernels import trim_loop_kernel  # noqa: E402
+
+_NO_IDS = np.zeros(0, dtype=np.int64)
+
+
 def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loop_chunks: list, *,
                           tolerance: float | None = None, max_edge: float = np.inf,
                           slivers: bool = True, fits: np.ndarray | None = None) -> FaceMesh:
@@ -1107,15 +1114,16 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
             vid = np.concatenate([np.full(c, -1, dtype=np.int64) if i is None else i
                                   for i, c in zip(id_parts, counts)])
         else:
-            vid = np.full(len(poly), -1, dtype=np.int64)
-        # drop consecutive duplicates in (u, v)
-        keep = np.empty(len(poly), dtype=bool)
-        keep[:1] = True
-        np.any(poly[1:] != poly[:-1], axis=1, out=keep[1:])
-        if len(poly) > 1 and np.all(poly[-1] == poly[0]):
-            keep[-1] = False
-        poly, xyz, vid = poly[keep], xyz[keep], vid[keep]
-        if len(poly) < 3:
+            vid = _NO_IDS
+        # consecutive duplicates in (u, v) dropped; a certainly simple polygon keeps every point (what
+        # `remove_polygon_loops` returns at once then)
+        poly, xyz, vid, keep, status = trim_loop_kernel(poly, xyz, vid, np.bool_(any_ids), _CCW_BOUND)
+        if status == 0:
+            continue
+        if status == 1:
+            polys.append(poly)
+            xyzs.append(xyz)
+            vids.append(vid)
             continue
         sel = remove_polygon_loops(poly)
         if tolerance is not None and len(sel) < len(poly):
