@@ -238,3 +238,92 @@ def test_compiled_slivers_equal_numpy(shared_data):
                         n_collapsed += len(t2) < len(tris)
                         n_edge += lim not in (12.0, 30.0, 55.0) and len(t2) < len(tris)
     assert n_cmp > 300 and n_collapsed > 30 and n_edge > 10, (n_cmp, n_collapsed, n_edge)
+
+
+def _face_calls(shell, mode):
+    """The arguments of every `mesh_face_from_chunks` call of a tessellation."""
+    import trimsurf.tessellate.shell as shell_mod
+    from trimsurf.tessellate import tessellate_shell
+
+    calls = []
+    real = shell_mod.mesh_face_from_chunks
+
+    def rec(*a, **k):
+        calls.append((a, k))
+        return real(*a, **k)
+
+    d = shell.diagonal()
+    shell_mod.mesh_face_from_chunks = rec
+    try:
+        tessellate_shell(shell, tolerance=1e-3 * d, max_edge=d if mode == "tol" else 3e-2 * d, measure=False)
+    finally:
+        shell_mod.mesh_face_from_chunks = real
+    return calls
+
+
+def _reference_paths(monkeypatch):
+    """Every shortcut of `mesh_face_from_chunks` replaced by the general path it stands for."""
+    import trimsurf.tessellate.face as face_mod
+    from trimsurf.tessellate.slivers import _collapse_boundary_slivers_numpy
+
+    def numpy_triangulation(us, vs, polys, *, cell_main=None, split=None, **k):
+        nv1 = len(vs) - 1
+        if split is None and cell_main is not None:
+            def split(ki, kj):
+                return cell_main[ki * nv1 + kj]
+        return _triangulate_domain_numpy(us, vs, polys, split=split, **k)
+
+    real_loop = face_mod.trim_loop_kernel
+
+    def loop_always_checked(*a):        # remove_polygon_loops decides every loop
+        p, x, v, keep, status = real_loop(*a)
+        return p, x, v, keep, 2 if status == 1 else status
+
+    monkeypatch.setattr(face_mod, "triangulate_domain", numpy_triangulation)
+    monkeypatch.setattr(face_mod, "collapse_boundary_slivers", _collapse_boundary_slivers_numpy)
+    monkeypatch.setattr(face_mod, "trim_loop_kernel", loop_always_checked)
+    monkeypatch.setattr(face_mod._TriangleDeviations, "start_bound",
+                        lambda self, uv, xyz, t: np.full(len(t), np.inf))
+
+
+def test_face_meshes_equal_reference_paths(shared_data, monkeypatch):
+    """`mesh_face_from_chunks` with its shortcuts (compiled triangulation and sliver rounds, certainly
+    simple trim loops, deviations only of the triangles whose start bound exceeds the tolerance) gives
+    every face's arrays, and `tri_dev` when read, equal to the general paths, on t20 and the screw in both
+    settings and the wing's faces (two of which need extra-point rounds); the start bound is never below
+    the deviation."""
+    import trimsurf.tessellate.face as face_mod
+    from trimsurf.io import read_shell
+
+    cases = []
+    for name, modes in (("gmsh__t20_data.step", ("tol", "paper")), ("occt__screw.step", ("tol", "paper")),
+                        ("gmsh__wing_fuselage.step", ("paper",))):       # the last with extra-point rounds
+        shell = read_shell(shared_data / "cad" / name)
+        for mode in modes:
+            cases += _face_calls(shell, mode)
+    n_extra = [0]
+    real_tri = face_mod.triangulate_domain
+
+    def counting_tri(*a, extra=None, **k):
+        n_extra[0] += extra is not None
+        return real_tri(*a, extra=extra, **k)
+
+    with monkeypatch.context() as mp:
+        mp.setattr(face_mod, "triangulate_domain", counting_tri)
+        fast = [face_mod.mesh_face_from_chunks(*a, **k) for a, k in cases]
+    n_curved = 0
+    for fm in fast:
+        if fm._dev_task is not None:
+            s, known, uv, xyz, tris = fm._dev_task[:5]
+            bound = known.start_bound(uv, xyz, tris)
+            dev = face_mod.triangle_deviation(s, uv, xyz, tris)
+            assert np.all(bound >= dev)
+            n_curved += 1
+    with monkeypatch.context() as mp:
+        _reference_paths(mp)
+        ref = [face_mod.mesh_face_from_chunks(*a, **k) for a, k in cases]
+    for a, b in zip(fast, ref):
+        for f in ("uv", "xyz", "triangles", "vid", "quads", "tri_dev"):
+            assert np.array_equal(getattr(a, f), getattr(b, f)), f
+        assert (a.n_crossed_cells, a.removed_loop_points) == (b.n_crossed_cells, b.removed_loop_points)
+    assert len(cases) > 50 and n_curved > 20 and n_extra[0] > 0, (len(cases), n_curved, n_extra)

@@ -5,9 +5,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..geom._nurbs_kernels import _point_scratch, _surface_point01
 from ..geom.predicates import _segments_apart_kernel
 
-__all__ = ["deviation_samples", "trim_loop_kernel"]
+__all__ = ["deviation_samples", "deviation_start_bound", "trim_loop_kernel"]
 
 
 @njit(cache=True, nogil=True)
@@ -120,3 +121,35 @@ def trim_loop_kernel(poly, xyz, vid, has_vid, bound):
         if _segments_apart_kernel(p2, b, True, bound):
             return p2, x2, v2, keep, 1
     return p2, x2, v2, keep, 2
+
+
+@njit(cache=True, nogil=True)
+def deviation_start_bound(bary, uv, xyz, tris, pu, pv, ku, kv, pw, rational):
+    """Per triangle, the largest first distance |S(uv_b) - x_b| over the samples of `deviation_samples`
+    (uv_b clipped to the domain): the distance `_nurbs_kernels._surface_distance1` starts from and never
+    exceeds, so an upper bound of `trimsurf.tessellate.face.triangle_deviation` (NaN where a sample's is),
+    at one surface point per sample instead of the Gauss-Newton steps' three evaluations."""
+    suv, sx, rows = deviation_samples(bary, uv, xyz, tris)
+    u0, u1 = ku[pu], ku[ku.shape[0] - pu - 1]
+    v0, v1 = kv[pv], kv[kv.shape[0] - pv - 1]
+    ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(pu, pv, pw.shape[2])
+    res = np.empty((3, 3))
+    d = np.empty(suv.shape[0])
+    for i in range(suv.shape[0]):
+        uc = min(max(suv[i, 0], u0), u1)
+        vc = min(max(suv[i, 1], v0), v1)
+        _surface_point01(pu, pv, ku, kv, pw, rational, uc, vc, 0, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
+                         bu, bv, tmp, skl, res)
+        r0, r1, r2 = sx[i, 0] - res[0, 0], sx[i, 1] - res[0, 1], sx[i, 2] - res[0, 2]
+        d[i] = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+    out = np.empty(rows.shape[0])
+    for t in range(rows.shape[0]):
+        m = d[rows[t, 0]]
+        for b in range(1, rows.shape[1]):
+            x = d[rows[t, b]]
+            if x > m or x != x:
+                m = x
+            if m != m:
+                break
+        out[t] = m
+    return out

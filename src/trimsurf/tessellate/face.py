@@ -1058,7 +1058,7 @@ def _check_cut_loop(face: TrimmedFace, poly: np.ndarray, xyz: np.ndarray, seg: n
 
 # the mesh side's own imports (kept here, below the domain values' part of this module)
 from ..geom.predicates import _CCW_BOUND  # noqa: E402
-from ._mesh_kernels import trim_loop_kernel  # noqa: E402
+from ._mesh_kernels import deviation_start_bound, trim_loop_kernel  # noqa: E402
 
 _NO_IDS = np.zeros(0, dtype=np.int64)
 
@@ -1157,34 +1157,44 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
         return xyz
 
     dt = triangulate_domain(us, vs, polys, cell_main=cell_main, tie_main=prefer)
-    xyz = lift(dt)
     known = _TriangleDeviations(s)
     # a plane: a triangle with its corners on it lies in it, its deviation is its corners' offsets at most
     # (a trim point off the surface), which the interior points of the rounds below never remove: skip them
     plane_delta = _plane_offset(s, tol)
-    dev = None                  # `known.deviation` of dt.triangles, once computed
+    dev = None                  # the rounds compute deviations of the triangles that may be bad only
     if tol is not None and plane_delta is None:
         # the CDT of a crossed cell cuts it other than the cell splits refine_cells checked: where one
         # of its triangles leaves the tolerance, its centroid joins the CDT (an interior point, so the
         # trim polygons, shared with the neighbours, stay as they are)
         extra = np.zeros((0, 2))
         # a trim point off the surface (the mean of two faces' curves, a gap in the model) makes its
-        # triangles deviate by its own offset, which no interior point can remove
-        trim_off = np.linalg.norm(s.evaluate(dt.uv[:dt.n_trim]) - trim_xyz, axis=1)
+        # triangles deviate by its own offset, which no interior point can remove (the surface at the
+        # trim points and at the other vertices in one evaluation: per point the same numbers as `lift`)
+        xyz = s.evaluate(dt.uv)
+        trim_off = np.linalg.norm(xyz[:dt.n_trim] - trim_xyz, axis=1)
+        xyz[:dt.n_trim] = trim_xyz
         for _ in range(4):
-            dev = known.deviation(dt.uv, xyz, dt.triangles)
+            # only a triangle whose samples' first distances (an upper bound of its deviation) exceed the
+            # tolerance may be bad: the deviation of those alone (the others' is computed when read)
+            maybe = np.flatnonzero(~(known.start_bound(dt.uv, xyz, dt.triangles) <= tol))
+            if not len(maybe):
+                break
+            tm = dt.triangles[maybe]
+            dev_m = known.deviation(dt.uv, xyz, tm)
             off = np.zeros(len(dt.uv))
             off[:dt.n_trim] = trim_off
-            bad = (dev > tol) & (dev > off[dt.triangles].max(axis=1) + 0.05 * tol)
+            bad = np.zeros(len(dt.triangles), dtype=bool)
+            bad[maybe] = (dev_m > tol) & (dev_m > off[tm].max(axis=1) + 0.05 * tol)
             if not bad.any():
                 break
             extra = np.concatenate([extra, dt.uv[dt.triangles[bad]].mean(axis=1)])
             n_before = len(dt.uv)
             dt = triangulate_domain(us, vs, polys, cell_main=cell_main, extra=extra, tie_main=prefer)
             xyz = lift(dt)
-            dev = None
             if len(dt.uv) == n_before:
                 break
+    else:
+        xyz = lift(dt)
     n_trim = dt.n_trim
     vid = np.full(len(dt.uv), -1, dtype=np.int64)
     vid[:n_trim] = np.concatenate(vids)
@@ -1281,6 +1291,18 @@ class _TriangleDeviations:
         keys = np.ascontiguousarray(np.concatenate([uv[triangles].reshape(m, 6), xyz[triangles].reshape(m, 9)],
                                                    axis=1))
         return keys.view(np.dtype((np.void, 15 * 8))).ravel().tolist()
+
+    def start_bound(self, uv: np.ndarray, xyz: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+        """Per triangle an upper bound of its `deviation` (`_mesh_kernels.deviation_start_bound`; NaN where
+        the deviation is NaN)."""
+        if not len(triangles):
+            return np.zeros(0)
+        s = self.surface
+        return deviation_start_bound(_BARY, np.ascontiguousarray(uv, dtype=np.float64),
+                                     np.ascontiguousarray(xyz, dtype=np.float64),
+                                     np.ascontiguousarray(triangles, dtype=np.int64), s.degree_u, s.degree_v,
+                                     read_only(s.knots_u), read_only(s.knots_v),
+                                     _homogeneous(s.control_points, s.weights), s.weights is not None)
 
     def deviation(self, uv: np.ndarray, xyz: np.ndarray, triangles: np.ndarray) -> np.ndarray:
         m = len(triangles)

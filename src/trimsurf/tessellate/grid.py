@@ -530,9 +530,24 @@ def _domain_prepare_kernel(pts, lens, us, vs, extra, cell_main, has_main, shear,
     Returns (status, uv, grid_node, grid_tris, quads, crossed, p1, PolygonIndex arrays (y0, h, n_slab,
     start, edges), Triangle's vertices q and segments, the vertices used (rows of uv), scale_lo, scale):
     status 0 no crossed cell (no Triangle), 1 Triangle's input is ready (what `clean_pslg` returns at
-    once), 2 the graph needs `clean_pslg`'s rounds (not done here)."""
+    once), 2 the graph needs `clean_pslg`'s rounds (not done here), 3 grid values not strictly increasing
+    or points not finite (nothing done)."""
     n_trim = pts.shape[0]
     nu, nv = us.shape[0], vs.shape[0]
+    ok = True
+    for i in range(nu - 1):
+        ok &= us[i + 1] > us[i]
+    for j in range(nv - 1):
+        ok &= vs[j + 1] > vs[j]
+    for t in range(n_trim):
+        ok &= np.isfinite(pts[t, 0]) and np.isfinite(pts[t, 1])
+    for k in range(extra.shape[0]):
+        ok &= np.isfinite(extra[k, 0]) and np.isfinite(extra[k, 1])
+    if not ok:      # the numpy path's case
+        z2, zi = np.empty((0, 2)), np.empty(0, dtype=np.int64)
+        return (3, z2, zi, np.empty((0, 3), dtype=np.int64), np.empty((0, 2), dtype=np.int64),
+                np.zeros((0, 0), dtype=np.bool_), z2, 0.0, 1.0, 0, zi, zi, z2, np.empty((0, 2), dtype=np.int64), zi,
+                np.zeros(2), np.ones(2))
     seg_b, p1, crossed, e_ok, y0, h, n_slab, start, edges, keep = _domain_cells(pts, lens, us, vs, extra)
     nq = 0
     for i in range(nu - 1):
@@ -865,16 +880,17 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
     if any(len(p) < 3 for p in polys) or not polys:
         raise TrimLoopError("a trim polygon has fewer than 3 points")
     nu, nv = len(us), len(vs)
-    if metric is None and nu >= 2 and nv >= 2 and np.all(us[1:] > us[:-1]) and np.all(vs[1:] > vs[:-1]):
+    if metric is None and nu >= 2 and nv >= 2:
+        # the compiled path checks the rest of its conditions (strictly increasing grid values, finite
+        # points) and answers None where they fail
         pts = np.concatenate(polys) if len(polys) > 1 else polys[0]
         e = _EMPTY2 if extra is None or not len(extra) else np.unique(
             np.asarray(extra, dtype=np.float64).reshape(-1, 2), axis=0)
-        if np.isfinite(pts).all() and np.isfinite(e).all():
-            if cell_main is None and split is not None:
-                cell_main = _split_all(us, vs, polys, pts, e, split)
-            out = _triangulate_compiled(us, vs, pts, polys, e, cell_main, tie_main)
-            if out is not None:
-                return out
+        if cell_main is None and split is not None:
+            cell_main = _split_all(us, vs, polys, pts, e, split)
+        out = _triangulate_compiled(us, vs, pts, polys, e, cell_main, tie_main)
+        if out is not None:
+            return out
     if cell_main is not None and split is None:
         n_v = nv - 1
         cm = np.asarray(cell_main, dtype=bool)
@@ -889,6 +905,9 @@ _EMPTY2 = np.zeros((0, 2))
 
 def _split_all(us, vs, polys, pts, e, split) -> np.ndarray:
     """`split` asked for the cells `_domain_prepare_kernel` keeps, as a flat per-cell array (True elsewhere)."""
+    if not (np.all(us[1:] > us[:-1]) and np.all(vs[1:] > vs[:-1]) and np.isfinite(pts).all()
+            and np.isfinite(e).all()):
+        return np.ones((len(us) - 1) * (len(vs) - 1), dtype=np.bool_)     # not asked: the numpy path calls split
     lens = np.array([len(p) for p in polys], dtype=np.int64)
     keep = _domain_keep_kernel(np.ascontiguousarray(pts), lens, us, vs, np.ascontiguousarray(e))
     ki, kj = np.nonzero(keep)
@@ -909,7 +928,7 @@ def _triangulate_compiled(us, vs, pts, polys, e, cell_main, tie_main):
     (status, uv, grid_node, grid_tris, quads, crossed, p1, y0, h, n_slab, start, edges, q, lseg, used, lo,
      scale) = _domain_prepare_kernel(np.ascontiguousarray(pts), lens, us, vs, np.ascontiguousarray(e), cm,
                                      np.bool_(has_main), shear, SNAP, _CCW_BOUND)
-    if status == 2:
+    if status >= 2:
         return None
     if status == 1:
         res = tr.triangulate({"vertices": q, "segments": lseg}, "pQ")

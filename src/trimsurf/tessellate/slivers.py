@@ -11,6 +11,8 @@ do not overlap and tests them all at once (one surface evaluation per round).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -278,7 +280,7 @@ def collapse_boundary_slivers(surface, uv: np.ndarray, xyz: np.ndarray, triangle
     angle = np.full(len(T), np.nan)
     # a triangle whose every cosine is at most this one is not thin (a margin far above the arc cosine's
     # rounding): `_sliver_candidates_kernel`
-    cos_lim = float(np.cos(np.radians(min_angle_deg + 1e-6)))
+    cos_lim = math.cos(math.radians(min_angle_deg + 1e-6))
     sgn = None
     for _ in range(rounds):
         # candidates: triangles with trim and inner vertices, thin (their angles only: per triangle the same;
@@ -312,10 +314,27 @@ def collapse_boundary_slivers(surface, uv: np.ndarray, xyz: np.ndarray, triangle
             changed[mvg] = True
             angle[mvg] = np.nan
         alive[gn[np.repeat(ok, np.diff(gs))]] = False
-    kept = np.full(len(T), -1, dtype=np.int64)
-    kept[alive] = np.arange(int(alive.sum()))
-    kept[changed] = -1
-    return T[alive], kept
+    return _sliver_result_kernel(T, alive, changed)
+
+
+@njit(cache=True, nogil=True)
+def _sliver_result_kernel(T, alive, changed):
+    """(T[alive], kept): kept[t] the row of triangle t among the alive ones, -1 if gone or changed."""
+    m = T.shape[0]
+    kept = np.full(m, -1, dtype=np.int64)
+    n = 0
+    for t in range(m):
+        if alive[t]:
+            if not changed[t]:
+                kept[t] = n
+            n += 1
+    out = np.empty((n, 3), dtype=np.int64)
+    n = 0
+    for t in range(m):
+        if alive[t]:
+            out[n, 0], out[n, 1], out[n, 2] = T[t, 0], T[t, 1], T[t, 2]
+            n += 1
+    return out, kept
 
 
 def _collapse_boundary_slivers_numpy(surface, uv: np.ndarray, xyz: np.ndarray, triangles: np.ndarray,
