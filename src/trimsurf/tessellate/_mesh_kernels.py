@@ -116,9 +116,9 @@ def trim_loop_kernel(poly, xyz, vid, has_vid, bound):
         return p2, x2, v2, keep, 1
     if finite:
         b = np.empty((m, 2))
-        b[:m - 1] = p2[1:]
-        b[m - 1] = p2[0]
-        if _segments_apart_kernel(p2, b, True, bound):
+        for i in range(m):
+            b[i, 0], b[i, 1] = p2[(i + 1) % m, 0], p2[(i + 1) % m, 1]
+        if _segments_apart_kernel(p2, b, np.bool_(True), bound):
             return p2, x2, v2, keep, 1
     return p2, x2, v2, keep, 2
 
@@ -138,7 +138,7 @@ def deviation_start_bound(bary, uv, xyz, tris, pu, pv, ku, kv, pw, rational):
     for i in range(suv.shape[0]):
         uc = min(max(suv[i, 0], u0), u1)
         vc = min(max(suv[i, 1], v0), v1)
-        _surface_point01(pu, pv, ku, kv, pw, rational, uc, vc, 0, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
+        _surface_point01(pu, pv, ku, kv, pw, rational, uc, vc, np.int64(0), ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
                          bu, bv, tmp, skl, res)
         r0, r1, r2 = sx[i, 0] - res[0, 0], sx[i, 1] - res[0, 1], sx[i, 2] - res[0, 2]
         d[i] = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)

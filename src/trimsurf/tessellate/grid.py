@@ -512,7 +512,7 @@ def _domain_cells(pts, lens, us, vs, extra):
             crossed[ei, ej] = True
             e_ok[k] = True
     y0, h, n_slab, start, edges = _slab_index(pts, p1)
-    keep = np.zeros_like(crossed)
+    keep = np.zeros((nu - 1, nv - 1), dtype=np.bool_)
     _keep_cells_kernel(us, vs, crossed, pts, p1, y0, h, n_slab, start, edges, keep)
     return seg_b, p1, crossed, e_ok, y0, h, n_slab, start, edges, keep
 
@@ -566,7 +566,11 @@ def _domain_prepare_kernel(pts, lens, us, vs, extra, cell_main, has_main, shear,
                     main[k] = cell_main[i * (nv - 1) + j]
                 k += 1
     # the first trim point equal to each (`_first_equal`)
-    order = _argsort2(pts[:, 0].copy(), pts[:, 1].copy())
+    px = np.empty(n_trim)
+    py = np.empty(n_trim)
+    for t in range(n_trim):
+        px[t], py[t] = pts[t, 0], pts[t, 1]
+    order = _argsort2(px, py)
     vmap = np.empty(n_trim, dtype=np.int64)
     head = -1
     for r in range(n_trim):
@@ -588,10 +592,12 @@ def _domain_prepare_kernel(pts, lens, us, vs, extra, cell_main, has_main, shear,
     n_uv = n_trim + n_node + (n_e if any_crossed else 0)
     uv = np.empty((n_uv, 2))
     grid_node = np.empty(n_uv, dtype=np.int64)
-    uv[:n_trim] = pts
-    uv[n_trim:n_trim + n_node] = node_uv
-    grid_node[:n_trim] = trim_gn
-    grid_node[n_trim:n_trim + n_node] = node_gn
+    for t in range(n_trim):
+        uv[t, 0], uv[t, 1] = pts[t, 0], pts[t, 1]
+        grid_node[t] = trim_gn[t]
+    for k in range(n_node):
+        uv[n_trim + k, 0], uv[n_trim + k, 1] = node_uv[k, 0], node_uv[k, 1]
+        grid_node[n_trim + k] = node_gn[k]
     quads = np.empty((nq, 2), dtype=np.int64)
     for k in range(nq):
         quads[k, 0] = k
@@ -606,7 +612,8 @@ def _domain_prepare_kernel(pts, lens, us, vs, extra, cell_main, has_main, shear,
                 lo, scale)
     n_base = n_trim + n_node
     # constraint segments: the trim segments, then the crossed cells' sides (`_side_segments`)
-    sides = []
+    side0 = np.empty((0, 2), dtype=np.int64)
+    side1 = np.empty((0, 2), dtype=np.int64)
     for axis in range(2):
         line_vals = vs if axis == 0 else us
         n_c = 0
@@ -618,18 +625,26 @@ def _domain_prepare_kernel(pts, lens, us, vs, extra, cell_main, has_main, shear,
         cand = np.empty(n_c, dtype=np.int64)
         line = np.empty(n_c, dtype=np.int64)
         key = np.empty(n_c)
+        line_f = np.empty(n_c)
         c = 0
         for t in range(n_base):
             if _in_sorted(line_vals, uv[t, 1 - axis]):
                 cand[c] = t
                 line[c] = _bisect(line_vals, uv[t, 1 - axis], np.bool_(False))
+                line_f[c] = line[c]
                 key[c] = uv[t, axis]
                 c += 1
-        o = _argsort2(line.astype(np.float64), key)
-        sides.append(_side_pairs_kernel(uv[:n_base], us, vs, crossed, axis, cand[o], line[o]))
-    n_side = 0
-    for sp in sides:
-        n_side += sp.shape[0]
+        o = _argsort2(line_f, key)
+        cand_o = np.empty(n_c, dtype=np.int64)
+        line_o = np.empty(n_c, dtype=np.int64)
+        for c in range(n_c):
+            cand_o[c], line_o[c] = cand[o[c]], line[o[c]]
+        sp = _side_pairs_kernel(uv, us, vs, crossed, axis, cand_o, line_o)
+        if axis == 0:
+            side0 = sp
+        else:
+            side1 = sp
+    n_side = side0.shape[0] + side1.shape[0]
     seg = np.empty((n_trim + n_side, 2), dtype=np.int64)
     m = 0
     for t in range(n_trim):
@@ -637,11 +652,12 @@ def _domain_prepare_kernel(pts, lens, us, vs, extra, cell_main, has_main, shear,
         if a != b:
             seg[m, 0], seg[m, 1] = a, b
             m += 1
-    for sp in sides:
-        for r in range(sp.shape[0]):
-            if sp[r, 0] != sp[r, 1]:
-                seg[m, 0], seg[m, 1] = sp[r, 0], sp[r, 1]
-                m += 1
+    for r in range(n_side):
+        a = side0[r, 0] if r < side0.shape[0] else side1[r - side0.shape[0], 0]
+        b = side0[r, 1] if r < side0.shape[0] else side1[r - side0.shape[0], 1]
+        if a != b:
+            seg[m, 0], seg[m, 1] = a, b
+            m += 1
     seg = seg[:m]
     mark = np.zeros(n_uv, dtype=np.bool_)
     for r in range(m):
@@ -672,8 +688,10 @@ def _domain_prepare_kernel(pts, lens, us, vs, extra, cell_main, has_main, shear,
     if n_q == 0:
         return (2, uv, grid_node, grid_tris, quads, crossed, p1, y0, h, n_slab, start, edges, q, lseg, used,
                 lo, scale)
-    lo = uv[used[0]].copy()
-    hi = uv[used[0]].copy()
+    hi = np.empty(2)
+    for d in range(2):
+        lo[d] = uv[used[0], d]
+        hi[d] = uv[used[0], d]
     for c in range(n_q):
         for d in range(2):
             lo[d] = min(lo[d], uv[used[c], d])
@@ -695,17 +713,21 @@ def _domain_prepare_kernel(pts, lens, us, vs, extra, cell_main, has_main, shear,
         return (2, uv, grid_node, grid_tris, quads, crossed, p1, y0, h, n_slab, start, edges, q, lseg, used,
                 lo, scale)
     # `_unique_segments`: sorted by (lower end, higher end), repeated ones once
-    keys = np.empty(m, dtype=np.int64)
+    lo_s = np.empty(m)
+    hi_s = np.empty(m)
+    for r in range(m):
+        lo_s[r] = min(lseg[r, 0], lseg[r, 1])
+        hi_s[r] = max(lseg[r, 0], lseg[r, 1])
+    o = _argsort2(lo_s, hi_s)
     n_k = 1
     for r in range(m):
         n_k = max(n_k, max(lseg[r, 0], lseg[r, 1]) + 1)
-    for r in range(m):
-        keys[r] = min(lseg[r, 0], lseg[r, 1]) * n_k + max(lseg[r, 0], lseg[r, 1])
-    keys = np.sort(keys)
+    keys = np.empty(m, dtype=np.int64)
     u = 0
     for r in range(m):
-        if r == 0 or keys[r] != keys[r - 1]:
-            keys[u] = keys[r]
+        k = min(lseg[o[r], 0], lseg[o[r], 1]) * n_k + max(lseg[o[r], 0], lseg[o[r], 1])
+        if u == 0 or k != keys[u - 1]:
+            keys[u] = k
             u += 1
     out = np.empty((u, 2), dtype=np.int64)
     for r in range(u):
@@ -732,9 +754,10 @@ def _domain_finish_kernel(uv, grid_node, grid_tris, quads, out_v, out_t, used, l
         glob[r] = used[r]
     if n_new:
         uv2 = np.empty((n_uv + n_new, 2))
-        uv2[:n_uv] = uv
         gn2 = np.full(n_uv + n_new, -1, dtype=np.int64)
-        gn2[:n_uv] = grid_node
+        for k in range(n_uv):
+            uv2[k, 0], uv2[k, 1] = uv[k, 0], uv[k, 1]
+            gn2[k] = grid_node[k]
         for k in range(n_new):
             x, y = out_v[n_q + k, 0], out_v[n_q + k, 1]
             if shear != 0.0:
