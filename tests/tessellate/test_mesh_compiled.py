@@ -135,6 +135,13 @@ def test_compiled_triangulation_fallbacks():
     assert _same(triangulate_domain(us, vs, [bow], tie_main=True), _triangulate_domain_numpy(us, vs, [bow], tie_main=True))
 
 
+def test_cell_main_length_checked():
+    us = np.array([0.0, 0.5, 1.0])
+    sq = np.array([[0.1, 0.1], [0.9, 0.1], [0.9, 0.9], [0.1, 0.9]])
+    with pytest.raises(ValueError, match="cell_main"):
+        triangulate_domain(us, us, [sq], cell_main=np.ones(3, dtype=bool))
+
+
 def test_argsort2_is_lexsort():
     from trimsurf.tessellate.grid import _domain_keep_kernel  # noqa: F401  (compiled module loads)
 

@@ -903,6 +903,8 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
     if any(len(p) < 3 for p in polys) or not polys:
         raise TrimLoopError("a trim polygon has fewer than 3 points")
     nu, nv = len(us), len(vs)
+    if cell_main is not None and len(cell_main) != max(nu - 1, 0) * max(nv - 1, 0):
+        raise ValueError(f"cell_main has {len(cell_main)} values for {max(nu - 1, 0) * max(nv - 1, 0)} cells")
     if metric is None and nu >= 2 and nv >= 2:
         # the compiled path checks the rest of its conditions (strictly increasing grid values, finite
         # points) and answers None where they fail
