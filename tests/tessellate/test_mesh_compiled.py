@@ -334,3 +334,22 @@ def test_face_meshes_equal_reference_paths(shared_data, monkeypatch):
             assert np.array_equal(getattr(a, f), getattr(b, f)), f
         assert (a.n_crossed_cells, a.removed_loop_points) == (b.n_crossed_cells, b.removed_loop_points)
     assert len(cases) > 50 and n_curved > 20 and n_extra[0] > 0, (len(cases), n_curved, n_extra)
+
+
+def test_min_angles_compiled_cosines_equal_numpy():
+    """`_min_angles_deg` (compiled cosines, numpy's arc cosine) equals the numpy one bit for bit: random,
+    thin, degenerate (a repeated corner, all three equal) and collinear triangles at three scales, and
+    NaN/inf corners."""
+    from trimsurf.tessellate.slivers import _min_angles_deg, _min_angles_deg_numpy
+
+    rng = np.random.default_rng(8)
+    for scale in (1e-6, 1.0, 1e3):
+        P = rng.normal(size=(30000, 3, 3)) * scale
+        P[::7, 1] = P[::7, 0] + 1e-9 * scale * rng.normal(size=(len(P[::7]), 3))     # thin
+        P[::11, 2] = P[::11, 0]                                                     # a repeated corner
+        P[::13] = P[::13, :1]                                                       # a point
+        P[::17, 2] = 0.5 * (P[::17, 0] + P[::17, 1])                                # collinear
+        P[5, 0, 0], P[6, 1, 2] = np.nan, np.inf
+        got, want = _min_angles_deg(P), _min_angles_deg_numpy(P)
+        assert np.array_equal(got, want, equal_nan=True)
+        assert (want == 0).sum() > 1000 and (want < 1e-3).sum() > 3000

@@ -40,7 +40,38 @@ def _turned_in_3d(surface, uv3: np.ndarray, x3: np.ndarray, sgn: float) -> np.nd
 
 
 def _min_angles_deg(P: np.ndarray) -> np.ndarray:
-    """Smallest angle (degrees) of triangles P (m, 3, 3), 0 for a degenerate one."""
+    """Smallest angle (degrees) of triangles P (m, 3, 3), 0 for a degenerate one: the corners' cosines
+    compiled (`_corner_cosines`, the numbers of `_min_angles_deg_numpy`), numpy's arc cosine."""
+    ang = np.degrees(np.arccos(_corner_cosines(np.ascontiguousarray(P, dtype=np.float64))))
+    return np.where(np.isnan(ang), 0.0, ang).min(axis=1)       # nan_to_num (arccos gives no inf)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _corner_cosines(P):
+    """Per triangle P[t] (3 corners in 3D), the cosine of each corner's angle by the law of cosines, clipped
+    to [-1, 1] (NaN kept): the same operations in the same order as `_min_angles_deg_numpy` (a side's length
+    sqrt((dx^2 + dy^2) + dz^2) as np.linalg.norm sums it)."""
+    m = P.shape[0]
+    out = np.empty((m, 3))
+    L = np.empty(3)
+    for t in range(m):
+        for c in range(3):      # side c opposite corner c: P[c + 1] - P[c + 2]
+            p, q = (c + 1) % 3, (c + 2) % 3
+            dx, dy, dz = P[t, p, 0] - P[t, q, 0], P[t, p, 1] - P[t, q, 1], P[t, p, 2] - P[t, q, 2]
+            L[c] = np.sqrt((dx * dx + dy * dy) + dz * dz)
+        for c in range(3):
+            l1, l2 = L[(c + 1) % 3], L[(c + 2) % 3]
+            cs = (l1 * l1 + l2 * l2 - L[c] * L[c]) / (2 * l1 * l2)
+            if cs < -1.0:
+                cs = -1.0
+            elif cs > 1.0:
+                cs = 1.0
+            out[t, c] = cs
+    return out
+
+
+def _min_angles_deg_numpy(P: np.ndarray) -> np.ndarray:
+    """`_min_angles_deg` in numpy (the reference of `_corner_cosines`, for the tests)."""
     # sides a = |P1 P2|, b = |P2 P0|, c = |P0 P1| in one pass; the cosine of the angle opposite each side
     # from the other two (b, c), (c, a), (a, b): the law of cosines per angle
     L = np.linalg.norm(P[:, [1, 2, 0]] - P[:, [2, 0, 1]], axis=2)
@@ -356,7 +387,7 @@ def _collapse_boundary_slivers_numpy(surface, uv: np.ndarray, xyz: np.ndarray, t
         tt = is_trim[T[idx]]
         mixed = idx[tt.any(axis=1) & ~tt.all(axis=1)]
         need = mixed[np.isnan(angle[mixed])]         # a triangle's angle: computed again once it changed
-        angle[need] = _min_angles_deg(xyz[T[need]])
+        angle[need] = _min_angles_deg_numpy(xyz[T[need]])
         ang = angle[mixed]
         thin_m = ang < min_angle_deg
         thin, thin_ang = mixed[thin_m], ang[thin_m]
