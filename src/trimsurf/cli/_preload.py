@@ -29,21 +29,21 @@ MODULES = ("trimsurf.tessellate", "trimsurf.tessellate.measure", "trimsurf.quali
 #: with its report (measured: these 30 on each of occt__screw, trimesh__featuretype, gmsh__U_Joint_2, gmsh__t20_data,
 #: gmsh__wrenchnut, occt__linkrods, one specialization each; `cell_surface_kernel`, called from Python only when
 #: cells must be split (3 of the 6), is left to its call; tests/cli/test_preload.py checks the list against what
-#: the command calls on the screw)
+#: the command calls on the screw. s25-mesh: the face triangulation's kernels; `surface_distance_kernel` and
+#: `deviation_samples` (curved faces whose triangles' start bound exceeds the tolerance) and
+#: `_segments_apart_kernel` (trim loops not certainly simple) are left to their call, the screw calls none)
 KERNELS = {
-    "trimsurf.geom._nurbs_kernels": ("curve_points_kernel", "surface_derivatives_kernel", "surface_distance_kernel",
-                                     "project_newton_kernel"),
+    "trimsurf.geom._nurbs_kernels": ("curve_points_kernel", "surface_derivatives_kernel", "project_newton_kernel"),
     "trimsurf.geom._seed_kernels": ("seed_grid_kernel",),
-    "trimsurf.geom.predicates": ("_slab_index", "_points_in_polygons_kernel", "_segments_apart_kernel"),
+    "trimsurf.geom.predicates": ("_slab_index", "_points_in_polygons_kernel"),
     "trimsurf.tessellate._line_kernels": ("loop_polylines_kernel", "inside_grids_kernel", "equidistributed_kernel",
                                           "line_net_kernel", "inside_grid_kernel", "cache_cells_kernel",
                                           "cell_deviation_kernel", "refine_round_kernel"),
     "trimsurf.tessellate._chunk_kernels": ("discretize_chunks_kernel",),
-    "trimsurf.tessellate.grid": ("_grid_nodes_kernel", "_crossed_cells_kernel", "_keep_cells_kernel",
-                                 "_side_pairs_kernel", "_cdt_keep_kernel"),
-    "trimsurf.tessellate.pslg": ("_is_clean_kernel",),
-    "trimsurf.tessellate._mesh_kernels": ("deviation_samples",),
-    "trimsurf.tessellate.slivers": ("_select_collapses_kernel",),
+    "trimsurf.tessellate.grid": ("_domain_prepare_kernel", "_domain_finish_kernel"),
+    "trimsurf.tessellate._mesh_kernels": ("trim_loop_kernel", "deviation_start_bound"),
+    "trimsurf.tessellate.slivers": ("_sliver_candidates_kernel", "_sliver_pick_kernel", "_sliver_result_kernel",
+                                    "_corner_cosines"),
     "trimsurf.quality._kernels": ("grid_build_kernel", "grid_closest_kernel", "hint_closest_kernel",
                                   "segments_distance_kernel", "uv_locate_kernel"),
 }
