@@ -24,6 +24,7 @@ if not DATA.exists():
 
 STAGES = [  # (module, attribute, label)
     ("trimsurf.tessellate.shell", "repair_face", "repair"),
+    ("trimsurf.tessellate.shell", "quick_repairs", "repair"),      # (the batched repair, where it exists)
     ("trimsurf.tessellate.shell", "face_domain_values", "domain_values"),
     ("trimsurf.tessellate.shell", "shell_domain_values", "domain_values"),    # jobs=1 since session 25
     ("trimsurf.tessellate.face", "refine_cells", "refine_cells"),

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..geom._nurbs_kernels import _point_scratch, _surface_point01
+from ..geom._nurbs_kernels import _curve_point, _point_scratch, _surface_point01
 from ._line_kernels import (_chunk_criteria, _nonzero, _snap1, _ss_left, _ss_right, _stable_order, _unique,
                             _use_arrays, _use_uv, chunk_iso_kernel)
 
@@ -532,3 +532,22 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
         ns += k
         nuv += L * k
     return info, o_pts[:ns], o_uv[:nuv]
+
+
+@njit(cache=True, nogil=True)
+def pcurve_ends_kernel(rows, ck, cpw, t, out):
+    """out[i, e] = C_i(clip(t[i, e], knots[p], knots[-p - 1])) for e = 0, 1: `repair._ends` of the 2D
+    curves in `trims._pcurve_rows`' layout (rows: degree, rational, knots offset and count in ck,
+    control points offset in cpw, rows, columns), with the same point code (`_curve_point`)."""
+    for i in range(rows.shape[0]):
+        p, rat = rows[i, 0], rows[i, 1] != 0
+        kc = ck[rows[i, 2]:rows[i, 2] + rows[i, 3]]
+        cw = cpw[rows[i, 4]:rows[i, 4] + rows[i, 5] * rows[i, 6]].reshape((rows[i, 5], rows[i, 6]))
+        ndu = np.empty((p + 1, p + 1))
+        a = np.empty((2, p + 1))
+        left = np.empty(p + 1)
+        right = np.empty(p + 1)
+        ders = np.empty((1, p + 1))
+        lo, hi = kc[p], kc[kc.shape[0] - p - 1]
+        for e in range(2):
+            _curve_point(p, kc, cw, rat, min(max(t[i, e], lo), hi), ndu, a, left, right, ders, out[i, e])

@@ -32,7 +32,7 @@ from ..geom.nurbs import _clip, _homogeneous, read_only
 from ..geom.predicates import polyline_self_intersections
 from ..model import Loop, NurbsCurve, PCurve, TrimmedFace
 
-__all__ = ["FaceRepair", "repair_face", "g1_defects", "patch_grid_defect", "remove_polygon_loops"]
+__all__ = ["FaceRepair", "repair_face", "quick_repairs", "g1_defects", "patch_grid_defect", "remove_polygon_loops"]
 
 
 @dataclass(eq=False)
@@ -313,6 +313,71 @@ def repair_face(face: TrimmedFace, *, tolerance: float, g1_angle_deg: float = 1.
         msgs.append(f"{name}: not G1 inside the trim (normals jump {g1:.2f} deg across a patch boundary)")
         status = "flagged"
     return FaceRepair(repaired, status, msgs, filled, g1)
+
+
+_SQRT2_ROOM = 1.4142135623730951 * (1.0 + 1e-12)
+
+
+def quick_repairs(faces: list, *, tolerance: float, g1_angle_deg: float = 1.0) -> list:
+    """`repair_face` of the faces whose trim loops need nothing, with the segment ends of all faces in one
+    compiled call; None for the others (their `repair_face` decides).
+
+    A face is taken here when its control points are finite, its domain is not empty, its patch grid
+    and knots have no defect (`patch_grid_defect`: no failure; its notes are kept) and every segment's
+    end meets the next segment's start by `repair_face`'s first test (the same point, or sqrt(2) x the
+    larger coordinate difference, with room for the norm's rounding, below 1e-9 x the domain): then
+    `repair_face` changes no loop, and its result is the face as it was, its notes and the G1 check
+    (`g1_defects`, the same call). The ends are `_ends`' numbers (`_chunk_kernels.pcurve_ends_kernel`:
+    the same point code). Returns one FaceRepair or None per face.
+    """
+    from ._chunk_kernels import pcurve_ends_kernel
+    from .trims import _pcurve_rows
+
+    out: list = [None] * len(faces)
+    cand, spans, seg_face, nxt = [], [], [], []
+    segs: list = []
+    for fi, face in enumerate(faces):
+        s = face.surface
+        (u0, u1), (v0, v1) = s.domain
+        if not (u1 > u0 and v1 > v0) or not np.all(np.isfinite(s.control_points)):
+            continue
+        cand.append(fi)
+        spans.append(max(u1 - u0, v1 - v0))
+        for loop in face.loops:
+            o, m = len(segs), len(loop.segments)
+            if not m:
+                continue
+            segs.extend(loop.segments)
+            nxt.extend(range(o + 1, o + m))
+            nxt.append(o)
+            seg_face.extend([len(cand) - 1] * m)
+    joined = np.ones(len(cand), dtype=bool)
+    if segs:
+        rows, ck, cpw = _pcurve_rows([sg.curve for sg in segs])
+        t = np.array([(sg.t0, sg.t1) for sg in segs], dtype=np.float64).reshape(-1, 2)
+        ends = np.empty((len(segs), 2, 2))
+        pcurve_ends_kernel(rows, read_only(ck), read_only(cpw), t, ends)
+        a, b = ends[:, 1], ends[np.array(nxt, dtype=np.int64), 0]
+        d0, d1 = np.abs(b[:, 0] - a[:, 0]), np.abs(b[:, 1] - a[:, 1])
+        sf = np.array(seg_face, dtype=np.int64)
+        ok = (d0 == 0.0) & (d1 == 0.0) | (_SQRT2_ROOM * np.maximum(d0, d1) <= 1e-9 * np.array(spans)[sf])
+        joined[sf[~ok]] = False
+    for c, fi in enumerate(cand):
+        if not joined[c]:
+            continue
+        face = faces[fi]
+        failure, notes = patch_grid_defect(face, tolerance)
+        if failure:
+            continue
+        msgs = list(notes)
+        status = "ok"
+        g1 = g1_defects(face)
+        if g1 > g1_angle_deg:
+            msgs.append(f"{face.name or 'face'}: not G1 inside the trim (normals jump {g1:.2f} deg across a patch "
+                        f"boundary)")
+            status = "flagged"
+        out[fi] = FaceRepair(face, status, msgs, [], g1)
+    return out
 
 
 def _area(p: np.ndarray) -> float:

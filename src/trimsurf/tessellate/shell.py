@@ -11,7 +11,7 @@ from ..errors import InputError
 from ..model import Shell, TriMesh
 from .face import (FaceMesh, _rectangle_face, check_parameters, face_domain_values, loose_chunks,
                    mesh_face_from_chunks, shell_domain_values)
-from .repair import repair_face
+from .repair import quick_repairs, repair_face
 from .trims import Chunk, ChunkUse, discretize_chunks
 
 __all__ = ["TessellationResult", "FaceStatus", "tessellate_shell", "default_parameters"]
@@ -155,72 +155,56 @@ def _conforming_chunks(shell: Shell, faces: list, grids: dict, *, tolerance: flo
     """Discretize every shared edge once; returns per face, per loop, the (chunk, use, ids) entries."""
     entries: dict = {i: [[None] * len(faces[i].loops[li].segments) for li in range(len(faces[i].loops))]
                      for i in grids}
-    vertex_ids = {}
-
-    def vid_of(shell_vertex: int):
-        if shell_vertex < 0:
-            return None
-        if shell_vertex not in vertex_ids:
-            vertex_ids[shell_vertex] = next_id[0]
-            next_id[0] += 1
-        return vertex_ids[shell_vertex]
-
-    edge_uses = []
+    ptol = {fi: _ptol(faces[fi]) for fi in grids}
+    edge_uses, shared = [], set()
     for ei, edge in enumerate(shell.edges):
         uses = []
         for (fi, li, si) in edge.uses:
-            if fi not in grids or li >= len(faces[fi].loops) or si >= len(faces[fi].loops[li].segments):
+            row = entries.get(fi)
+            if row is None or li >= len(row) or si >= len(row[li]):
                 continue
             seg = faces[fi].loops[li].segments[si]
             if seg.edge_id != ei:
                 continue
             us, vs = grids[fi]
-            uses.append(ChunkUse(fi, li, si, seg, faces[fi].surface, us, vs, _ptol(faces[fi])))
+            uses.append(ChunkUse(fi, li, si, seg, faces[fi].surface, us, vs, ptol[fi]))
+            shared.add((fi, li, si))
         if uses:
             edge_uses.append((ei, uses))
     # the same for the segments without an edge (filled gaps, faces without topology): their own chunk
-    shared = {(u.face, u.loop, u.segment) for _, uses in edge_uses for u in uses}
     own = []
     for fi in grids:
         us, vs = grids[fi]
         for li, loop in enumerate(faces[fi].loops):
             for si, seg in enumerate(loop.segments):
                 if (fi, li, si) not in shared:
-                    own.append((fi, li, si, ChunkUse(fi, li, si, seg, faces[fi].surface, us, vs, _ptol(faces[fi]))))
+                    own.append((fi, li, si, ChunkUse(fi, li, si, seg, faces[fi].surface, us, vs, ptol[fi])))
 
     # every chunk in one compiled call (`trims.discretize_chunks`); with jobs, one call per contiguous part
     all_uses = [u for _, u in edge_uses] + [[o[3]] for o in own]
     all_deg = [True if shell.edges[ei].is_degenerate else None for ei, _ in edge_uses] + [None] * len(own)
     n_parts = max(1, min(jobs, len(all_uses) // 16))
-    cuts = np.linspace(0, len(all_uses), n_parts + 1).astype(np.int64)
+    if n_parts == 1:        # in this process: discretize_chunks' own Chunk objects (the same uses)
+        chunks = discretize_chunks(all_uses, tolerance=tolerance, max_edge=max_edge, strategy=strategy,
+                                   reduce=reduce, degenerate=all_deg)
+    else:
+        cuts = np.linspace(0, len(all_uses), n_parts + 1).astype(np.int64)
 
-    def discretize(k):
-        a, b = int(cuts[k]), int(cuts[k + 1])
-        return [(ch.s, ch.uv, ch.xyz, ch.is_iso, ch.degenerate)
-                for ch in discretize_chunks(all_uses[a:b], tolerance=tolerance, max_edge=max_edge, strategy=strategy,
-                                            reduce=reduce, degenerate=all_deg[a:b])]
+        def discretize(k):
+            a, b = int(cuts[k]), int(cuts[k + 1])
+            return [(ch.s, ch.uv, ch.xyz, ch.is_iso, ch.degenerate)
+                    for ch in discretize_chunks(all_uses[a:b], tolerance=tolerance, max_edge=max_edge,
+                                                strategy=strategy, reduce=reduce, degenerate=all_deg[a:b])]
 
-    out = [r for part in parallel_map(discretize, range(n_parts), jobs) for r in part]
-    chunks = [Chunk(s_, list(uses), uv, xyz, iso, deg) for (s_, uv, xyz, iso, deg), uses in zip(out, all_uses)]
-    for (ei, uses), chunk in zip(edge_uses, chunks):
-        edge = shell.edges[ei]
-        k = len(chunk.s)
-        ids = np.arange(next_id[0], next_id[0] + k, dtype=np.int64)
-        next_id[0] += k
-        # the ends are the shell's vertices (in the edge's own direction: vertices[0] at t0)
-        lo_first = edge.t0 <= edge.t1
-        a, b = (edge.vertices if lo_first else edge.vertices[::-1])
-        ia, ib = vid_of(a), vid_of(b)
-        if ia is not None:
-            ids[0] = ia
-        if ib is not None:
-            ids[-1] = ib
-        if ia is None and ib is None and np.linalg.norm(chunk.xyz[0] - chunk.xyz[-1]) <= 1e-3 * tolerance:
-            ids[-1] = ids[0]            # a closed edge without vertices
-        if chunk.degenerate:
-            ids[:] = ids[0]
+        out = [r for part in parallel_map(discretize, range(n_parts), jobs) for r in part]
+        chunks = [Chunk(s_, list(uses), uv, xyz, iso, deg) for (s_, uv, xyz, iso, deg), uses in zip(out, all_uses)]
+    ne = len(edge_uses)
+    ids_e = _edge_point_ids(shell, [ei for ei, _ in edge_uses], chunks[:ne], tolerance, next_id)
+    for (ei, uses), chunk, ids in zip(edge_uses, chunks, ids_e):
         for ui, use in enumerate(uses):
             entries[use.face][use.loop][use.segment] = (chunk, ui, ids)
+    if not own:
+        return entries
     # segments without an edge (discretized above with the edges): one shorter
     # than the tolerance in 3D (a filled gap, a suit-case corner) is one vertex: its neighbours' joint
     def end_id(entry, at_end: bool):
@@ -229,7 +213,7 @@ def _conforming_chunks(shell: Shell, faces: list, grids: dict, *, tolerance: flo
         return int(ids[-1] if fwd == at_end else ids[0])
 
     pending = []
-    for (fi, li, si, _), chunk in zip(own, chunks[len(edge_uses):]):
+    for (fi, li, si, _), chunk in zip(own, chunks[ne:]):
         ids = np.arange(next_id[0], next_id[0] + len(chunk.s), dtype=np.int64)
         next_id[0] += len(chunk.s)
         if chunk.degenerate:
@@ -252,6 +236,82 @@ def _conforming_chunks(shell: Shell, faces: list, grids: dict, *, tolerance: flo
             new[0] = b
         loop[si] = (ch, ui, new)
     return entries
+
+
+def _edge_point_ids(shell: Shell, edge_index: list, chunks: list, tolerance: float, next_id: list) -> list:
+    """The global vertex ids of the edges' points (one array per chunk, views of one array), numbered
+    as `_edge_point_ids_loop` numbers them, edge by edge: the edge's k points, then its end vertices
+    that have no id yet (the one at the edge's start first). The ends are the shell's vertices, in the
+    edge's own direction (vertices[0] at t0); a closed edge without vertices ends on its first id; a
+    degenerate edge is one id. Advances next_id[0]."""
+    n = len(chunks)
+    if not n:
+        return []
+    k = np.fromiter((len(ch.s) for ch in chunks), dtype=np.int64, count=n)
+    edges = [shell.edges[ei] for ei in edge_index]
+    # per edge its end vertices (a at the chunk's first point, b at its last), -1: none
+    ab = np.array([e.vertices if e.t0 <= e.t1 else e.vertices[::-1] for e in edges], dtype=np.int64).reshape(n, 2)
+    seq = ab.ravel()
+    pos = np.flatnonzero(seq >= 0)
+    uniq, first, inv = np.unique(seq[pos], return_index=True, return_inverse=True)
+    is_new = np.zeros(2 * n, dtype=np.int64)
+    is_new[pos[first]] = 1
+    new = is_new.reshape(n, 2)
+    step = k + new.sum(axis=1)
+    base = next_id[0] + np.concatenate(([0], np.cumsum(step)[:-1]))
+    ids = np.arange(int(step.sum()), dtype=np.int64) + next_id[0]
+    # the points' ids: base_c .. base_c + k_c - 1 (the gaps after them are the new vertices' ids)
+    slot_id = np.full(2 * n, -1, dtype=np.int64)
+    vid = (base[:, None] + k[:, None] + np.column_stack([np.zeros(n, dtype=np.int64), new[:, 0]])).ravel()
+    slot_id[pos] = vid[pos[first]][inv]
+    next_id[0] += int(step.sum())
+    start = base - int(base[0])
+    last = start + k - 1
+    sid = slot_id.reshape(n, 2)
+    has_a, has_b = sid[:, 0] >= 0, sid[:, 1] >= 0
+    ids[start[has_a]] = sid[has_a, 0]
+    ids[last[has_b]] = sid[has_b, 1]
+    for c in np.flatnonzero(~has_a & ~has_b).tolist():       # closed edges without vertices (rare)
+        if np.linalg.norm(chunks[c].xyz[0] - chunks[c].xyz[-1]) <= 1e-3 * tolerance:
+            ids[last[c]] = ids[start[c]]
+    deg = np.fromiter((ch.degenerate for ch in chunks), dtype=bool, count=n)
+    if deg.any():
+        st, kd = start[deg], k[deg]
+        ids[np.repeat(st, kd) + (np.arange(int(kd.sum())) - np.repeat(np.cumsum(kd) - kd, kd))] = np.repeat(ids[st], kd)
+    return [ids[a:b] for a, b in zip(start.tolist(), (start + k).tolist())]
+
+
+def _edge_point_ids_loop(shell: Shell, edge_index: list, chunks: list, tolerance: float, next_id: list) -> list:
+    """`_edge_point_ids` edge by edge (the reference the tests compare it with)."""
+    vertex_ids = {}
+
+    def vid_of(shell_vertex: int):
+        if shell_vertex < 0:
+            return None
+        if shell_vertex not in vertex_ids:
+            vertex_ids[shell_vertex] = next_id[0]
+            next_id[0] += 1
+        return vertex_ids[shell_vertex]
+
+    out = []
+    for ei, chunk in zip(edge_index, chunks):
+        edge = shell.edges[ei]
+        k = len(chunk.s)
+        ids = np.arange(next_id[0], next_id[0] + k, dtype=np.int64)
+        next_id[0] += k
+        lo_first = edge.t0 <= edge.t1
+        a, b = (edge.vertices if lo_first else edge.vertices[::-1])
+        ia, ib = vid_of(a), vid_of(b)
+        if ia is not None:
+            ids[0] = ia
+        if ib is not None:
+            ids[-1] = ib
+        if ia is None and ib is None and np.linalg.norm(chunk.xyz[0] - chunk.xyz[-1]) <= 1e-3 * tolerance:
+            ids[-1] = ids[0]            # a closed edge without vertices
+        if chunk.degenerate:
+            ids[:] = ids[0]
+        out.append(ids)
+    return out
 
 
 def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: float | None = None,
@@ -338,10 +398,12 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
     grids: dict = {}
     fits: dict = {}     # per face (us, vs, the grid's diagonal fits) from face_domain_values
 
+    quick = quick_repairs(shell.faces, tolerance=face_tol)     # the faces repair leaves as they are, batched
+
     def prepare(i):     # repair and domain values of face i: (face, status, grid or None)
         face = shell.faces[i]
         name = face.name or f"face {i}"
-        rep = repair_face(face, tolerance=face_tol)
+        rep = quick[i] if quick[i] is not None else repair_face(face, tolerance=face_tol)
         f = rep.face
         if rep.status == "failed":
             return f, FaceStatus(i, name, "failed", tuple(rep.messages)), None
@@ -361,7 +423,7 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
         prepared = []
         for i in range(n):
             face = shell.faces[i]
-            rep = repair_face(face, tolerance=face_tol)
+            rep = quick[i] if quick[i] is not None else repair_face(face, tolerance=face_tol)
             f = rep.face
             if rep.status != "failed" and not f.loops:
                 f = _rectangle_face(f)

@@ -235,10 +235,108 @@ def discretize_chunk(uses: list, *, tolerance: float, max_edge: float, strategy:
                              degenerate=[degenerate])[0]
 
 
+def _pcurve_rows(curves: list) -> tuple:
+    """The 2D curves' arrays as the compiled kernels take them, in a few numpy passes: rows (n, 7) int64
+    (degree, rational, offset and count of the knots in ck, offset of the control points in cpw, their
+    rows, columns), ck (the knots one after the other), cpw (the control points, homogeneous (x w, w)
+    where rational, as `geom.nurbs._homogeneous` makes them, flat)."""
+    n = len(curves)
+    dim = 2                     # (p-curves are 2D: `PCurve` checks)
+    cps = [c.control_points for c in curves]
+    kcs = [c.knots for c in curves]
+    nkc = np.fromiter(map(len, kcs), dtype=np.int64, count=n)
+    rows = np.fromiter(map(len, cps), dtype=np.int64, count=n)
+    ws = [c.weights for c in curves]
+    rat = np.fromiter((w is not None for w in ws), dtype=bool, count=n)
+    cp_all = np.concatenate(cps)
+    full = np.empty((len(cp_all), dim + 1))
+    full[:, :dim] = cp_all
+    row_rat = np.repeat(rat, rows)
+    if rat.any():
+        w_all = np.concatenate([w for w in ws if w is not None])
+        full[row_rat, :dim] = cp_all[row_rat] * w_all[:, None]
+        full[row_rat, dim] = w_all
+    mask = np.ones(full.shape, dtype=bool)
+    mask[~row_rat, dim] = False
+    cols = dim + rat.astype(np.int64)
+    sizes = rows * cols
+    out = np.empty((n, 7), dtype=np.int64)
+    out[:, 0] = np.fromiter((c.degree for c in curves), dtype=np.int64, count=n)
+    out[:, 1] = rat
+    out[:, 2] = np.cumsum(nkc) - nkc
+    out[:, 3] = nkc
+    out[:, 4] = np.cumsum(sizes) - sizes
+    out[:, 5] = rows
+    out[:, 6] = cols
+    return out, np.concatenate(kcs), full[mask]
+
+
 def _batch_arrays(chunks: list) -> tuple:
     """The uses of all chunks as one chunk family (`_line_kernels.family` kind 1: ci, cf and the flat
     read-only arrays ck, cpw, cku, ckv, cpw4; a surface stored once whatever its number of uses) and
-    their grids (gi, gf) and parameter tolerances, for `_chunk_kernels.discretize_chunks_kernel`."""
+    their grids (gi, gf) and parameter tolerances, for `_chunk_kernels.discretize_chunks_kernel`.
+
+    Attribute by attribute over all uses, the arrays in a few numpy passes (the same arrays as
+    `_batch_arrays_loop`, use by use; the p-curves' homogeneous control points computed as
+    `geom.nurbs._homogeneous` computes them, cp x w then w)."""
+    from ..geom.nurbs import _homogeneous, read_only
+
+    uses = [u for ch in chunks for u in ch]
+    n = len(uses)
+    pcs = [u.pcurve for u in uses]
+    curves = [p.curve for p in pcs]
+    ci = np.empty((n, 18), dtype=np.int64)
+    cf = np.empty((n, 6))
+    gi = np.empty((n, 4), dtype=np.int64)
+    # the p-curves: knots, and the control points homogeneous where rational, flat
+    rows_, ck_flat, cpw_flat = _pcurve_rows(curves)
+    ci[:, 0:2] = rows_[:, 0:2]
+    ci[:, 5:10] = rows_[:, 2:7]
+    t0 = np.fromiter((p.t0 for p in pcs), dtype=np.float64, count=n)
+    t1 = np.fromiter((p.t1 for p in pcs), dtype=np.float64, count=n)
+    fwd = t0 <= t1
+    cf[:, 0] = np.where(fwd, t0, t1)
+    cf[:, 1] = np.where(fwd, t1, t0)
+    # the surfaces, each once
+    surf: dict = {}
+    s_of = [surf.setdefault(id(u.surface), (len(surf), u.surface))[0] for u in uses]
+    sk_u, sk_v, spw, srow = [], [], [], []
+    o_ku = o_kv = o_pw = 0
+    for _, f in surf.values():
+        ku, kv = read_only(f.knots_u), read_only(f.knots_v)
+        pw = _homogeneous(f.control_points, f.weights)
+        srow.append((f.degree_u, f.degree_v, f.weights is not None, o_ku, len(ku), o_kv, len(kv), o_pw, *pw.shape))
+        sk_u.append(ku)
+        sk_v.append(kv)
+        spw.append(pw.ravel())
+        o_ku += len(ku)
+        o_kv += len(kv)
+        o_pw += pw.size
+    srow = np.array(srow, dtype=np.int64).reshape(-1, 11)[np.array(s_of, dtype=np.int64)]
+    ci[:, 2:5] = srow[:, :3]
+    ci[:, 10:18] = srow[:, 3:]
+    # the grids, each once
+    grid: dict = {}
+    g_of = [grid.setdefault((id(u.us), id(u.vs)), (len(grid), u))[0] for u in uses]
+    gf, grow, o_g = [], [], 0
+    for _, u in grid.values():
+        grow.append((o_g, len(u.us), o_g + len(u.us), len(u.vs), u.us[0], u.us[-1], u.vs[0], u.vs[-1]))
+        gf.append(u.us)
+        gf.append(u.vs)
+        o_g += len(u.us) + len(u.vs)
+    g_idx = np.array(g_of, dtype=np.int64)
+    gi[:] = np.array([r[:4] for r in grow], dtype=np.int64).reshape(-1, 4)[g_idx]
+    cf[:, 2:] = np.array([r[4:] for r in grow], dtype=np.float64).reshape(-1, 4)[g_idx]
+    ptol = np.fromiter((u.param_tol for u in uses), dtype=np.float64, count=n)
+    flat = [read_only(x) for x in (ck_flat, cpw_flat, np.concatenate(sk_u), np.concatenate(sk_v),
+                                   np.concatenate(spw))]
+    c_off = np.zeros(len(chunks) + 1, dtype=np.int64)
+    np.cumsum(np.fromiter(map(len, chunks), dtype=np.int64, count=len(chunks)), out=c_off[1:])
+    return ci, cf, *flat, gi, read_only(np.concatenate(gf)), ptol, c_off
+
+
+def _batch_arrays_loop(chunks: list) -> tuple:
+    """`_batch_arrays` use by use (its reference in the tests)."""
     from ..geom.nurbs import _homogeneous, read_only
 
     uses = [u for ch in chunks for u in ch]
@@ -330,16 +428,17 @@ def discretize_chunks(chunks: list, *, tolerance: float, max_edge: float, strate
     #    kernel it would be compiled a second time)
     placed, status, o = [], np.zeros(len(chunks), dtype=np.int64), 0
     s01 = np.array([0.0, 1.0])
-    for c, uses in enumerate(chunks):
-        k, degen, _ = info[c].tolist()
+    x0 = pts[:, 0]
+    tols = (float(tolerance), float(SHARED_CHORD * tolerance))
+    h, mv = float(max_edge), float(MAX_VALUES)
+    cl = c_off.tolist()
+    for c, (k, degen, _) in enumerate(info.tolist()):
         if degen:
             placed.append(s01)
         else:
-            u0, u1 = int(c_off[c]), int(c_off[c + 1])
+            u0, u1 = cl[c], cl[c + 1]
             x, needed = equidistributed_kernel(*fam0, ci[u0:u1], cf[u0:u1], ck, cpw, cku, ckv, cpw4,
-                                               pts[o:o + k, 0].copy(), 0.0, 1.0,
-                                               float(tolerance if len(uses) < 2 else SHARED_CHORD * tolerance),
-                                               float(max_edge), float(MAX_VALUES))
+                                               x0[o:o + k].copy(), 0.0, 1.0, tols[u1 - u0 >= 2], h, mv)
             if needed >= 0:
                 status[c] = 1
                 x = s01
@@ -354,8 +453,7 @@ def discretize_chunks(chunks: list, *, tolerance: float, max_edge: float, strate
     s, xyz, iso = pts[:, 0].copy(), pts[:, 1:4].copy(), pts[:, 4] > 0.5
     out = []
     o = ouv = 0
-    for c, uses in enumerate(chunks):
-        k, degen, status = info[c].tolist()
+    for c, (uses, (k, degen, status)) in enumerate(zip(chunks, info.tolist())):
         if status:              # more intervals than MAX_VALUES: the numpy path refuses (InputError)
             out.append(_discretize_chunk_numpy(uses, tolerance=tolerance, max_edge=max_edge, strategy=strategy,
                                                reduce=reduce, degenerate=degenerate[c]))
@@ -363,7 +461,7 @@ def discretize_chunks(chunks: list, *, tolerance: float, max_edge: float, strate
         cx = xyz[o:o + k]
         if degen:
             cx[:] = cx.mean(axis=0)
-        out.append(Chunk(s[o:o + k], list(uses), [uv[ouv + j * k:ouv + (j + 1) * k] for j in range(len(uses))],
+        out.append(Chunk(s[o:o + k], list(uses), [uv[a:a + k] for a in range(ouv, ouv + len(uses) * k, k)],
                          cx, iso[o:o + k], bool(degen)))
         o += k
         ouv += len(uses) * k

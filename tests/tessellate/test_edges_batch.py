@@ -1,0 +1,170 @@
+"""The batched bookkeeping of the conforming edges (issue 17) against the use-by-use / edge-by-edge code it
+replaces: `trims._batch_arrays` (the kernel's input arrays in a few numpy passes) against
+`trims._batch_arrays_loop`, and `shell._edge_point_ids` (the global vertex ids of the edges' points)
+against `shell._edge_point_ids_loop`, array for array."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from trimsurf.io import read_shell
+from trimsurf.samples import build_sample
+from trimsurf.tessellate.face import face_domain_values
+from trimsurf.tessellate.shell import _edge_point_ids, _edge_point_ids_loop, _ptol
+from trimsurf.tessellate.trims import ChunkUse, _batch_arrays, _batch_arrays_loop, discretize_chunks
+
+
+def _edge_chunks(shell, tol, h):
+    grids, chunks, edges = {}, [], []
+    for ei, e in enumerate(shell.edges):
+        uses = []
+        for fi, li, si in e.uses:
+            f = shell.faces[fi]
+            if fi not in grids:
+                grids[fi] = face_domain_values(f, tolerance=0.97 * tol, max_edge=h)
+            us, vs = grids[fi]
+            uses.append(ChunkUse(fi, li, si, f.loops[li].segments[si], f.surface, us, vs, _ptol(f)))
+        if uses:
+            chunks.append(uses)
+            edges.append(ei)
+    return chunks, edges
+
+
+def _same_arrays(a: tuple, b: tuple) -> None:
+    assert len(a) == len(b)
+    for i, (x, y) in enumerate(zip(a, b)):
+        assert x.dtype == y.dtype and x.shape == y.shape, i
+        assert x.tobytes() == y.tobytes(), f"array {i} differs"
+        assert x.flags.c_contiguous
+
+
+@pytest.mark.parametrize("model", ["gmsh__t20_data.step", "occt__screw.step", "bspline_box"])
+def test_batch_arrays_equal_use_by_use(shared_data, model):
+    shell = build_sample(model) if "." not in model else read_shell(shared_data / "cad" / model)
+    d = shell.diagonal()
+    chunks, _ = _edge_chunks(shell, 1e-3 * d, d)
+    singles = [[u] for ch in chunks for u in ch]
+    # shared chunks, single uses, and a mix with reversed order (other surfaces / grids first)
+    for cl in (chunks, singles, chunks[::-1] + singles[:3]):
+        got, ref = _batch_arrays(cl), _batch_arrays_loop(cl)
+        _same_arrays(got, ref)
+        # the flat arrays are read-only, as the kernels are compiled for them
+        assert not any(x.flags.writeable for x in got[2:7])
+    # rational and polynomial p-curves in one batch (the homogeneous rows of the rational ones only)
+    rat = [u.pcurve.curve.weights is not None for ch in chunks for u in ch]
+    if any(rat) and not all(rat):
+        _same_arrays(_batch_arrays(singles), _batch_arrays_loop(singles))
+
+
+@pytest.mark.parametrize("model", ["gmsh__t20_data.step", "occt__screw.step"])
+def test_edge_point_ids_equal_edge_by_edge(shared_data, model):
+    shell = read_shell(shared_data / "cad" / model)
+    d = shell.diagonal()
+    tol = 1e-3 * d
+    chunks, edges = _edge_chunks(shell, tol, d)
+    ch = discretize_chunks(chunks, tolerance=tol, max_edge=d,
+                           degenerate=[True if shell.edges[e].is_degenerate else None for e in edges])
+    for start in (0, 17):
+        n1, n2 = [start], [start]
+        got = _edge_point_ids(shell, edges, ch, tol, n1)
+        ref = _edge_point_ids_loop(shell, edges, ch, tol, n2)
+        assert n1 == n2
+        assert len(got) == len(ref) and all(np.array_equal(a, b) for a, b in zip(got, ref))
+        assert n1[0] - start > sum(len(c.s) for c in ch) - 2 * len(ch)      # ids were handed out
+
+
+def test_edge_point_ids_vertex_cases():
+    """Shared, reversed, missing and repeated end vertices, a closed edge without vertices (and one
+    that is not closed), degenerate edges: the same ids as edge by edge."""
+    rng = np.random.default_rng(3)
+
+    def chunk(k, closed=False, degenerate=False):
+        xyz = rng.normal(size=(k, 3))
+        if closed:
+            xyz[-1] = xyz[0]
+        return SimpleNamespace(s=np.linspace(0, 1, k), xyz=xyz, degenerate=degenerate)
+
+    E = lambda v, t0=0.0, t1=1.0: SimpleNamespace(vertices=v, t0=t0, t1=t1)  # noqa: E731
+    edges = [E((0, 1)), E((1, 2), 1.0, 0.0), E((-1, -1)), E((-1, -1)), E((2, 2)), E((3, -1)), E((-1, 0)),
+             E((4, 5)), E((5, 4), 2.0, 1.0), E((6, 6))]
+    chunks = [chunk(5), chunk(3), chunk(6, closed=True), chunk(4), chunk(7), chunk(2), chunk(3),
+              chunk(2, degenerate=True), chunk(4), chunk(3, degenerate=True)]
+    shell = SimpleNamespace(edges=edges)
+    order = list(range(len(edges)))
+    for perm in (order, order[::-1], [3, 7, 0, 9, 2, 5, 1, 8, 4, 6]):
+        n1, n2 = [100], [100]
+        got = _edge_point_ids(shell, perm, [chunks[i] for i in perm], 1.0, n1)
+        ref = _edge_point_ids_loop(shell, perm, [chunks[i] for i in perm], 1.0, n2)
+        assert n1 == n2
+        assert all(np.array_equal(a, b) for a, b in zip(got, ref)), perm
+    # the closed edge ends on its first id, the other one without vertices does not; degenerate: one id
+    got = _edge_point_ids(shell, order, chunks, 1.0, [0])
+    assert got[2][-1] == got[2][0] and got[3][-1] != got[3][0]
+    assert len(set(got[7].tolist())) == 1 and len(set(got[9].tolist())) == 1
+    assert _edge_point_ids(shell, [], [], 1.0, [5]) == []
+
+
+# --- repair: the batched pass (`repair.quick_repairs`) against `repair_face` face by face
+
+
+def _same_repair(a, b) -> bool:
+    return (a.face is b.face and a.status == b.status and list(a.messages) == list(b.messages)
+            and list(a.filled) == list(b.filled) and a.max_g1_angle_deg == b.max_g1_angle_deg)
+
+
+@pytest.mark.parametrize("model", ["trimesh__featuretype.STEP", "gmsh__U_Joint_2.stp", "occt__screw.step"])
+def test_quick_repairs_equal_repair_face(shared_data, model):
+    from trimsurf.tessellate.repair import quick_repairs, repair_face
+
+    shell = read_shell(shared_data / "cad" / model)
+    tol = 0.97e-3 * shell.diagonal()
+    quick = quick_repairs(shell.faces, tolerance=tol)
+    assert len(quick) == len(shell.faces)
+    taken = [i for i, q in enumerate(quick) if q is not None]
+    assert len(taken) >= 0.5 * len(shell.faces)         # the batch does take the faces that need nothing
+    for i in taken:
+        assert _same_repair(quick[i], repair_face(shell.faces[i], tolerance=tol)), i
+    # the G1 flag and its message (a threshold every C0 knot line exceeds)
+    quick = quick_repairs(shell.faces, tolerance=tol, g1_angle_deg=0.0)
+    flagged = 0
+    for i, q in enumerate(quick):
+        if q is not None:
+            ref = repair_face(shell.faces[i], tolerance=tol, g1_angle_deg=0.0)
+            assert _same_repair(q, ref), i
+            flagged += q.status == "flagged"
+    assert flagged or model == "occt__screw.step"
+
+
+def test_quick_repairs_leaves_the_faces_repair_changes():
+    """Open loops (a gap repair fills or rejects, one just above the join threshold): quick_repairs
+    takes neither (None: repair_face decides)."""
+    import dataclasses
+
+    from trimsurf.model import Loop, PCurve, TrimmedFace
+    from trimsurf.tessellate.repair import quick_repairs, repair_face
+
+    box = build_sample("bspline_box")
+    face = box.faces[0]
+    tol = 1e-3 * box.diagonal()
+    loop = face.loops[0]
+    (u0, u1), (v0, v1) = face.surface.domain
+    span = max(u1 - u0, v1 - v0)
+    seg = loop.segments[0]
+    # the first segment shortened at its end: a gap of 1e-3 of the domain (> 1e-9 x span: not joined)
+    dt = 1e-3 * (seg.t1 - seg.t0)
+    short = PCurve(seg.curve, seg.t0, seg.t1 - dt, edge_id=seg.edge_id)
+    gap = TrimmedFace(face.surface, (Loop((short,) + tuple(loop.segments[1:])),) + tuple(face.loops[1:]),
+                      face.same_sense, "gap", face.tolerance)
+    # a gap just above the threshold (1.5e-9 x span in u at the joint)
+    tiny = 2e-9 * span / max(abs(seg.t1 - seg.t0), 1e-300)
+    nudged = PCurve(seg.curve, seg.t0, seg.t1 - tiny * (seg.t1 - seg.t0) / abs(seg.t1 - seg.t0), edge_id=seg.edge_id)
+    near = dataclasses.replace(gap, loops=(Loop((nudged,) + tuple(loop.segments[1:])),) + tuple(face.loops[1:]),
+                               name="near")
+    faces = [face, gap, near]
+    quick = quick_repairs(faces, tolerance=tol)
+    assert quick[0] is not None and _same_repair(quick[0], repair_face(face, tolerance=tol))
+    ref = [repair_face(f, tolerance=tol) for f in faces[1:]]
+    assert [q for q in quick[1:]] == [None, None], [r.status for r in ref]
