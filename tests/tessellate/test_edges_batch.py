@@ -138,9 +138,10 @@ def test_quick_repairs_equal_repair_face(shared_data, model):
     assert flagged or model == "occt__screw.step"
 
 
-def test_quick_repairs_leaves_the_faces_repair_changes():
-    """Open loops (a gap repair fills or rejects, one just above the join threshold): quick_repairs
-    takes neither (None: repair_face decides)."""
+def test_quick_repairs_leaves_the_faces_repair_changes(monkeypatch):
+    """Joints that are no exact join: a gap just above the first test's threshold and one within the
+    tolerance in 3D (joined: the face as it was, quick_repairs gives repair_face's answer), an open
+    loop (None: repair_face rejects the face)."""
     import dataclasses
 
     from trimsurf.model import Loop, PCurve, TrimmedFace
@@ -153,18 +154,85 @@ def test_quick_repairs_leaves_the_faces_repair_changes():
     (u0, u1), (v0, v1) = face.surface.domain
     span = max(u1 - u0, v1 - v0)
     seg = loop.segments[0]
-    # the first segment shortened at its end: a gap of 1e-3 of the domain (> 1e-9 x span: not joined)
-    dt = 1e-3 * (seg.t1 - seg.t0)
-    short = PCurve(seg.curve, seg.t0, seg.t1 - dt, edge_id=seg.edge_id)
-    gap = TrimmedFace(face.surface, (Loop((short,) + tuple(loop.segments[1:])),) + tuple(face.loops[1:]),
-                      face.same_sense, "gap", face.tolerance)
-    # a gap just above the threshold (1.5e-9 x span in u at the joint)
-    tiny = 2e-9 * span / max(abs(seg.t1 - seg.t0), 1e-300)
-    nudged = PCurve(seg.curve, seg.t0, seg.t1 - tiny * (seg.t1 - seg.t0) / abs(seg.t1 - seg.t0), edge_id=seg.edge_id)
-    near = dataclasses.replace(gap, loops=(Loop((nudged,) + tuple(loop.segments[1:])),) + tuple(face.loops[1:]),
-                               name="near")
-    faces = [face, gap, near]
+
+    def shortened(frac, name):
+        short = PCurve(seg.curve, seg.t0, seg.t1 - frac * (seg.t1 - seg.t0), edge_id=seg.edge_id)
+        return TrimmedFace(face.surface, (Loop((short,) + tuple(loop.segments[1:])),) + tuple(face.loops[1:]),
+                           face.same_sense, name, face.tolerance)
+
+    near = shortened(2e-9 * span / abs(seg.t1 - seg.t0), "near")
+    within = shortened(1e-7, "within")
+    open_ = shortened(0.3, "open")
+    faces = [face, near, within, open_]
+    import trimsurf.tessellate.repair as rp
+
+    kinds, gap_kind = [], rp._gap_kind
+    monkeypatch.setattr(rp, "_gap_kind", lambda *a: kinds.append(gap_kind(*a)[0]) or gap_kind(*a))
     quick = quick_repairs(faces, tolerance=tol)
-    assert quick[0] is not None and _same_repair(quick[0], repair_face(face, tolerance=tol))
-    ref = [repair_face(f, tolerance=tol) for f in faces[1:]]
-    assert [q for q in quick[1:]] == [None, None], [r.status for r in ref]
+    assert kinds == ["joined", "joined", "open"]        # the three joints that fail the first test
+    monkeypatch.undo()
+    ref = [repair_face(f, tolerance=tol) for f in faces]
+    assert [r.status for r in ref] == ["ok", "ok", "ok", "failed"]
+    assert quick[3] is None
+    for q, r in zip(quick[:3], ref[:3]):
+        assert q is not None and _same_repair(q, r)
+
+
+@pytest.mark.parametrize("model", ["trimesh__featuretype.STEP", "gmsh__U_Joint_2.stp", "occt__screw.step",
+                                   "gmsh__t20_data.step"])
+def test_g1_batched_equals_g1_reference(shared_data, model):
+    """`g1_defects` as it was written (per face, knots by `_full_knots`) against the batched one of
+    quick_repairs (knots of all faces in one pass, the angles of all faces together)."""
+    from trimsurf.quality.sampling import inside_face
+    from trimsurf.tessellate.repair import _POLE_REL, _full_knots, _normals_and_areas, quick_repairs
+
+    def g1_reference(face, n=33):       # the code of g1_defects before the batch (commit 1fb9934)
+        s = face.surface
+        (u0, u1), (v0, v1) = s.domain
+        sides = []
+        for axis, knots, p, (a, b), (c, d) in ((0, s.knots_u, s.degree_u, (u0, u1), (v0, v1)),
+                                               (1, s.knots_v, s.degree_v, (v0, v1), (u0, u1))):
+            lines = [v for v, _, _ in _full_knots(knots[p + 1:-p - 1], p, p)]
+            if not lines:
+                continue
+            eps = 1e-7 * (b - a)
+            k = np.array(lines)
+            mid = np.empty((len(k), n, 2))
+            mid[:, :, axis] = k[:, None]
+            mid[:, :, 1 - axis] = np.linspace(c, d, n)
+            uv_l, uv_r = mid.copy(), mid.copy()
+            uv_l[:, :, axis] = (k - eps)[:, None]
+            uv_r[:, :, axis] = (k + eps)[:, None]
+            sides.append((uv_l, uv_r, mid))
+        if not sides:
+            return 0.0
+        uv_l, uv_r, mid = sides[0] if len(sides) == 1 else (np.concatenate([x[q] for x in sides]) for q in range(3))
+        ins = inside_face(face, mid.reshape(-1, 2), n_per_segment=16).reshape(len(mid), n)
+        if not ins.any():
+            return 0.0
+        flat = ins.ravel()
+        m = int(flat.sum())
+        dd = s.derivatives(np.concatenate([uv_l.reshape(-1, 2)[flat], uv_r.reshape(-1, 2)[flat]]), 1)
+        nl, area_l = _normals_and_areas(dd[1, 0, :m], dd[0, 1, :m])
+        nr, area_r = _normals_and_areas(dd[1, 0, m:], dd[0, 1, m:])
+        cos = np.clip(np.einsum("ij,ij->i", nl, nr), -1.0, 1.0)
+        cnt = ins.sum(axis=1)
+        cnt = cnt[cnt > 0]
+        start = np.r_[0, np.cumsum(cnt)[:-1]]
+        regular = np.ones(len(cos), dtype=bool)
+        for area in (area_l, area_r):
+            top = np.maximum(np.maximum.reduceat(area, start), 0.0)
+            regular &= area > np.repeat(_POLE_REL * np.maximum(top, 1e-300), cnt)
+        ang = np.degrees(np.arccos(cos[np.isfinite(cos) & regular]))
+        return max(0.0, float(ang.max())) if len(ang) else 0.0
+
+    from trimsurf.tessellate.repair import g1_defects
+
+    shell = read_shell(shared_data / "cad" / model)
+    ref = [g1_reference(f) for f in shell.faces]
+    assert [g1_defects(f) for f in shell.faces] == ref
+    quick = quick_repairs(shell.faces, tolerance=1e-3 * shell.diagonal())
+    got = {i: q.max_g1_angle_deg for i, q in enumerate(quick) if q is not None}
+    assert got == {i: ref[i] for i in got}
+    if model != "occt__screw.step":
+        assert sum(g > 0 for g in got.values()) >= 5        # faces with C0 knot lines were batched

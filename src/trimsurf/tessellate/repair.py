@@ -108,18 +108,29 @@ def g1_defects(face: TrimmedFace, *, n: int = 33) -> float:
     there is not defined by the derivatives, and the jump of the one-sided limits is no G1 defect.
     A surface without interior knots of multiplicity >= degree (no C0 knot line) has none: 0.0.
     """
+    s = face.surface
+    lines = [[v for v, _, _ in _full_knots(knots[p + 1:-p - 1], p, p)]
+             for knots, p in ((s.knots_u, s.degree_u), (s.knots_v, s.degree_v))]
+    side = _g1_samples(face, lines, n)
+    if side is None:
+        return 0.0
+    return float(_g1_angles(*side, np.array([0, len(side[4])], dtype=np.int64))[0])
+
+
+def _g1_samples(face: TrimmedFace, lines: list, n: int):
+    """`g1_defects`' samples of one face with the C0 knot lines `lines` = [u values, v values]: per point
+    inside the trim (u, v) just left and just right of its line, and per line its count of such points
+    (the lines with none left out); None when there is none."""
     from ..quality.sampling import inside_face
 
     s = face.surface
     (u0, u1), (v0, v1) = s.domain
     sides = []          # per direction: (u, v) just left and just right of its knot lines, and on them
-    for axis, knots, p, (a, b), (c, d) in ((0, s.knots_u, s.degree_u, (u0, u1), (v0, v1)),
-                                           (1, s.knots_v, s.degree_v, (v0, v1), (u0, u1))):
-        lines = [v for v, _, _ in _full_knots(knots[p + 1:-p - 1], p, p)]
-        if not lines:
+    for axis, (a, b), (c, d) in ((0, (u0, u1), (v0, v1)), (1, (v0, v1), (u0, u1))):
+        if not lines[axis]:
             continue
         eps = 1e-7 * (b - a)
-        k = np.array(lines)
+        k = np.array(lines[axis])
         mid = np.empty((len(k), n, 2))
         mid[:, :, axis] = k[:, None]
         mid[:, :, 1 - axis] = np.linspace(c, d, n)
@@ -128,30 +139,44 @@ def g1_defects(face: TrimmedFace, *, n: int = 33) -> float:
         uv_r[:, :, axis] = (k + eps)[:, None]
         sides.append((uv_l, uv_r, mid))
     if not sides:
-        return 0.0
+        return None
     # one inside test and one evaluation on each side for all lines (the same numbers per point)
     uv_l, uv_r, mid = sides[0] if len(sides) == 1 else (np.concatenate([x[q] for x in sides]) for q in range(3))
     ins = inside_face(face, mid.reshape(-1, 2), n_per_segment=16).reshape(len(mid), n)
     if not ins.any():
-        return 0.0
+        return None
     flat = ins.ravel()
     m = int(flat.sum())
     # both sides in one evaluation (point by point: the same numbers as one call per side)
     dd = s.derivatives(np.concatenate([uv_l.reshape(-1, 2)[flat], uv_r.reshape(-1, 2)[flat]]), 1)
-    nl, area_l = _normals_and_areas(dd[1, 0, :m], dd[0, 1, :m])
-    nr, area_r = _normals_and_areas(dd[1, 0, m:], dd[0, 1, m:])
+    cnt = ins.sum(axis=1)
+    return dd[1, 0, :m], dd[0, 1, :m], dd[1, 0, m:], dd[0, 1, m:], cnt[cnt > 0]
+
+
+def _g1_angles(su_l, sv_l, su_r, sv_r, cnt, face_start) -> np.ndarray:
+    """`g1_defects`' largest angle per face from its samples (`_g1_samples`, several faces one after
+    the other: face f has the lines face_start[f] .. face_start[f + 1] - 1 of cnt); elementwise, so the
+    same numbers whether the faces come one by one or together."""
+    nl, area_l = _normals_and_areas(su_l, sv_l)
+    nr, area_r = _normals_and_areas(su_r, sv_r)
     cos = np.clip(np.einsum("ij,ij->i", nl, nr), -1.0, 1.0)
     # a pole (|Su x Sv| = 0, e.g. the axis of a surface of revolution) has no normal to compare: per line,
     # the points whose area is above _POLE_REL x the line's largest on both sides
-    cnt = ins.sum(axis=1)
-    cnt = cnt[cnt > 0]
     start = np.r_[0, np.cumsum(cnt)[:-1]]
     regular = np.ones(len(cos), dtype=bool)
     for area in (area_l, area_r):
         top = np.maximum(np.maximum.reduceat(area, start), 0.0)
         regular &= area > np.repeat(_POLE_REL * np.maximum(top, 1e-300), cnt)
-    ang = np.degrees(np.arccos(cos[np.isfinite(cos) & regular]))
-    return max(0.0, float(ang.max())) if len(ang) else 0.0
+    ok = np.isfinite(cos) & regular
+    ang = np.full(len(cos), -np.inf)
+    ang[ok] = np.degrees(np.arccos(cos[ok]))
+    # per face the largest (0 where no point is left)
+    pts = np.r_[0, np.cumsum(cnt)][face_start]
+    out = np.zeros(len(face_start) - 1)
+    has = pts[1:] > pts[:-1]
+    if has.any():
+        out[has] = np.maximum(np.maximum.reduceat(ang, pts[:-1][has]), 0.0)
+    return out
 
 
 def _inside_trim(face: TrimmedFace, u_range, v_range, n: int = 17) -> bool:
@@ -240,6 +265,28 @@ def _ends(seg: PCurve) -> np.ndarray:
     return out
 
 
+def _gap_kind(s, a: np.ndarray, b: np.ndarray, span: float, tolerance: float) -> tuple:
+    """What `repair_face` makes of a segment end a and the next segment's start b (in (u, v)) that are not
+    the same point by its first test: ("joined" | "fill" | "open", gap in (u, v), gap in 3D or None).
+
+    Joined: a gap below 1e-9 x the domain, or ends that differ within tolerance in 3D (joined by taking
+    the next start); fill: a missing segment of zero 3D length (suit-case corner, Fig. 8); open: neither.
+    """
+    gap_uv = float(np.linalg.norm(b - a))
+    if gap_uv <= 1e-9 * span:
+        return "joined", gap_uv, None
+    pa, pb = s.evaluate(np.array([a, b]))
+    gap3 = float(np.linalg.norm(pb - pa))
+    line_pts = s.evaluate(a + np.linspace(0, 1, 17)[:, None] * (b - a))
+    spread = float(np.linalg.norm(line_pts - pa, axis=1).max())
+    big = gap_uv > 1e-4 * span
+    if spread <= 1e-3 * tolerance and big:
+        return "fill", gap_uv, gap3
+    if gap3 <= tolerance:
+        return "joined", gap_uv, gap3
+    return "open", gap_uv, gap3
+
+
 def repair_face(face: TrimmedFace, *, tolerance: float, g1_angle_deg: float = 1.0) -> FaceRepair:
     """Check and repair one face (paper Sec. 4.1).
 
@@ -283,15 +330,10 @@ def repair_face(face: TrimmedFace, *, tolerance: float, g1_angle_deg: float = 1.
             d0, d1 = abs(float(b[0] - a[0])), abs(float(b[1] - a[1]))
             if d0 == 0.0 and d1 == 0.0 or 1.4142135623730951 * (1.0 + 1e-12) * max(d0, d1) <= 1e-9 * span:
                 continue
-            gap_uv = float(np.linalg.norm(b - a))
-            if gap_uv <= 1e-9 * span:
+            kind, gap_uv, gap3 = _gap_kind(s, a, b, span, tolerance)
+            if kind == "joined":
                 continue
-            pa, pb = s.evaluate(np.array([a, b]))
-            gap3 = float(np.linalg.norm(pb - pa))
-            line_pts = s.evaluate(a + np.linspace(0, 1, 17)[:, None] * (b - a))
-            spread = float(np.linalg.norm(line_pts - pa, axis=1).max())
-            big = gap_uv > 1e-4 * span
-            if spread <= 1e-3 * tolerance and big:
+            if kind == "fill":
                 # a missing segment of zero 3D length (suit-case corner, Fig. 8): fill it
                 if True:
                     out.append(PCurve(_line(a, b), 0.0, 1.0))
@@ -299,8 +341,6 @@ def repair_face(face: TrimmedFace, *, tolerance: float, g1_angle_deg: float = 1.
                     msgs.append(f"{name}: loop {li} closed after segment {si} "
                                 f"(gap {gap_uv:.3g} in (u, v), {gap3:.3g} in 3D)")
                     status = "repaired"
-            elif gap3 <= tolerance:
-                continue        # ends differ within tolerance: joined by taking the next start
             else:
                 return FaceRepair(face, "failed", [f"{name}: trim loop {li} is open after segment {si} "
                                                    f"(gap {gap3:.3g} in 3D > tolerance {tolerance:.3g})"])
@@ -361,23 +401,89 @@ def quick_repairs(faces: list, *, tolerance: float, g1_angle_deg: float = 1.0) -
         d0, d1 = np.abs(b[:, 0] - a[:, 0]), np.abs(b[:, 1] - a[:, 1])
         sf = np.array(seg_face, dtype=np.int64)
         ok = (d0 == 0.0) & (d1 == 0.0) | (_SQRT2_ROOM * np.maximum(d0, d1) <= 1e-9 * np.array(spans)[sf])
-        joined[sf[~ok]] = False
-    for c, fi in enumerate(cand):
-        if not joined[c]:
+        # the other joints as repair_face decides them (one by one: few); a face with one to fill or open
+        # is repair_face's
+        for i in np.flatnonzero(~ok).tolist():
+            c = int(sf[i])
+            if joined[c] and _gap_kind(faces[cand[c]].surface, a[i], b[i], spans[c], tolerance)[0] != "joined":
+                joined[c] = False
+    # the knots of all surfaces at once: per face the C0 knot lines g1_defects samples and whether
+    # patch_grid_defect has anything to look at (a patch grid, or a knot of multiplicity degree + 1)
+    take = [c for c in range(len(cand)) if joined[c]]
+    surfs = [faces[cand[c]].surface for c in take]
+    g1_lines, busy, odd = [], np.zeros(len(take), dtype=bool), np.zeros(len(take), dtype=bool)
+    for ax in range(2):
+        knots = [f.knots_v if ax else f.knots_u for f in surfs]
+        deg = np.fromiter(((f.degree_v if ax else f.degree_u) for f in surfs), dtype=np.int64, count=len(surfs))
+        # C0 lines: runs of >= p equal values in knots[p + 1:-p - 1] (`_full_knots`)
+        owner, value, count, unsorted = _knot_runs([k[p + 1:-p - 1] for k, p in zip(knots, deg.tolist())])
+        sel = count >= deg[owner]
+        g1_lines.append((owner[sel], value[sel]))
+        odd[unsorted] = True        # (knots not sorted: repair_face)
+        # breaks: runs of >= p + 1 equal values strictly inside (knots[p], knots[-p - 1]) (`_knot_breaks`)
+        owner, value, count, unsorted = _knot_runs(knots)
+        lo = np.array([k[p] for k, p in zip(knots, deg.tolist())], dtype=np.float64).reshape(-1)
+        hi = np.array([k[-p - 1] for k, p in zip(knots, deg.tolist())], dtype=np.float64).reshape(-1)
+        brk = (count >= deg[owner] + 1) & (lo[owner] < value) & (value < hi[owner])
+        busy[owner[brk]] = True
+        odd[unsorted] = True
+    lines_of = [[[], []] for _ in take]
+    for ax, (owner, value) in enumerate(g1_lines):
+        for o, v in zip(owner.tolist(), value.tolist()):
+            lines_of[o][ax].append(v)
+    samples, face_g1 = [], np.zeros(len(take))
+    with_lines = []
+    for q, c in enumerate(take):
+        face = faces[cand[c]]
+        if odd[q]:
             continue
-        face = faces[fi]
-        failure, notes = patch_grid_defect(face, tolerance)
-        if failure:
+        if busy[q] or getattr(face.surface, "patch_grid", None) is not None:
+            failure, notes = patch_grid_defect(face, tolerance)
+            if failure:
+                continue
+        else:
+            notes = []
+        side = _g1_samples(face, lines_of[q], 33) if lines_of[q][0] or lines_of[q][1] else None
+        if side is not None:
+            samples.append(side)
+            with_lines.append(q)
+        out[cand[c]] = (face, notes)
+    if samples:
+        fs = np.r_[0, np.cumsum([len(x[4]) for x in samples])]
+        face_g1[with_lines] = _g1_angles(*(np.concatenate([x[i] for x in samples]) for i in range(5)), fs)
+    for q, c in enumerate(take):
+        fi = cand[c]
+        if out[fi] is None:
             continue
+        face, notes = out[fi]
         msgs = list(notes)
         status = "ok"
-        g1 = g1_defects(face)
+        g1 = float(face_g1[q])
         if g1 > g1_angle_deg:
             msgs.append(f"{face.name or 'face'}: not G1 inside the trim (normals jump {g1:.2f} deg across a patch "
                         f"boundary)")
             status = "flagged"
         out[fi] = FaceRepair(face, status, msgs, [], g1)
     return out
+
+
+def _knot_runs(knots: list) -> tuple:
+    """The runs of equal values of several knot vectors in one pass: (owner, value, count) per run, in
+    order, and the owners whose vector is not sorted (`_full_knots` takes np.unique's path there)."""
+    n = len(knots)
+    lens = np.fromiter(map(len, knots), dtype=np.int64, count=n)
+    if not lens.sum():
+        e = np.zeros(0, dtype=np.int64)
+        return e, np.zeros(0), e, e
+    k = np.concatenate(knots)
+    owner = np.repeat(np.arange(n), lens)
+    same = owner[1:] == owner[:-1]
+    new = np.ones(len(k), dtype=bool)
+    new[1:] = (k[1:] != k[:-1]) | ~same
+    starts = np.flatnonzero(new)
+    count = np.diff(np.r_[starts, len(k)])
+    unsorted = np.unique(owner[1:][same & ~(k[1:] >= k[:-1])])
+    return owner[starts], k[starts], count, unsorted
 
 
 def _area(p: np.ndarray) -> float:
