@@ -105,6 +105,9 @@ def _reduce(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, s, uvs, must, flags, toleran
     L = uvs.shape[0]
     keep = np.ones(k_all, dtype=np.bool_)
     no = m9 < 0
+    # a point kept in an earlier round between the same two neighbours is kept again (the same chord:
+    # the same criteria and cells), so it is not evaluated again: tried[i] = its neighbours then
+    tried = np.full((k_all, 2), -1, dtype=np.int64)
     for rnd in range(4):
         parity = rnd % 2
         idx = _nonzero(keep)
@@ -115,6 +118,9 @@ def _reduce(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, s, uvs, must, flags, toleran
         nc = 0
         for c in range(1, ni - 1):
             if c % 2 == parity and not must[idx[c]]:
+                if tried[idx[c], 0] == idx[c - 1] and tried[idx[c], 1] == idx[c + 1]:
+                    continue
+                tried[idx[c], 0], tried[idx[c], 1] = idx[c - 1], idx[c + 1]
                 cand[nc] = c
                 nc += 1
         if nc == 0:
