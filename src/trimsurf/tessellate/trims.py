@@ -247,7 +247,7 @@ def _pcurve_rows(curves: list) -> tuple:
     nkc = np.fromiter(map(len, kcs), dtype=np.int64, count=n)
     rows = np.fromiter(map(len, cps), dtype=np.int64, count=n)
     ws = [c.weights for c in curves]
-    rat = np.fromiter((w is not None for w in ws), dtype=bool, count=n)
+    rat = np.array([w is not None for w in ws], dtype=bool).reshape(n)
     cp_all = np.concatenate(cps)
     full = np.empty((len(cp_all), dim + 1))
     full[:, :dim] = cp_all
@@ -261,7 +261,7 @@ def _pcurve_rows(curves: list) -> tuple:
     cols = dim + rat.astype(np.int64)
     sizes = rows * cols
     out = np.empty((n, 7), dtype=np.int64)
-    out[:, 0] = np.fromiter((c.degree for c in curves), dtype=np.int64, count=n)
+    out[:, 0] = [c.degree for c in curves]
     out[:, 1] = rat
     out[:, 2] = np.cumsum(nkc) - nkc
     out[:, 3] = nkc
@@ -292,8 +292,8 @@ def _batch_arrays(chunks: list) -> tuple:
     rows_, ck_flat, cpw_flat = _pcurve_rows(curves)
     ci[:, 0:2] = rows_[:, 0:2]
     ci[:, 5:10] = rows_[:, 2:7]
-    t0 = np.fromiter((p.t0 for p in pcs), dtype=np.float64, count=n)
-    t1 = np.fromiter((p.t1 for p in pcs), dtype=np.float64, count=n)
+    t0 = np.array([p.t0 for p in pcs], dtype=np.float64).reshape(n)
+    t1 = np.array([p.t1 for p in pcs], dtype=np.float64).reshape(n)
     fwd = t0 <= t1
     cf[:, 0] = np.where(fwd, t0, t1)
     cf[:, 1] = np.where(fwd, t1, t0)
@@ -302,9 +302,9 @@ def _batch_arrays(chunks: list) -> tuple:
     s_of = [surf.setdefault(id(u.surface), (len(surf), u.surface))[0] for u in uses]
     sk_u, sk_v, spw, srow = [], [], [], []
     o_ku = o_kv = o_pw = 0
-    for _, f in surf.values():
-        ku, kv = read_only(f.knots_u), read_only(f.knots_v)
-        pw = _homogeneous(f.control_points, f.weights)
+    for _, f in surf.values():         # (concatenated below: the model's arrays as they are)
+        ku, kv = f.knots_u, f.knots_v
+        pw = f.control_points if f.weights is None else _homogeneous(f.control_points, f.weights)
         srow.append((f.degree_u, f.degree_v, f.weights is not None, o_ku, len(ku), o_kv, len(kv), o_pw, *pw.shape))
         sk_u.append(ku)
         sk_v.append(kv)
@@ -327,7 +327,7 @@ def _batch_arrays(chunks: list) -> tuple:
     g_idx = np.array(g_of, dtype=np.int64)
     gi[:] = np.array([r[:4] for r in grow], dtype=np.int64).reshape(-1, 4)[g_idx]
     cf[:, 2:] = np.array([r[4:] for r in grow], dtype=np.float64).reshape(-1, 4)[g_idx]
-    ptol = np.fromiter((u.param_tol for u in uses), dtype=np.float64, count=n)
+    ptol = np.array([u.param_tol for u in uses], dtype=np.float64).reshape(n)
     flat = [read_only(x) for x in (ck_flat, cpw_flat, np.concatenate(sk_u), np.concatenate(sk_v),
                                    np.concatenate(spw))]
     c_off = np.zeros(len(chunks) + 1, dtype=np.int64)
