@@ -166,8 +166,8 @@ def test_quick_repairs_leaves_the_faces_repair_changes(monkeypatch):
     faces = [face, near, within, open_]
     import trimsurf.tessellate.repair as rp
 
-    kinds, gap_kind = [], rp._gap_kind
-    monkeypatch.setattr(rp, "_gap_kind", lambda *a: kinds.append(gap_kind(*a)[0]) or gap_kind(*a))
+    kinds, gap_kinds = [], rp._gap_kinds
+    monkeypatch.setattr(rp, "_gap_kinds", lambda *a: kinds.extend(k[0] for k in gap_kinds(*a)) or gap_kinds(*a))
     quick = quick_repairs(faces, tolerance=tol)
     assert kinds == ["joined", "joined", "open"]        # the three joints that fail the first test
     monkeypatch.undo()
@@ -236,3 +236,37 @@ def test_g1_batched_equals_g1_reference(shared_data, model):
     assert got == {i: ref[i] for i in got}
     if model != "occt__screw.step":
         assert sum(g > 0 for g in got.values()) >= 5        # faces with C0 knot lines were batched
+
+
+def test_gap_kinds_equal_one_by_one(shared_data):
+    """The joints of one surface in one evaluation (`repair._gap_kinds`) against the code of one joint."""
+    from trimsurf.tessellate.repair import _gap_kinds
+
+    def _gap_kind(s, a, b, span, tolerance):      # repair_face's joint code before the batch (commit 1fb9934)
+        gap_uv = float(np.linalg.norm(b - a))
+        if gap_uv <= 1e-9 * span:
+            return "joined", gap_uv, None
+        pa, pb = s.evaluate(np.array([a, b]))
+        gap3 = float(np.linalg.norm(pb - pa))
+        line_pts = s.evaluate(a + np.linspace(0, 1, 17)[:, None] * (b - a))
+        spread = float(np.linalg.norm(line_pts - pa, axis=1).max())
+        if spread <= 1e-3 * tolerance and gap_uv > 1e-4 * span:
+            return "fill", gap_uv, gap3
+        return ("joined" if gap3 <= tolerance else "open"), gap_uv, gap3
+
+    shell = read_shell(shared_data / "cad" / "gmsh__U_Joint_2.stp")
+    rng = np.random.default_rng(7)
+    n = 0
+    for f in shell.faces[:40]:
+        (u0, u1), (v0, v1) = f.surface.domain
+        span = max(u1 - u0, v1 - v0)
+        lo, hi = np.array([u0, v0]), np.array([u1, v1])
+        a = lo + rng.random((6, 2)) * (hi - lo)
+        step = np.array([0.0, 1e-12, 1e-6, 1e-3, 0.05, 0.5])[:, None] * span
+        b = np.clip(a + step * rng.normal(size=(6, 2)), lo, hi)
+        tol = 1e-3 * shell.diagonal()
+        got = _gap_kinds(f.surface, a, b, span, tol)
+        ref = [_gap_kind(f.surface, a[j], b[j], span, tol) for j in range(6)]
+        assert got == ref
+        n += len({k[0] for k in got})
+    assert n > 40           # more than one kind per surface on the whole

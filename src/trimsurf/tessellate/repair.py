@@ -265,6 +265,10 @@ def _ends(seg: PCurve) -> np.ndarray:
     return out
 
 
+_LINE17 = np.linspace(0, 1, 17)
+_LINE17.flags.writeable = False
+
+
 def _gap_kind(s, a: np.ndarray, b: np.ndarray, span: float, tolerance: float) -> tuple:
     """What `repair_face` makes of a segment end a and the next segment's start b (in (u, v)) that are not
     the same point by its first test: ("joined" | "fill" | "open", gap in (u, v), gap in 3D or None).
@@ -272,19 +276,35 @@ def _gap_kind(s, a: np.ndarray, b: np.ndarray, span: float, tolerance: float) ->
     Joined: a gap below 1e-9 x the domain, or ends that differ within tolerance in 3D (joined by taking
     the next start); fill: a missing segment of zero 3D length (suit-case corner, Fig. 8); open: neither.
     """
-    gap_uv = float(np.linalg.norm(b - a))
-    if gap_uv <= 1e-9 * span:
-        return "joined", gap_uv, None
-    pa, pb = s.evaluate(np.array([a, b]))
-    gap3 = float(np.linalg.norm(pb - pa))
-    line_pts = s.evaluate(a + np.linspace(0, 1, 17)[:, None] * (b - a))
-    spread = float(np.linalg.norm(line_pts - pa, axis=1).max())
-    big = gap_uv > 1e-4 * span
-    if spread <= 1e-3 * tolerance and big:
-        return "fill", gap_uv, gap3
-    if gap3 <= tolerance:
-        return "joined", gap_uv, gap3
-    return "open", gap_uv, gap3
+    return _gap_kinds(s, a[None], b[None], span, tolerance)[0]
+
+
+def _gap_kinds(s, a: np.ndarray, b: np.ndarray, span: float, tolerance: float) -> list:
+    """`_gap_kind` of the joints a[j] -> b[j] (J, 2) of one surface, its points in one evaluation (point
+    by point: the same numbers as one evaluation per joint), each joint's norms as `_gap_kind` takes them."""
+    gap_uv = [float(np.linalg.norm(bj - aj)) for aj, bj in zip(a, b)]
+    far = [j for j, g in enumerate(gap_uv) if not g <= 1e-9 * span]
+    out = [("joined", g, None) for g in gap_uv]
+    if not far:
+        return out
+    af, bf = a[far], b[far]
+    m = len(far)
+    uv = np.empty((m, 19, 2))
+    uv[:, 0], uv[:, 1] = af, bf
+    uv[:, 2:] = af[:, None, :] + _LINE17[None, :, None] * (bf - af)[:, None, :]
+    pts = s.evaluate(uv.reshape(-1, 2)).reshape(m, 19, 3)
+    for q, j in enumerate(far):
+        pa, pb = pts[q, 0], pts[q, 1]
+        gap3 = float(np.linalg.norm(pb - pa))
+        spread = float(np.linalg.norm(pts[q, 2:] - pa, axis=1).max())
+        big = gap_uv[j] > 1e-4 * span
+        if spread <= 1e-3 * tolerance and big:
+            out[j] = ("fill", gap_uv[j], gap3)
+        elif gap3 <= tolerance:
+            out[j] = ("joined", gap_uv[j], gap3)
+        else:
+            out[j] = ("open", gap_uv[j], gap3)
+    return out
 
 
 def repair_face(face: TrimmedFace, *, tolerance: float, g1_angle_deg: float = 1.0) -> FaceRepair:
@@ -403,10 +423,11 @@ def quick_repairs(faces: list, *, tolerance: float, g1_angle_deg: float = 1.0) -
         ok = (d0 == 0.0) & (d1 == 0.0) | (_SQRT2_ROOM * np.maximum(d0, d1) <= 1e-9 * np.array(spans)[sf])
         # the other joints as repair_face decides them (one by one: few); a face with one to fill or open
         # is repair_face's
-        for i in np.flatnonzero(~ok).tolist():
-            c = int(sf[i])
-            if joined[c] and _gap_kind(faces[cand[c]].surface, a[i], b[i], spans[c], tolerance)[0] != "joined":
-                joined[c] = False
+        bad = np.flatnonzero(~ok)
+        for c in np.unique(sf[bad]).tolist():
+            i = bad[sf[bad] == c]
+            kinds = _gap_kinds(faces[cand[c]].surface, a[i], b[i], spans[c], tolerance)
+            joined[c] = all(k[0] == "joined" for k in kinds)
     # the knots of all surfaces at once: per face the C0 knot lines g1_defects samples and whether
     # patch_grid_defect has anything to look at (a patch grid, or a knot of multiplicity degree + 1)
     take = [c for c in range(len(cand)) if joined[c]]
