@@ -19,6 +19,9 @@
   that is neither makes the face unusable (reported by name, skipped).
   Loops of the trim polygon and self-overlaps are removed by
   `remove_polygon_loops` once the loops are polygons.
+
+`repair_face` checks one face; `quick_repairs` does the same for all faces of a shell in batched passes
+and leaves to `repair_face` only the faces it would change or reject.
 """
 
 from __future__ import annotations
@@ -379,16 +382,18 @@ _SQRT2_ROOM = 1.4142135623730951 * (1.0 + 1e-12)
 
 
 def quick_repairs(faces: list, *, tolerance: float, g1_angle_deg: float = 1.0) -> list:
-    """`repair_face` of the faces whose trim loops need nothing, with the segment ends of all faces in one
-    compiled call; None for the others (their `repair_face` decides).
+    """`repair_face` of a shell's faces whose trim loops need nothing, batched; None for the others
+    (their `repair_face` decides: the shell calls it for those only).
 
     A face is taken here when its control points are finite, its domain is not empty, its patch grid
-    and knots have no defect (`patch_grid_defect`: no failure; its notes are kept) and every segment's
-    end meets the next segment's start by `repair_face`'s first test (the same point, or sqrt(2) x the
-    larger coordinate difference, with room for the norm's rounding, below 1e-9 x the domain): then
-    `repair_face` changes no loop, and its result is the face as it was, its notes and the G1 check
-    (`g1_defects`, the same call). The ends are `_ends`' numbers (`_chunk_kernels.pcurve_ends_kernel`:
-    the same point code). Returns one FaceRepair or None per face.
+    and knots have no defect (`patch_grid_defect`, called where the face has a patch grid or a knot of
+    multiplicity degree + 1: no failure; its notes are kept) and every joint of its loops is joined as
+    `repair_face` joins it: the same point or a gap below 1e-9 x the domain by its first test (the
+    segment ends of all faces in one compiled call, `_chunk_kernels.pcurve_ends_kernel`: `_ends`'
+    numbers), else by `_gap_kinds` (the gap below 1e-9 x the domain, or within the tolerance in 3D).
+    Then `repair_face` changes no loop: its result is the face as it was with its notes and the G1 check,
+    here for all faces together (`_knot_runs` for the knot lines, `_g1_samples` per face, `_g1_angles`
+    over all: `g1_defects`' numbers). Returns one FaceRepair or None per face.
     """
     from ._chunk_kernels import pcurve_ends_kernel
     from .trims import _pcurve_rows
