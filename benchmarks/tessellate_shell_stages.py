@@ -30,6 +30,7 @@ if not DATA.exists():
 
 STAGES = [  # (module, attribute, label, shell-level)
     ("trimsurf.tessellate.shell", "repair_face", "repair", False),
+    ("trimsurf.tessellate.shell", "quick_repairs", "repair", False),     # (the batched repair, where it exists)
     ("trimsurf.tessellate.shell", "face_domain_values", "domain_values", False),
     ("trimsurf.tessellate.shell", "shell_domain_values", "domain_values", False),     # jobs=1 since session 25
     ("trimsurf.tessellate.shell", "_conforming_chunks", "edges", False),
