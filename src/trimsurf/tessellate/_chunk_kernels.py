@@ -434,42 +434,25 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
                 init[s9.shape[0] + q] = (kin[q] - lo) / (hi - lo)
             init = _unique(init)
             # the 3D extent of the 33 probe points (per use, from its first point): only whether it is
-            # <= 1e-3 x tolerance is read, so a forced chunk skips the probe, and one whose first use's
-            # first two probe points are farther apart (or NaN: the extent is then NaN, no degenerate)
-            # is decided there; the others take all the probe points as before
-            uvp = np.empty((s33.shape[0], 2))
+            # <= 1e-3 x tolerance is read, so a forced chunk skips the probe, and the probe stops at the
+            # first point that puts the extent above it (or NaN: the extent is then NaN, no degenerate);
+            # point by point (`_use_uv` of one parameter: the same numbers as of all 33)
+            s1 = np.empty(1)
+            uvp = np.empty((1, 2))
+            thr = 1e-3 * tolerance
             extent = 0.0
             n_use = L if forced[c] < 0 else 0
-            if n_use:
-                s2 = np.empty(2)
-                s2[0], s2[1] = s33[0], s33[1]
-                kc_, cw_, ku, kv, pw = _use_arrays(cic, ck, cpw, cku, ckv, cpw4, 0)
-                pu, pv, srat = cic[0, 2], cic[0, 3], cic[0, 4] != 0
-                su0, su1 = ku[pu], ku[ku.shape[0] - pu - 1]
-                sv0, sv1 = kv[pv], kv[kv.shape[0] - pv - 1]
-                _use_uv(cic, cfc, ck, cpw, 0, s2, uvp)
-                x0, y0, z0 = 0.0, 0.0, 0.0
-                for i in range(2):
-                    _surface_point01(pu, pv, ku, kv, pw, srat, min(max(uvp[i, 0], su0), su1),
-                                     min(max(uvp[i, 1], sv0), sv1), np.int64(0), ndu_u, ndu_v, a_u, a_v, l_u, r_u,
-                                     l_v, r_v, bu, bv, tmp, skl, res)
-                    if i == 0:
-                        x0, y0, z0 = res[0, 0], res[0, 1], res[0, 2]
-                d0, d1, d2 = res[0, 0] - x0, res[0, 1] - y0, res[0, 2] - z0
-                e = np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
-                if not e <= 1e-3 * tolerance:
-                    n_use = 0
-                    extent = np.inf
             for j in range(n_use):
                 kc_, cw_, ku, kv, pw = _use_arrays(cic, ck, cpw, cku, ckv, cpw4, j)
                 pu, pv, srat = cic[j, 2], cic[j, 3], cic[j, 4] != 0
                 su0, su1 = ku[pu], ku[ku.shape[0] - pu - 1]
                 sv0, sv1 = kv[pv], kv[kv.shape[0] - pv - 1]
-                _use_uv(cic, cfc, ck, cpw, j, s33, uvp)
                 x0, y0, z0 = 0.0, 0.0, 0.0
                 for i in range(s33.shape[0]):
-                    _surface_point01(pu, pv, ku, kv, pw, srat, min(max(uvp[i, 0], su0), su1),
-                                     min(max(uvp[i, 1], sv0), sv1), np.int64(0), ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
+                    s1[0] = s33[i]
+                    _use_uv(cic, cfc, ck, cpw, j, s1, uvp)
+                    _surface_point01(pu, pv, ku, kv, pw, srat, min(max(uvp[0, 0], su0), su1),
+                                     min(max(uvp[0, 1], sv0), sv1), np.int64(0), ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
                                      bu, bv, tmp, skl, res)
                     if i == 0:
                         x0, y0, z0 = res[0, 0], res[0, 1], res[0, 2]
@@ -477,6 +460,10 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
                     e = np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
                     if e > extent or np.isnan(e):
                         extent = e
+                    if not extent <= thr:
+                        break
+                if not extent <= thr:
+                    break
             if forced[c] >= 0:
                 degenerate = forced[c] == 1
             else:
