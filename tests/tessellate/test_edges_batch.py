@@ -270,3 +270,56 @@ def test_gap_kinds_equal_one_by_one(shared_data):
         assert got == ref
         n += len({k[0] for k in got})
     assert n > 40           # more than one kind per surface on the whole
+
+
+def test_quick_repairs_on_the_repair_cases(tmp_path, shared_data):
+    """The faces of test_repair.py (patch grids broken outside / inside the trim, a surface broken at a
+    knot, creases inside / outside the trim, a flat C0 line, loop gaps joined / rejected, a suit-case
+    corner, a pole, three bent patches) through quick_repairs and repair_face: the same result wherever
+    quick_repairs takes a face, and it takes those repair_face leaves as they are."""
+    from trimsurf.model import Loop, NurbsSurface, TrimmedFace
+    from trimsurf.tessellate.repair import quick_repairs, repair_face
+
+    from .test_repair import _bent_plane, _line, _loop, _plane, _read, _square_face, _surf_tokens, _vda
+
+    faces = []
+    faces.append(_read(_vda(tmp_path / "o.vda", [("S1", "SURF", _surf_tokens(displace=(1, 1, 0.05)))]
+                             + _square_face("S1", 0.1, 0.9))).faces[0])
+    faces.append(_read(_vda(tmp_path / "i.vda", [("S1", "SURF", _surf_tokens(displace=(1, 1, 0.05)))]
+                             + _square_face("S1", 0.5, 1.5))).faces[0])
+    faces += list(_read(_vda(tmp_path / "b.vda", [("S1", "SURF", _surf_tokens(s_breaks=(0.0, 1.0, 1.0))),
+                                                   ("S2", "SURF", _surf_tokens(dx=3.0))])).faces)
+    cp = np.zeros((4, 2, 3))
+    cp[:, :, 0] = [[0, 0], [1, 1], [1, 1], [2, 2]]
+    cp[:, 1, 1] = 1.0
+    cp[2:, :, 2] = 0.3
+    faces.append(TrimmedFace(NurbsSurface(1, 1, [0, 0, 1, 1, 2, 2], [0, 0, 1, 1], cp), name="step"))
+    faces.append(TrimmedFace(_bent_plane(30.0), name="crease"))
+    faces.append(TrimmedFace(_bent_plane(30.0), (_loop((0.1, 0.1), (0.9, 0.1), (0.9, 0.9), (0.1, 0.9)),),
+                             name="half"))
+    faces.append(TrimmedFace(_bent_plane(0.0), name="flat"))
+    sq = [(0.1, 0.1), (0.9, 0.1), (0.9, 0.9), (0.1, 0.9)]
+    for gap in (5e-4, 5e-2):
+        segs = list(_loop(*sq).segments)
+        segs[1] = _line((0.9, 0.1 + gap), (0.9, 0.9))
+        faces.append(TrimmedFace(_plane(), (Loop(tuple(segs)),), name=f"gap{gap}"))
+    cp = np.zeros((2, 2, 3))
+    cp[1, 0, 0] = 1.0
+    cp[:, 1] = [0.5, 1.0, 0.0]
+    three = Loop((_line((0, 0), (1, 0)), _line((1, 0), (1, 1)), _line((0, 1), (0, 0))))
+    faces.append(TrimmedFace(NurbsSurface(1, 1, [0, 0, 1, 1], [0, 0, 1, 1], cp), (three,), name="suitcase"))
+    faces.append(TrimmedFace(_plane(), (three,), name="plane"))
+    faces.append(read_shell(shared_data / "cad" / "occtpr946__bug32596_abc_0_13.step").faces[11])
+    for tol in (1e-3, 2e-3):
+        quick = quick_repairs(faces, tolerance=tol)
+        ref = [repair_face(f, tolerance=tol) for f in faces]
+        for f, q, r in zip(faces, quick, ref):
+            if q is None:
+                assert r.status in ("failed", "repaired") or r.face is not f, f.name
+            else:
+                assert _same_repair(q, r), f.name
+        taken = {f.name for f, q in zip(faces, quick) if q is not None}
+        assert {"FS1", "S2", "crease", "half", "flat", "gap0.0005"} <= taken
+        assert not taken & {"step", "gap0.05", "suitcase", "plane"}
+        assert [q.status for f, q in zip(faces, quick) if f.name == "crease"] == ["flagged"]
+        assert any("outside the trimmed area" in m for m in quick[0].messages)
