@@ -31,7 +31,8 @@ MODULES = ("trimsurf.tessellate", "trimsurf.tessellate.measure", "trimsurf.quali
 #: cells must be split (3 of the 6), is left to its call; tests/cli/test_preload.py checks the list against what
 #: the command calls on the screw. s25-mesh: the face triangulation's kernels; `surface_distance_kernel` and
 #: `deviation_samples` (curved faces whose triangles' start bound exceeds the tolerance) and
-#: `_segments_apart_kernel` (trim loops not certainly simple) are left to their call, the screw calls none)
+#: `_segments_apart_kernel` (trim loops not certainly simple) are left to their call, the screw calls none;
+#: s25-edges: `pcurve_ends_kernel`, the segment ends of `repair.quick_repairs`)
 KERNELS = {
     "trimsurf.geom._nurbs_kernels": ("curve_points_kernel", "surface_derivatives_kernel", "project_newton_kernel"),
     "trimsurf.geom._seed_kernels": ("seed_grid_kernel",),
@@ -39,7 +40,7 @@ KERNELS = {
     "trimsurf.tessellate._line_kernels": ("loop_polylines_kernel", "inside_grids_kernel", "equidistributed_kernel",
                                           "line_net_kernel", "inside_grid_kernel", "cache_cells_kernel",
                                           "cell_deviation_kernel", "refine_round_kernel"),
-    "trimsurf.tessellate._chunk_kernels": ("discretize_chunks_kernel",),
+    "trimsurf.tessellate._chunk_kernels": ("discretize_chunks_kernel", "pcurve_ends_kernel"),
     "trimsurf.tessellate.grid": ("_domain_prepare_kernel", "_domain_finish_kernel"),
     "trimsurf.tessellate._mesh_kernels": ("trim_loop_kernel", "deviation_start_bound"),
     "trimsurf.tessellate.slivers": ("_sliver_candidates_kernel", "_sliver_pick_kernel", "_sliver_result_kernel",
