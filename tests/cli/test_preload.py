@@ -43,7 +43,10 @@ _preload.Preload.join = join
 from trimsurf.cli import main
 sys.argv[0] = "trimsurf"
 rc = main(sys.argv[1:])
-print(json.dumps({"rc": rc, "calls": calls, **seen}))
+import importlib
+used = [[m, n] for m, names in _preload.KERNELS.items() for n in names
+        if getattr(importlib.import_module(m), n).overloads]
+print(json.dumps({"rc": rc, "calls": calls, "used": used, **seen}))
 """
 
 
@@ -63,7 +66,10 @@ def test_the_preload_loads_exactly_the_kernels_the_command_calls(shared_data, tm
     assert without["rc"] == 0 and "loaded" not in without
     called = {tuple(c) for c in without["calls"]}
     assert called - listed == set(), "kernels the command calls that the preload does not load"
-    assert listed - called == set(), "kernels the preload loads that the command does not call"
+    # a kernel another kernel calls gets its code when that one is compiled (cold cache), with no call of
+    # its own through the dispatcher: "used" = it has code at the end of the run
+    used = called | {tuple(c) for c in without["used"]}
+    assert listed - used == set(), "kernels the preload loads that the command does not call"
     assert len(without["calls"]) == len(called)   # one specialization each
     wanted = _run(shared_data, tmp_path / "b.ply")
     assert wanted["rc"] == 0 and wanted["error"] is None
