@@ -57,7 +57,7 @@ def _timed(f):
     return g
 for mod, names in (("trimsurf.geom.projection", ("project_newton_kernel", "surface_derivatives_kernel",
                                                  "seed_grid_kernel", "_nearest_seeds")),
-                   ("trimsurf.geom.nurbs", ("surface_derivatives_kernel", "curve_points_kernel")),
+                   ("trimsurf.geom._nurbs_kernels", ("surface_derivatives_kernel", "curve_points_kernel")),
                    ("trimsurf.quality.closest_point", ("grid_build_kernel", "grid_closest_kernel",
                                                       "hint_closest_kernel", "packed_closest_kernel")),
                    ("trimsurf.quality.sampling", ("_points_in_polygons_kernel", "segments_distance_kernel")),

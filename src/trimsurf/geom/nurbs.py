@@ -19,7 +19,6 @@ from math import comb
 import numpy as np
 
 from ..errors import GeometryError
-from ._nurbs_kernels import basis_functions_kernel, curve_points_kernel, surface_derivatives_kernel
 
 __all__ = ["find_spans", "basis_functions", "curve_derivatives", "curve_points", "surface_derivatives",
            "surface_points", "unit_normals", "first_fundamental_form"]
@@ -28,6 +27,14 @@ _CHUNK = 1 << 15  # points per evaluation chunk: bounds the (n, p+1, q+1, 4) gat
 # the clip ufunc itself: np.clip's Python wrappers cost more than the clip of the few parameters a
 # p-curve sample has (thousands of calls per shell); same ufunc, same values
 _clip = getattr(getattr(getattr(np, "_core", None), "umath", None), "clip", np.clip)
+
+
+def _kernels():
+    """The compiled kernels, imported on first use: importing this module (as the STEP reader's process
+    does, through `trimsurf.model`) does not import numba."""
+    from . import _nurbs_kernels
+
+    return _nurbs_kernels
 
 
 def _as_params(t, name: str, cols: int | None) -> np.ndarray:
@@ -86,9 +93,9 @@ def basis_functions(degree: int, knots: np.ndarray, spans: np.ndarray, t: np.nda
         Derivatives above the degree are zero.
     """
     ders = np.empty((int(n_derivs) + 1, t.shape[0], int(degree) + 1))
-    basis_functions_kernel(int(degree), read_only(knots),
-                           np.ascontiguousarray(spans, dtype=np.int64), np.ascontiguousarray(t, dtype=np.float64),
-                           int(n_derivs), ders)
+    _kernels().basis_functions_kernel(int(degree), read_only(knots),
+                                      np.ascontiguousarray(spans, dtype=np.int64), np.ascontiguousarray(t, dtype=np.float64),
+                                      int(n_derivs), ders)
     return ders
 
 
@@ -164,8 +171,8 @@ def curve_derivatives(degree: int, knots, control_points, weights, t, *, n_deriv
     nd = int(n_derivs)
     if nd == 0:         # points only: the compiled kernel, one pass per point
         out = np.empty((1, t.shape[0], dim))
-        curve_points_kernel(int(degree), read_only(knots), read_only(pw),
-                            weights is not None, np.ascontiguousarray(t), out[0])
+        _kernels().curve_points_kernel(int(degree), read_only(knots), read_only(pw),
+                                       weights is not None, np.ascontiguousarray(t), out[0])
         return out
     out = np.empty((nd + 1, t.shape[0], dim))
     for s in range(0, t.shape[0], _CHUNK):
@@ -221,8 +228,8 @@ def surface_derivatives(degree_u: int, degree_v: int, knots_u, knots_v, control_
     pw = np.ascontiguousarray(_homogeneous(control_points, weights))
     nd = int(n_derivs)
     out = np.zeros((nd + 1, nd + 1, uv.shape[0], 3))
-    surface_derivatives_kernel(int(degree_u), int(degree_v), read_only(ku), read_only(kv),
-                               pw, weights is not None, np.ascontiguousarray(u), np.ascontiguousarray(v), nd, out)
+    _kernels().surface_derivatives_kernel(int(degree_u), int(degree_v), read_only(ku), read_only(kv),
+                                          pw, weights is not None, np.ascontiguousarray(u), np.ascontiguousarray(v), nd, out)
     return out
 
 
