@@ -23,11 +23,11 @@ bound relaxed to the tolerance.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from ..geom._nurbs_kernels import surface_derivatives_kernel
 from ..geom.nurbs import _clip, _homogeneous, read_only, unit_normals
 from ..model import NurbsSurface, TriMesh
-from ._collapse import collapse_sets
 
 __all__ = ["reduce_seams"]
 
@@ -56,6 +56,116 @@ def _normals(V, T):
     out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
     out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
     return out
+
+
+@njit(cache=True, nogil=True)
+def _seam_select_kernel(T, idx, fid, nv, cv, cu, interior):
+    """The collapses cv[q] -> cu[q] a round takes, in order q, as the loop over `_collapse.collapse_sets`
+    did (`_State.round`): v and u and v's star (the vertices of v's alive triangles `idx`, by vertex in
+    index order) unlocked, else passed over; then v's triangles on two faces (interior: one face, and
+    a closed fan: as many star vertices as triangles plus one), exactly two of them holding u (they go)
+    and v, u with exactly two common neighbours (the link condition), else skipped for good. A taken
+    collapse locks v's star.
+
+    Returns (taken q, moved triangles, their offsets per taken q, gone (s, 2), skipped q)."""
+    m = idx.shape[0]
+    start = np.zeros(nv + 1, dtype=np.int64)
+    for r in range(m):
+        for c in range(3):
+            start[T[idx[r], c] + 1] += 1
+    for w in range(nv):
+        start[w + 1] += start[w]
+    fill = start[:-1].copy()
+    vtri = np.empty(3 * m, dtype=np.int64)
+    for r in range(m):
+        t = idx[r]
+        for c in range(3):
+            w = T[t, c]
+            vtri[fill[w]] = t
+            fill[w] += 1
+    n = cv.shape[0]
+    locked = np.zeros(nv, dtype=np.bool_)
+    in_star = np.full(nv, -1, dtype=np.int64)
+    in_nu = np.full(nv, -1, dtype=np.int64)
+    counted = np.full(nv, -1, dtype=np.int64)
+    qs = np.empty(n, dtype=np.int64)
+    skipped = np.empty(n, dtype=np.int64)
+    moved = np.empty(3 * m, dtype=np.int64)
+    gone = np.empty((n, 2), dtype=np.int64)
+    ms = np.zeros(n + 1, dtype=np.int64)
+    n_sel = n_moved = n_skip = 0
+    for q in range(n):
+        v, u = cv[q], cu[q]
+        if locked[v] or locked[u]:
+            continue
+        free = True
+        n_star = 0
+        n_g = 0
+        nf = 0
+        f0 = f1 = -1
+        for r in range(start[v], start[v + 1]):
+            t = vtri[r]
+            for c in range(3):
+                x = T[t, c]
+                if locked[x]:
+                    free = False
+                if in_star[x] != q:
+                    in_star[x] = q
+                    n_star += 1
+            if T[t, 0] == u or T[t, 1] == u or T[t, 2] == u:
+                n_g += 1
+            f = fid[t]
+            if nf == 0:
+                f0 = f
+                nf = 1
+            elif nf == 1:
+                if f != f0:
+                    f1 = f
+                    nf = 2
+            elif nf == 2:
+                if f != f0 and f != f1:
+                    nf = 3
+        if not free:
+            continue
+        n_tv = start[v + 1] - start[v]
+        good = n_g == 2
+        if interior:
+            good = good and nf == 1 and n_star == n_tv + 1
+        else:
+            good = good and nf == 2
+        if good:
+            for r in range(start[u], start[u + 1]):
+                t = vtri[r]
+                for c in range(3):
+                    in_nu[T[t, c]] = q
+            n_common = 0
+            for r in range(start[v], start[v + 1]):
+                t = vtri[r]
+                for c in range(3):
+                    x = T[t, c]
+                    if x != v and x != u and in_nu[x] == q and counted[x] != q:
+                        counted[x] = q
+                        n_common += 1
+            good = n_common == 2
+        if not good:
+            skipped[n_skip] = q
+            n_skip += 1
+            continue
+        qs[n_sel] = q
+        k = 0
+        for r in range(start[v], start[v + 1]):
+            t = vtri[r]
+            if T[t, 0] == u or T[t, 1] == u or T[t, 2] == u:
+                gone[n_sel, k] = t
+                k += 1
+            else:
+                moved[n_moved] = t
+                n_moved += 1
+            for c in range(3):
+                locked[T[t, c]] = True
+        n_sel += 1
+        ms[n_sel] = n_moved
+    return qs[:n_sel], moved[:n_moved], ms[:n_sel + 1], gone[:n_sel], skipped[:n_skip]
 
 
 def _seam_graph(mesh: TriMesh):
@@ -394,8 +504,8 @@ class _State:
 
     def __init__(self, mesh, tolerance, tri_dev, max_edge, corner_uv, surfaces, faces):
         self.V = mesh.vertices
-        self.T = mesh.triangles.copy()
-        self.fid = mesh.face_id.copy()
+        self.T = np.array(mesh.triangles, dtype=np.int64)
+        self.fid = np.array(mesh.face_id, dtype=np.int64)
         self.dev = np.zeros(len(self.T)) if tri_dev is None else np.asarray(tri_dev, dtype=np.float64).copy()
         self.cuv = (None if corner_uv is None or surfaces is None
                     else np.asarray(corner_uv, dtype=np.float64).copy())
@@ -406,23 +516,12 @@ class _State:
         # depends on its corners, its face and its corner (u, v) alone)
         self._flip = np.zeros(len(self.T), dtype=bool)
         self._dirty = np.ones(len(self.T), dtype=bool)
-        self.fid_list = self.fid.tolist()
-        self._rows = None                   # T as lists (`rows`), kept up to date by _check and flip_edges
         self._multi = None                  # vertices on more than one face (`seam`)
         self._stri = None                   # triangles with two such corners (`seam`)
 
-    def rows(self) -> list:
-        """The triangles as a list of [a, b, c] (T.tolist(), converted once, changed rows updated)."""
-        if self._rows is None:
-            self._rows = self.T.tolist()
-        return self._rows
-
     def _set_rows(self, idx) -> None:
-        """Rows `idx` of T changed: update their lists (`rows`) and seam-triangle flags (`seam`)."""
+        """Rows `idx` of T changed: update their seam-triangle flags (`seam`)."""
         idx = np.asarray(idx, dtype=np.int64)
-        if self._rows is not None:
-            for k, r in zip(idx.tolist(), self.T[idx].tolist()):
-                self._rows[k] = r
         if self._stri is not None and len(idx):
             self._stri[idx] = np.count_nonzero(self._multi[self.T[idx]], axis=1) >= 2
 
@@ -467,8 +566,6 @@ class _State:
         # the two seam neighbours of every degree-2 seam vertex (both ways, by first vertex)
         both = np.r_[seam, seam[:, ::-1]]
         both = both[np.argsort(both[:, 0], kind="stable")]
-        Tl = self.rows()
-        fl = self.fid_list
         # the cheap tests of every candidate at once: v on the seam between two neighbours, u one of
         # them, v within chord_tol of the new seam chord (u, w)
         c = np.asarray(cands, dtype=np.int64).reshape(-1, 2)
@@ -493,62 +590,29 @@ class _State:
             far = np.linalg.norm(pv - (pu + sp[:, None] * d), axis=1) > chord_tol
             skip.update((c[ok & far, 0] * nv + c[ok & far, 1]).tolist())
             ok &= ~far
-        # vertex -> alive triangles (CSR), complete for the vertices of the candidates left (their
-        # triangles are those of the alive triangles at one of them, in increasing order)
-        need = np.zeros(nv, dtype=bool)
-        need[c[ok].ravel()] = True
-        ia = np.flatnonzero(alive)
-        ia = ia[need[T[ia]].any(axis=1)]
-        flat = T[ia].ravel()
-        order = np.argsort(flat, kind="stable")
-        # the CSR starts of the needed vertices v and ends (as starts of v + 1) only
-        nvtx = np.flatnonzero(need)
-        sf = flat[order]
-        vstart = dict(zip(nvtx.tolist(), np.searchsorted(sf, nvtx).tolist()))
-        vstart.update(zip((nvtx + 1).tolist(), np.searchsorted(sf, nvtx, side="right").tolist()))
-        vtri = ia[order // 3].tolist()
-        locked = bytearray(nv)
-        sel = []        # (v, u, moved, gone)
-        for v, u in c[ok].tolist():
-            if locked[v] or locked[u]:
-                continue
-            tv, star, common, gone, moved = collapse_sets(Tl, vtri, vstart, v, u)
-            if any(locked[x] for x in star):
-                continue
-            if len({fl[k] for k in tv}) != (1 if interior else 2) or (interior and len(star) != len(tv) + 1):
-                skip.add(v * nv + u)     # (interior: a closed fan has as many neighbours as triangles)
-                continue
-            # link condition: u and v share exactly two neighbours (the two opposite vertices)
-            if len(common) != 2:
-                skip.add(v * nv + u)
-                continue
-            if len(gone) != 2:
-                skip.add(v * nv + u)
-                continue
-            sel.append((v, u, moved, gone))
-            for x in star:
-                locked[x] = 1
-        if not sel:
+        # the selection (v's star unlocked, the face and link conditions), compiled
+        c = c[ok]
+        qs, mv, ms, gn, sk = _seam_select_kernel(T, np.flatnonzero(alive), fid, np.int64(nv), c[:, 0].copy(),
+                                                 c[:, 1].copy(), np.bool_(interior))
+        if len(sk):
+            skip.update((c[sk, 0] * nv + c[sk, 1]).tolist())
+        if not len(qs):
             return 0
-        ok = self._check(sel, uv_check, exempt_flipped=not uv_check)
-        for (v, u, _, _), good in zip(sel, ok):
-            if not good:
-                skip.add(v * nv + u)
+        ok = self._check(c[qs, 0], c[qs, 1], mv, np.repeat(np.arange(len(qs)), np.diff(ms)), gn, uv_check,
+                         exempt_flipped=not uv_check)
+        if not ok.all():
+            skip.update((c[qs[~ok], 0] * nv + c[qs[~ok], 1]).tolist())
         return int(np.count_nonzero(ok))
 
-    def _check(self, sel, uv_check: bool = True, exempt_flipped: bool = False) -> np.ndarray:
-        """Batched tests of the selected collapses; applies the ones that pass. Returns (s,) bool.
+    def _check(self, cv, cu, mi, ci, gone, uv_check: bool = True, exempt_flipped: bool = False) -> np.ndarray:
+        """Batched tests of the selected collapses cv[s] -> cu[s] (moved triangles `mi`, of collapse `ci`;
+        the two gone triangles `gone` (s, 2)); applies the ones that pass. Returns (s,) bool.
 
         ``exempt_flipped``: a triangle already against its face's normal may turn by any angle
         (turning it back is the point); its new normal is tested against the surface's.
         """
         V, T, fid = self.V, self.T, self.fid
-        ns = len(sel)
-        cv = np.array([x[0] for x in sel], dtype=np.int64)
-        cu = np.array([x[1] for x in sel], dtype=np.int64)
-        mi = np.array([k for x in sel for k in x[2]], dtype=np.int64)
-        ci = np.repeat(np.arange(ns), [len(x[2]) for x in sel])
-        gone = np.array([x[3] for x in sel], dtype=np.int64)          # (s, 2)
+        ns = len(cv)
         bad = np.zeros(ns, dtype=bool)
         oldt = T[mi]
         newt = np.where(oldt == cv[ci, None], cu[ci, None], oldt)
