@@ -58,6 +58,31 @@ def _sequential_fans(poly: list, corners: list) -> list:
     return tris
 
 
+_RINGS: dict = {}
+
+
+def _ring(m: int) -> np.ndarray:
+    """The segments (m, 2) of a closed polygon of m points: (k, k + 1 mod m), built once per m (read-only)."""
+    seg = _RINGS.get(m)
+    if seg is None:
+        seg = np.column_stack([np.arange(m), (np.arange(m) + 1) % m])
+        seg.setflags(write=False)
+        _RINGS[m] = seg
+    return seg
+
+
+def _triang():
+    """Triangle's core call (`triangle.core.triang`), imported on first use."""
+    global _TRIANG
+    if _TRIANG is None:
+        from triangle.core import triang
+        _TRIANG = triang
+    return _TRIANG
+
+
+_TRIANG = None
+
+
 def _triangulate_polygon(V: np.ndarray, poly: list, corners: list) -> list:
     """Triangles filling a triangle whose edges carry inserted points (`poly`, in its orientation).
 
@@ -72,8 +97,6 @@ def _triangulate_polygon(V: np.ndarray, poly: list, corners: list) -> list:
     m = len(poly)
     if len(set(poly)) != m:
         return [tuple(corners)]
-    import triangle as tr
-
     P = V[poly]
     o = np.add.reduce(P, axis=0) / m          # P.mean(axis=0): the same sum and division
     # the plane's frame in scalars: the same operations as np.cross and np.linalg.norm (x.dot(x)) of
@@ -89,24 +112,30 @@ def _triangulate_polygon(V: np.ndarray, poly: list, corners: list) -> list:
     e2 = np.array([n1 * c2 - n2 * c1, n2 * c0 - n0 * c2, n0 * c1 - n1 * c0])
     d = P - o
     xy = np.empty((m, 2))
-    xy[:, 0] = d @ e1
-    xy[:, 1] = d @ e2
+    xy[:, 0] = d @ e1           # (a matrix-vector product per polygon: BLAS, whose rounding a batch
+    xy[:, 1] = d @ e2           # of other shapes need not repeat)
     # Triangle crashes (segmentation fault) on repeated vertices: fans instead
-    scale = float((xy.max(axis=0) - xy.min(axis=0)).max())      # np.ptp(xy, axis=0).max()
+    rows = xy.tolist()
+    xs, ys = [r[0] for r in rows], [r[1] for r in rows]
+    if math.isfinite(math.fsum(xs) + math.fsum(ys)):
+        # np.ptp(xy, axis=0).max() in scalars (max, min and one subtraction per axis: exact either way)
+        scale = max(max(xs) - min(xs), max(ys) - min(ys))
+    else:       # a nan (Python's max skips it, numpy's returns it) or an infinity: numpy's
+        scale = float((xy.max(axis=0) - xy.min(axis=0)).max())
     if scale <= 0:
         return _sequential_fans(poly, corners)
     r = np.round(xy / scale, 12).tolist()
     if len({(x, y) for x, y in r}) != m:         # (as np.unique(axis=0): -0.0 equals 0.0)
         return _sequential_fans(poly, corners)
-    seg = np.column_stack([np.arange(m), (np.arange(m) + 1) % m])
     try:
-        res = tr.triangulate({"vertices": xy, "segments": seg}, "pQ")
+        # `triangle.triangulate(.., "pQ")` without its dict renaming (the same call of Triangle)
+        res, _ = _triang()({"pointlist": xy, "segmentlist": _ring(m)}, "QzpQ")
     except Exception:   # noqa: BLE001 - a degenerate polygon: fans
         return _sequential_fans(poly, corners)
-    if len(res["vertices"]) != m or "triangles" not in res:
+    if len(res["pointlist"]) != m or "trianglelist" not in res:
         return _sequential_fans(poly, corners)
     out = []
-    for t in res["triangles"].tolist():
+    for t in res["trianglelist"].tolist():
         a, b, c = (poly[i] for i in t)
         if len({a, b, c}) == 3:
             out.append((a, b, c))
