@@ -70,3 +70,29 @@ def test_seam_select_kernel_equals_collapse_sets_loop():
             n_taken += len(ref)
             n_skipped += len(ref_skip)
     assert n_taken > 100 and n_skipped > 100
+
+
+def test_seam_edges_equals_seam_graph_of_the_mesh():
+    """`_seam_edges` (no TriMesh built) gives `_seam_graph`'s edges in its order: random meshes with
+    two to four faces, non-manifold and boundary edges, unused vertices, an empty one."""
+    from scipy.spatial import Delaunay
+
+    from trimsurf.model import TriMesh
+
+    rng = np.random.default_rng(7)
+    total = 0
+    for trial in range(40):
+        n = int(rng.integers(4, 400))
+        P = rng.random((n, 2))
+        T = Delaunay(P).simplices.astype(np.int64)
+        T = T[rng.random(len(T)) < 0.9]
+        if trial % 5 == 0 and len(T):
+            T = np.concatenate([T, T[: len(T) // 4][:, ::-1]])      # edges on three and four triangles
+        fid = rng.integers(0, 2 + trial % 3, len(T)).astype(np.int64)
+        V = np.c_[P, np.zeros(n)]
+        ref = seams_mod._seam_graph(TriMesh(V, T, face_id=fid))
+        got = seams_mod._seam_edges(T, fid, n)
+        assert got.dtype == ref.dtype and got.shape == ref.shape and np.array_equal(got, ref), trial
+        total += len(ref)
+    assert total > 1000
+    assert seams_mod._seam_edges(np.zeros((0, 3), dtype=np.int64), np.zeros(0, dtype=np.int64), 5).shape == (0, 2)

@@ -182,6 +182,25 @@ def _seam_graph(mesh: TriMesh):
     return edges[seam]
 
 
+def _seam_edges(T: np.ndarray, fid: np.ndarray, nv: int) -> np.ndarray:
+    """`_seam_graph(TriMesh(V, T, face_id=fid))` for a mesh of `nv` vertices, without building the mesh
+    (no copy and check of V): the undirected edges (sorted, i < j, in key order) on exactly two
+    triangles of different faces."""
+    if not len(T):
+        return np.zeros((0, 2), dtype=np.int64)
+    n = max(int(nv), 1)
+    a, b = T.ravel(), T[:, [1, 2, 0]].ravel()           # half-edge 3 t + c: corner c -> c + 1
+    key = np.minimum(a, b) * n + np.maximum(a, b)
+    order = np.argsort(key, kind="stable")
+    sk = key[order]
+    start = np.flatnonzero(np.r_[True, sk[1:] != sk[:-1]])
+    cnt = np.diff(np.r_[start, len(sk)])
+    f = np.repeat(fid, 3)[order]
+    seam = (cnt == 2) & (np.minimum.reduceat(f, start) != np.maximum.reduceat(f, start))
+    k = sk[start[seam]]
+    return np.column_stack([k // n, k % n]).astype(np.int64)
+
+
 def _by_face(face_of: np.ndarray):
     """(face, its rows in increasing order) per face id in increasing order (one sort, not a scan per face)."""
     face_of = np.asarray(face_of)
@@ -546,7 +565,7 @@ class _State:
             # per triangle (kept up to date by `_set_rows`): two corners on more than one face
             self._stri = np.count_nonzero(self._multi[self.T], axis=1) >= 2
         idx = np.flatnonzero(self.alive & self._stri)
-        return _seam_graph(TriMesh(self.V, self.T[idx], face_id=self.fid[idx]))
+        return _seam_edges(self.T[idx], self.fid[idx], len(self.V))
 
     def round(self, seam, cands, chord_tol, skip, uv_check: bool = True, interior: bool = False) -> int:
         """Try the directed collapses `cands` (v into u, in order) whose stars do not overlap; apply the good.
