@@ -96,3 +96,68 @@ def test_seam_edges_equals_seam_graph_of_the_mesh():
         total += len(ref)
     assert total > 1000
     assert seams_mod._seam_edges(np.zeros((0, 3), dtype=np.int64), np.zeros(0, dtype=np.int64), 5).shape == (0, 2)
+
+
+def _fm(xyz, tri, uv=None):
+    from trimsurf.tessellate.face import FaceMesh
+    import dataclasses
+
+    fields = {f.name: None for f in dataclasses.fields(FaceMesh) if f.default is dataclasses.MISSING
+              and f.default_factory is dataclasses.MISSING}
+    fields.update(xyz=xyz, triangles=tri, uv=np.zeros((len(xyz), 2)) if uv is None else uv)
+    return FaceMesh(**fields)
+
+
+def test_face_trimeshes_equal_per_face_to_trimesh(shared_data):
+    """The batched face meshes of `tessellate_shell` equal each face's `to_trimesh()` (arrays, dtypes,
+    read-only, C-contiguous, uv and face_id), on the screw's faces and on random face meshes with
+    empty faces and missing (failed) ones."""
+    from trimsurf.io import read_shell
+    from trimsurf.tessellate import tessellate_shell
+    from trimsurf.tessellate.shell import _face_trimeshes
+
+    def same(a, b):
+        assert (a is None) == (b is None)
+        if a is None:
+            return
+        for name in ("vertices", "triangles", "uv", "face_id"):
+            x, y = getattr(a, name), getattr(b, name)
+            assert (x is None) == (y is None)
+            if x is not None:
+                assert x.dtype == y.dtype and x.shape == y.shape and np.array_equal(x, y)
+                assert not x.flags.writeable and x.flags.c_contiguous
+        assert a.n_triangles == b.n_triangles and np.array_equal(a.edges(), b.edges())
+
+    shell = read_shell(shared_data / "cad" / "occt__screw.step")
+    res = tessellate_shell(shell, measure=False)
+    assert len(res.face_meshes) == len(shell.faces) and all(m is not None for m in res.face_meshes)
+    rng = np.random.default_rng(3)
+    fms = {}
+    for i in range(12):
+        if i % 4 == 3:
+            continue                                    # a failed face
+        nv = int(rng.integers(3, 40)) if i % 5 else 0
+        tri = (np.sort(rng.choice(nv, size=(int(rng.integers(1, 30)), 3)), axis=1) if nv else
+               np.zeros((0, 3), dtype=np.int64))
+        tri = tri[(tri[:, 0] != tri[:, 1]) & (tri[:, 1] != tri[:, 2])].astype(np.int64)
+        fms[i] = _fm(rng.random((nv, 3)), tri, rng.random((nv, 2)))
+    got = _face_trimeshes(fms, 12)
+    for i in range(12):
+        same(got[i], fms[i].to_trimesh() if i in fms else None)
+
+
+def test_face_trimeshes_raise_as_the_per_face_constructor():
+    """A face mesh that `TriMesh` refuses (index out of range, repeated vertex, nan) raises the same
+    error from the batch as from its own `to_trimesh()`, for the first such face."""
+    import pytest
+
+    from trimsurf.errors import DegenerateError, MeshError
+    from trimsurf.tessellate.shell import _face_trimeshes
+
+    good = _fm(np.eye(3), np.array([[0, 1, 2]]))
+    cases = [(_fm(np.eye(3), np.array([[0, 1, 3]])), MeshError, "out of range"),
+             (_fm(np.eye(3), np.array([[0, 1, 1]])), DegenerateError, "repeats a vertex"),
+             (_fm(np.array([[0, 0, np.nan], [1, 0, 0], [0, 1, 0]]), np.array([[0, 1, 2]])), MeshError, "non-finite")]
+    for bad, err, text in cases:
+        with pytest.raises(err, match=text):
+            _face_trimeshes({0: good, 2: bad, 3: cases[0][0]}, 4)

@@ -563,7 +563,7 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
                 f"{st.name}: smaller than the stitching distance; merged into its neighbours' triangles",),
                 0, st.crossed_cells, st.grid)
         stitch_info["faces_collapsed"] = collapsed
-    fm_out = tuple(face_meshes[i].to_trimesh() if i in face_meshes else None for i in range(n))
+    fm_out = _face_trimeshes(face_meshes, n)
     faces_t = tuple(statuses[i] for i in range(n))
     report = {
         "mode": mode, "strategy": strategy, "tolerance": tolerance, "max_edge_used": max_edge,
@@ -641,3 +641,48 @@ def _assemble_conforming(face_meshes: dict, n_shared: int, with_dev: bool = True
     allv = np.concatenate([verts, xyz[own]])
     used, inv = np.unique(tri, return_inverse=True)
     return TriMesh(allv[used], inv.reshape(-1, 3), face_id=fid), q, dev, cuv
+
+
+def _face_trimeshes(face_meshes: dict, n: int) -> tuple:
+    """``tuple(face_meshes[i].to_trimesh() if i in face_meshes else None for i in range(n))``, with the
+    faces' arrays copied and checked together (as `TriMesh` checks each: finite float64 coordinates and
+    (u, v), int64 triangles in range without a repeated vertex) and each face's mesh holding read-only
+    row views of them. Anything the batch does not cover (another dtype or shape, a failed check):
+    the per-face constructor, which raises its error for the first such face."""
+    order = sorted(face_meshes)
+    fms = [face_meshes[i] for i in order]
+
+    def per_face():
+        return tuple(face_meshes[i].to_trimesh() if i in face_meshes else None for i in range(n))
+    if not fms or not all(
+            isinstance(fm.xyz, np.ndarray) and isinstance(fm.uv, np.ndarray) and isinstance(fm.triangles, np.ndarray)
+            and fm.xyz.dtype == np.float64 and fm.uv.dtype == np.float64 and fm.triangles.dtype == np.int64
+            and fm.xyz.ndim == 2 and fm.xyz.shape[1] == 3 and fm.uv.shape == (len(fm.xyz), 2)
+            and fm.triangles.ndim == 2 and fm.triangles.shape[1] == 3 for fm in fms):
+        return per_face()
+    nvs = [len(fm.xyz) for fm in fms]
+    nts = [len(fm.triangles) for fm in fms]
+    xyz = np.concatenate([fm.xyz for fm in fms])
+    uv = np.concatenate([fm.uv for fm in fms])
+    tri = np.concatenate([fm.triangles for fm in fms])
+    if not (np.isfinite(xyz).all() and np.isfinite(uv).all()):
+        return per_face()
+    if len(tri):
+        lim = np.repeat(np.asarray(nvs, dtype=np.int64), nts)
+        if (tri.min() < 0 or np.any(tri.max(axis=1) >= lim)
+                or np.any((tri[:, 0] == tri[:, 1]) | (tri[:, 1] == tri[:, 2]) | (tri[:, 0] == tri[:, 2]))):
+            return per_face()
+    for a in (xyz, uv, tri):
+        a.setflags(write=False)
+    out: list = [None] * n
+    vo = to = 0
+    for i, nv, nt in zip(order, nvs, nts):
+        m = object.__new__(TriMesh)         # the fields `TriMesh.__post_init__` would set, checked above
+        object.__setattr__(m, "vertices", xyz[vo:vo + nv])
+        object.__setattr__(m, "triangles", tri[to:to + nt])
+        object.__setattr__(m, "uv", uv[vo:vo + nv])
+        object.__setattr__(m, "face_id", None)
+        out[i] = m
+        vo += nv
+        to += nt
+    return tuple(out)
