@@ -161,3 +161,30 @@ def test_face_trimeshes_raise_as_the_per_face_constructor():
     for bad, err, text in cases:
         with pytest.raises(err, match=text):
             _face_trimeshes({0: good, 2: bad, 3: cases[0][0]}, 4)
+
+
+def test_against_normal_of_pairs_equals_one_batch(shared_data):
+    """`_State.flip_edges` tests the swaps the flipped triangles offer in one batch and looks each pair
+    up: the batch's per-triangle results equal the per-pair calls it replaces, on the featuretype's
+    faces (planes, rational cylinders, both senses), triangles at every angle to the surface."""
+    from trimsurf.io import read_shell
+
+    shell = read_shell(shared_data / "cad" / "trimesh__featuretype.STEP")
+    faces = list(shell.faces)
+    rng = np.random.default_rng(17)
+    m = 600                                              # 300 pairs, each pair on one face
+    face_of = np.repeat(rng.integers(0, len(faces), m // 2), 2)
+    uv3 = np.empty((m, 3, 2))
+    for k in range(m):
+        (u0, u1), (v0, v1) = faces[face_of[k]].surface.domain
+        c = rng.uniform(0, 1, 2)
+        uv3[k] = (c + rng.normal(0, 0.05, (3, 2))).clip(0, 1) * [u1 - u0, v1 - v0] + [u0, v0]
+    n0 = np.concatenate([faces[f].oriented_normals(uv3[k:k + 1].mean(axis=1)) for k, f in enumerate(face_of)])
+    side = rng.normal(size=(m, 3))
+    ang = rng.choice([0.0, 1.0, 1.5707963, 2.0, np.pi], m) + rng.normal(0, 1e-3, m)
+    tn = np.cos(ang)[:, None] * n0 + np.sin(ang)[:, None] * side
+    batch = seams_mod._against_normal(faces, face_of, uv3, tn)
+    pairs = np.concatenate([seams_mod._against_normal(faces, face_of[k:k + 2], uv3[k:k + 2], tn[k:k + 2])
+                            for k in range(0, m, 2)])
+    assert 0 < batch.sum() < m
+    assert np.array_equal(batch, pairs)

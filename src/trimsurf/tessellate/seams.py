@@ -706,37 +706,62 @@ class _State:
         V, T, fid, cuv, alive = self.V, self.T, self.fid, self.cuv, self.alive
         ia = np.flatnonzero(alive)
         he = _HalfEdges(T, ia, len(V) + 1)
+
+        def candidate(k, c):
+            """The swap of triangle k's edge c as the mesh is now, after the tests before the 3D normal
+            test: (k2, t, t2, new, nuv, nn) or None."""
+            t = T[k].tolist()
+            a, b, cc = t[c], t[(c + 1) % 3], t[(c + 2) % 3]
+            k2 = he.get((b, a))
+            if k2 is None or k2 == k or fid[k2] != fid[k] or not alive[k2]:
+                return None
+            t2 = T[k2].tolist()
+            d = t2[(t2.index(b) + 2) % 3]
+            if d in (a, b, cc) or (cc, d) in he or (d, cc) in he:
+                return None
+            uv1 = dict(zip(t, cuv[k].tolist()))
+            uv2 = dict(zip(t2, cuv[k2].tolist()))
+            if not all(_close(uv1[x], uv2[x]) for x in (a, b)):
+                return None         # a periodic seam between them
+            uvx = {**uv2, **uv1}
+            ref = _sign(_uv_area_1(*cuv[k2].tolist()))
+            if ref == 0 or _sign(_uv_area_1(uvx[cc], uvx[a], uvx[d])) != ref \
+                    or _sign(_uv_area_1(uvx[d], uvx[b], uvx[cc])) != ref:
+                return None
+            new = np.array([[cc, a, d], [d, b, cc]], dtype=np.int64)
+            nuv = np.array([[uvx[x] for x in r] for r in new.tolist()])
+            nn = _normals(V, new)
+            if np.any(np.linalg.norm(nn, axis=1) <= 1e-12 * np.linalg.norm(_normals(V, T[[k2]]))):
+                return None
+            return k2, t, t2, new, nuv, nn
+
+        # the 3D normal tests of every swap the first flipped triangles offer now, in one batch; a swap
+        # whose triangles an earlier swap changed is tested on its own (`_against_normal` per triangle:
+        # the same values in a batch, keyed by face, corners and corner (u, v))
+        first = [(k, cand) for k in np.asarray(bad).tolist() if alive[k]
+                 for cand in (candidate(k, c) for c in range(3)) if cand is not None]
+        known: dict = {}
+        if first:
+            f_b = np.repeat(fid[[k for k, _ in first]], 2)
+            res = _against_normal(self.faces, f_b, np.concatenate([x[4] for _, x in first]),
+                                  np.concatenate([x[5] for _, x in first])).reshape(-1, 2)
+            for (k, x), r in zip(first, res.tolist()):
+                known[(int(fid[k]), x[3].tobytes(), x[4].tobytes())] = r[0] or r[1]
         n = 0
         for k in np.asarray(bad).tolist():
             if not alive[k]:
                 continue
             for c in range(3):
-                t = T[k].tolist()
-                a, b, cc = t[c], t[(c + 1) % 3], t[(c + 2) % 3]
-                k2 = he.get((b, a))
-                if k2 is None or k2 == k or fid[k2] != fid[k] or not alive[k2]:
+                cand = candidate(k, c)
+                if cand is None:
                     continue
-                t2 = T[k2].tolist()
-                d = t2[(t2.index(b) + 2) % 3]
-                if d in (a, b, cc) or (cc, d) in he or (d, cc) in he:
-                    continue
-                uv1 = dict(zip(t, cuv[k].tolist()))
-                uv2 = dict(zip(t2, cuv[k2].tolist()))
-                if not all(_close(uv1[x], uv2[x]) for x in (a, b)):
-                    continue        # a periodic seam between them
-                uvx = {**uv2, **uv1}
-                ref = _sign(_uv_area_1(*cuv[k2].tolist()))
-                if ref == 0 or _sign(_uv_area_1(uvx[cc], uvx[a], uvx[d])) != ref \
-                        or _sign(_uv_area_1(uvx[d], uvx[b], uvx[cc])) != ref:
-                    continue
-                new = np.array([[cc, a, d], [d, b, cc]], dtype=np.int64)
-                nuv = np.array([[uvx[x] for x in r] for r in new.tolist()])
-                nn = _normals(V, new)
-                if np.any(np.linalg.norm(nn, axis=1) <= 1e-12 * np.linalg.norm(_normals(V, T[[k2]]))):
-                    continue
+                k2, t, t2, new, nuv, nn = cand
                 f2 = np.array([fid[k], fid[k]])
-                if np.any(_against_normal(self.faces, f2, nuv, nn)):
+                key = (int(fid[k]), new.tobytes(), nuv.tobytes())
+                against = known[key] if key in known else bool(np.any(_against_normal(self.faces, f2, nuv, nn)))
+                if against:
                     continue
+                cc, d = new[0, 0], new[0, 2]
                 if self.max_edge < np.inf and np.linalg.norm(V[cc] - V[d]) > self.max_edge:
                     continue
                 ndev = _per_face_dev(self.surfaces, f2, nuv, V[new])
