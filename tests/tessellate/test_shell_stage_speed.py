@@ -188,3 +188,36 @@ def test_against_normal_of_pairs_equals_one_batch(shared_data):
                             for k in range(0, m, 2)])
     assert 0 < batch.sum() < m
     assert np.array_equal(batch, pairs)
+
+
+def test_first_min_equals_the_lexsort_selection():
+    """`stitch._first_min` picks, per point, the pair the lexsort by (point, distance) put first: ties
+    (equal distances, also zeros and infinities), single pairs, nans."""
+    from trimsurf.tessellate.stitch import _first_min
+
+    rng = np.random.default_rng(5)
+    for trial in range(300):
+        k = int(rng.integers(1, 400))
+        pi = np.sort(rng.integers(0, max(1, k // int(rng.integers(1, 12))), k))
+        d = rng.choice([0.0, 1.0, 2.5, np.inf, 1e-300], k) if trial % 3 == 0 else rng.random(k)
+        if trial % 10 == 1:
+            d[rng.random(k) < 0.2] = np.nan
+        order = np.lexsort((d, pi))
+        want = order[np.r_[True, pi[order][1:] != pi[order][:-1]]]
+        assert np.array_equal(_first_min(pi, d), want), trial
+
+
+def test_edge_index_pairs_sorted_as_the_lexsort():
+    """`_EdgeIndex.pairs` (one key per pair) returns the pairs in the order of np.lexsort((edge, point))."""
+    from trimsurf.tessellate.stitch import _EdgeIndex
+
+    rng = np.random.default_rng(6)
+    a = rng.random((500, 3))
+    b = a + rng.normal(0, 0.02, (500, 3)) * rng.choice([0.1, 1, 10], (500, 1))
+    idx = _EdgeIndex(a, b)
+    assert len(idx.groups) > 2
+    pi, ei = idx.pairs(rng.random((400, 3)), 0.3, 0.05)
+    assert len(pi) > 1000
+    order = np.lexsort((ei, pi))
+    assert np.array_equal(order, np.arange(len(pi)))
+    assert len(np.unique(pi * 500 + ei)) == len(pi)

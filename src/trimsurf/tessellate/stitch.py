@@ -181,8 +181,22 @@ class _EdgeIndex:
         if not pi:
             return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
         pi, ei = np.concatenate(pi), np.concatenate(ei)
-        order = np.lexsort((ei, pi))
+        # np.lexsort((ei, pi)) as one key per pair (each pair once: the classes split the edges)
+        order = np.argsort(pi * len(self.mid) + ei)
         return pi[order], ei[order]
+
+
+def _first_min(pi: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """Per run of equal `pi` (sorted), the index of its smallest `d`, the first of equal ones: what
+    ``order = np.lexsort((d, pi)); order[np.r_[True, pi[order][1:] != pi[order][:-1]]]`` selects (without
+    the sort; that sort where `d` holds a nan)."""
+    if np.isnan(d).any():
+        order = np.lexsort((d, pi))
+        return order[np.r_[True, pi[order][1:] != pi[order][:-1]]]
+    start = np.flatnonzero(np.r_[True, pi[1:] != pi[:-1]])
+    low = np.minimum.reduceat(d, start)
+    at = np.flatnonzero(d == np.repeat(low, np.diff(np.r_[start, len(d)])))
+    return at[np.r_[True, pi[at[1:]] != pi[at[:-1]]]]
 
 
 def _closest_edges(points, vfaces, edges_a, edges_b, edge_face, tree, radius, eps, *, same_face: bool,
@@ -215,9 +229,7 @@ def _closest_edges(points, vfaces, edges_a, edges_b, edge_face, tree, radius, ep
     best = np.full(len(points), -1, dtype=np.int64)
     bd = np.full(len(points), np.inf)
     bt = np.zeros(len(points))
-    order = np.lexsort((d, pi))
-    first = np.r_[True, pi[order][1:] != pi[order][:-1]]
-    sel = order[first]
+    sel = _first_min(pi, d)
     ok = d[sel] <= eps
     best[pi[sel][ok]] = ei[sel][ok]
     bd[pi[sel][ok]] = d[sel][ok]
