@@ -402,22 +402,31 @@ def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, tolerance: float | N
         s_v, s_e, s_t, s_d = s_v[order], s_e[order], s_t[order], s_d[order]
         starts = np.r_[0, np.flatnonzero(np.diff(s_e)) + 1, len(s_e)]
         per_tri: dict = {}
-        for k in range(len(starts) - 1):
-            e = int(s_e[starts[k]])
-            per_tri.setdefault(int(btri[e]), []).append(
-                (int(bedges[e, 0]), int(bedges[e, 1]), s_v[starts[k]:starts[k + 1]].tolist(),
-                 float(s_d[starts[k]:starts[k + 1]].max()), s_t[starts[k]:starts[k + 1]].tolist()))
-        for tri, splits in per_tri.items():
-            drop[tri] = True
-            corners = T[tri].tolist()
+        # per split edge: its triangle, ends, inserted points and parameters (lists), largest distance
+        cut = starts.tolist()
+        sv_l, st_l = s_v.tolist(), s_t.tolist()
+        e_first = s_e[starts[:-1]]
+        e_tri, e_a, e_b = btri[e_first].tolist(), bedges[e_first, 0].tolist(), bedges[e_first, 1].tolist()
+        e_max = np.maximum.reduceat(s_d, starts[:-1]).tolist()     # each slice's max (a nan stays)
+        for k in range(len(cut) - 1):
+            per_tri.setdefault(e_tri[k], []).append((e_a[k], e_b[k], sv_l[cut[k]:cut[k + 1]], e_max[k],
+                                                     st_l[cut[k]:cut[k + 1]]))
+        tris = list(per_tri)
+        drop[tris] = True
+        rows, dev_l = T[tris].tolist(), dev[tris].tolist()
+        uv_rows = cuv[tris].tolist() if cuv is not None else None
+        for r, (tri, splits) in enumerate(per_tri.items()):
+            corners = rows[r]
             inserted = {(i, j): pts for i, j, pts, _, _ in splits}
             bend = max(sp[3] for sp in splits)
             if cuv is not None:
-                # (u, v) on this face: the corners' own, an inserted point's along its edge
-                uv_of = {x: cuv[tri, c] for c, x in enumerate(corners)}
+                # (u, v) on this face: the corners' own, an inserted point's along its edge (in scalars:
+                # the same operations per coordinate as on the (2,) arrays)
+                uv_of = {x: tuple(uv_rows[r][c]) for c, x in enumerate(corners)}
                 for i, j, pts, _, ts in splits:
+                    (ui, vi), (uj, vj) = uv_of[i], uv_of[j]
                     for x, tx in zip(pts, ts):
-                        uv_of[x] = uv_of[i] + tx * (uv_of[j] - uv_of[i])
+                        uv_of[x] = (ui + tx * (uj - ui), vi + tx * (vj - vi))
             # the triangle's boundary polygon with the inserted points, in its own orientation
             poly = []
             for c in range(3):
@@ -426,7 +435,7 @@ def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, tolerance: float | N
                 poly.extend(inserted.get((i, j), []))
             for t in _triangulate_polygon(V, poly, corners):
                 new_tris.append((*t, tri))
-                new_dev.append(dev[tri] + bend)
+                new_dev.append(dev_l[r] + bend)
                 if cuv is not None:
                     new_uv.append([uv_of[x] for x in t])
         info["stitch_split"] = int(len(s_v))
