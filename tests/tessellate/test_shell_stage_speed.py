@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from trimsurf.tessellate import seams as seams_mod
 
@@ -221,3 +222,28 @@ def test_edge_index_pairs_sorted_as_the_lexsort():
     order = np.lexsort((ei, pi))
     assert np.array_equal(order, np.arange(len(pi)))
     assert len(np.unique(pi * 500 + ei)) == len(pi)
+
+
+@pytest.mark.parametrize("fname", ["trimesh__featuretype.STEP", "gmsh__U_Joint_2.stp", "occt__bearing.iges"])
+def test_derivatives01_equals_the_per_face_kernel(shared_data, fname):
+    """The one compiled call over all faces gives bit for bit each face's `_derivatives(.., 1)` (S, S_u,
+    S_v): planes, rational and non-rational surfaces of degrees 1 to 8, points inside, on and outside
+    the domain (clipped), and -0.0, faces in any order."""
+    from trimsurf.io import read_shell
+
+    faces = list(read_shell(shared_data / "cad" / fname).faces)
+    rng = np.random.default_rng(8)
+    m = 4000
+    face_of = rng.integers(0, len(faces), m)
+    pts = np.empty((m, 2))
+    for k in range(m):
+        (u0, u1), (v0, v1) = faces[face_of[k]].surface.domain
+        t = rng.choice([rng.uniform(-0.1, 1.1), 0.0, 1.0, rng.uniform(0, 1)], 2)
+        pts[k] = u0 + t[0] * (u1 - u0), v0 + t[1] * (v1 - v0)
+    pts[:5] = -0.0
+    got = seams_mod._derivatives01(faces, face_of, pts)
+    for f in np.unique(face_of).tolist():
+        r = np.flatnonzero(face_of == f)
+        d = seams_mod._derivatives(faces[f].surface, pts[r], 1)
+        for a, b in ((got[0, r], d[0, 0]), (got[1, r], d[1, 0]), (got[2, r], d[0, 1])):
+            assert np.array_equal(a.view(np.int64), b.view(np.int64)), (fname, f)

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..geom._nurbs_kernels import surface_derivatives_kernel
+from ..geom._nurbs_kernels import _point_scratch, _surface_point01, surface_derivatives_kernel
 from ..geom.nurbs import _clip, _homogeneous, read_only, unit_normals
 from ..model import NurbsSurface, TriMesh
 
@@ -242,6 +242,111 @@ def _derivatives(surface, uv: np.ndarray, nd: int) -> np.ndarray:
     return out
 
 
+@njit(cache=True, nogil=True)
+def _multi_derivatives_kernel(deg, kofs, knots, pofs, pshape, pw_flat, rational, dom, surf, u, v, order, out):
+    """out[0, i] = S, out[1, i] = S_u, out[2, i] = S_v of surface surf[i] (packed by `_packed`) at
+    (u[i], v[i]) clipped to its domain as np.clip does: `surface_derivatives_kernel` with nd = 1 per point
+    (the same `_surface_point01`), the points taken in `order` (grouped by surface)."""
+    cur = -1
+    pu = pv = np.int64(1)
+    ku = knots[0:0]
+    kv = knots[0:0]
+    pw = pw_flat[0:0].reshape((0, 0, 3))
+    rat = False
+    u0 = u1 = v0 = v1 = 0.0
+    ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(1, 1, 3)
+    res = np.empty((3, 3))
+    for j in range(order.shape[0]):
+        i = order[j]
+        s = surf[i]
+        if s != cur:
+            cur = s
+            pu, pv = deg[s, 0], deg[s, 1]
+            ku = knots[kofs[s, 0]:kofs[s, 1]]
+            kv = knots[kofs[s, 1]:kofs[s, 2]]
+            pw = pw_flat[pofs[s]:pofs[s + 1]].reshape((pshape[s, 0], pshape[s, 1], pshape[s, 2]))
+            rat = rational[s]
+            u0, u1, v0, v1 = dom[s, 0], dom[s, 1], dom[s, 2], dom[s, 3]
+            ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(pu, pv, pshape[s, 2])
+        x = u[i]
+        x = x if x > u0 else u0             # np.clip: min(max(x, lo), hi), as (a > b ? a : b), (a < b ? a : b)
+        x = x if x < u1 else u1
+        y = v[i]
+        y = y if y > v0 else v0
+        y = y if y < v1 else v1
+        _surface_point01(pu, pv, ku, kv, pw, rat, x, y, 1, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv,
+                         tmp, skl, res)
+        for d in range(3):
+            out[0, i, d] = res[0, d]
+            out[1, i, d] = res[1, d]
+            out[2, i, d] = res[2, d]
+
+
+_PACKED: dict = {}   # id(faces) -> (faces, its items, the packed kernel arguments of their surfaces)
+
+
+def _packed(faces):
+    """The `_kernel_args` of every face's NURBS surface packed into flat arrays for
+    `_multi_derivatives_kernel` (other faces: a dummy entry), built once per list of faces."""
+    hit = _PACKED.get(id(faces))
+    if hit is not None and hit[0] is faces and len(hit[1]) == len(faces) and all(
+            x is y for x, y in zip(hit[1], faces)):
+        return hit[2]
+    nf = len(faces)
+    deg = np.ones((nf, 2), dtype=np.int64)
+    kofs = np.zeros((nf, 3), dtype=np.int64)
+    pofs = np.zeros(nf + 1, dtype=np.int64)
+    pshape = np.zeros((nf, 3), dtype=np.int64)
+    rational = np.zeros(nf, dtype=np.bool_)
+    dom = np.zeros((nf, 4))
+    knots, pws = [], []
+    k = 0
+    for i, face in enumerate(faces):
+        surface = None if face is None else face.surface
+        if type(surface) is NurbsSurface:
+            pu, pv, ku, kv, pw, rat, u0, u1, v0, v1 = _kernel_args(surface)
+            deg[i] = pu, pv
+            kofs[i] = k, k + len(ku), k + len(ku) + len(kv)
+            k += len(ku) + len(kv)
+            knots += [ku, kv]
+            pshape[i] = pw.shape
+            pws.append(np.ascontiguousarray(pw, dtype=np.float64).ravel())
+            pofs[i + 1] = pofs[i] + pw.size
+            rational[i] = rat
+            dom[i] = u0, u1, v0, v1
+        else:
+            kofs[i] = k
+            pshape[i] = 0, 0, 3
+            pofs[i + 1] = pofs[i]
+    args = (deg, kofs, np.concatenate(knots) if knots else np.zeros(0), pofs, pshape,
+            np.concatenate(pws) if pws else np.zeros(0), rational, dom)
+    if len(_PACKED) >= 2:       # (it keeps its faces alive: a batch of shells must not pile up)
+        _PACKED.clear()
+    _PACKED[id(faces)] = (faces, tuple(faces), args)
+    return args
+
+
+def _derivatives01(faces, face_of, pts) -> np.ndarray:
+    """(3, p, 3): S, S_u, S_v of faces[face_of[i]].surface at pts[i] in one compiled call, the values of
+    `_derivatives(surface, pts, 1)` per face (every used surface a NurbsSurface, `pts` finite)."""
+    out = np.empty((3, len(pts), 3))
+    if len(pts):
+        face_of = np.asarray(face_of, dtype=np.int64)
+        _multi_derivatives_kernel(*_packed(faces), face_of, np.ascontiguousarray(pts[:, 0], dtype=np.float64),
+                                  np.ascontiguousarray(pts[:, 1], dtype=np.float64),
+                                  np.argsort(face_of, kind="stable"), out)
+    return out
+
+
+def _same_sense(faces) -> np.ndarray:
+    """(nf,) bool: faces[f].same_sense (a missing face: True), cached with the packed surfaces."""
+    _packed(faces)
+    hit = _PACKED[id(faces)]
+    if len(hit) < 4:
+        _PACKED[id(faces)] = hit = hit + (np.array([True if f is None else bool(f.same_sense) for f in faces]),)
+    return hit[3]
+
+
 def _fast(surfaces, face_of, pts) -> bool:
     """The direct kernel path applies: NURBS surfaces and finite parameters (else the public methods,
     which raise on bad parameters)."""
@@ -294,22 +399,15 @@ def _oriented_normals(faces, face_of, pts, corner_key=None) -> np.ndarray:
                 src[pending[same]] = rep[same]
                 pending = pending[~same]
     ev = np.flatnonzero(src == np.arange(len(pts)))
-    su, sv = [], []
-    groups = _by_face(face_of[ev])
-    for f, r in groups:
-        d = _derivatives(surfaces[int(f)], pts[ev[r]], 1)
-        su.append(d[1, 0])
-        sv.append(d[0, 1])
-    n = unit_normals(np.concatenate(su), np.concatenate(sv))
-    pos = np.empty(len(ev), dtype=np.int64)
-    k = 0
-    for f, r in groups:
-        pos[r] = np.arange(k, k + len(r))
-        if not faces[int(f)].same_sense:
-            n[k:k + len(r)] = -n[k:k + len(r)]
-        k += len(r)
+    # every face's points in one compiled call (the per-face kernel's values; unit_normals and the
+    # sign are per point, so the order does not matter)
+    fe = face_of[ev]
+    d = _derivatives01(faces, fe, pts[ev])
+    n = unit_normals(d[1], d[2])
+    flip = ~_same_sense(faces)[fe]
+    n[flip] = -n[flip]
     slot = np.empty(len(pts), dtype=np.int64)
-    slot[ev] = pos
+    slot[ev] = np.arange(len(ev))
     return n[slot[src]]
 
 
@@ -442,27 +540,21 @@ def _dev_and_against(surfaces, faces, face_of, uv3, x3, tri_normals):
             and all(faces[f].surface is surfaces[f] for f in np.unique(face_of).tolist())):
         return _per_face_dev(surfaces, face_of, uv3, x3), _against_normal(faces, face_of, uv3, tri_normals)
     ref = np.einsum("bj,rjk->rbk", _BARY, x3)
-    s = np.empty(ref.shape)
     sure = _surely_along(faces, face_of, tri_normals)
     nb, nd = npts.shape[1], dpts.shape[1]
-    su, sv, rows, neg = [], [], [], []
-    for f, r in _by_face(face_of):
-        rn = r[~sure[r]]
-        d = _derivatives(surfaces[int(f)], np.concatenate([dpts[r].reshape(-1, 2), npts[rn].reshape(-1, 2)]), 1)
-        k = nd * len(r)
-        s[r] = d[0, 0][:k].reshape(len(r), nd, 3)
-        if len(rn):
-            su.append(d[1, 0][k:])
-            sv.append(d[0, 1][k:])
-            rows.append(rn)
-            neg.append(np.full(len(rn) * nb, not faces[int(f)].same_sense))
+    # the deviation's points of every triangle and the flip test's of those not surely along, every
+    # face in one compiled call (the per-face kernel's values; all per point)
+    rows = np.flatnonzero(~sure)
+    k = nd * len(face_of)
+    d = _derivatives01(faces, np.r_[np.repeat(face_of, nd), np.repeat(face_of[rows], nb)],
+                       np.concatenate([dpts.reshape(-1, 2), npts[rows].reshape(-1, 2)]))
+    s = d[0, :k].reshape(len(face_of), nd, 3)
     dev = np.linalg.norm(s - ref, axis=2).max(axis=1)
     against = np.zeros(len(face_of), dtype=bool)
-    if rows:
-        n = unit_normals(np.concatenate(su), np.concatenate(sv))
-        flip = np.concatenate(neg)
+    if len(rows):
+        n = unit_normals(d[1, k:], d[2, k:])
+        flip = np.repeat(~_same_sense(faces)[face_of[rows]], nb)
         n[flip] = -n[flip]
-        rows = np.concatenate(rows)
         ns = n.reshape(len(rows), nb, 3)
         with np.errstate(all="ignore"):
             dot = np.einsum("rbk,rk->rb", ns, tri_normals[rows])
