@@ -248,13 +248,14 @@ def _multi_derivatives_kernel(deg, kofs, knots, pofs, pshape, pw_flat, rational,
     (u[i], v[i]) clipped to its domain as np.clip does: `surface_derivatives_kernel` with nd = 1 per point
     (the same `_surface_point01`), the points taken in `order` (grouped by surface)."""
     cur = -1
-    pu = pv = np.int64(1)
+    one = np.int64(1)
+    pu = pv = one
     ku = knots[0:0]
     kv = knots[0:0]
     pw = pw_flat[0:0].reshape((0, 0, 3))
     rat = False
     u0 = u1 = v0 = v1 = 0.0
-    ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(1, 1, 3)
+    ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(one, one, pshape[0, 2])
     res = np.empty((3, 3))
     for j in range(order.shape[0]):
         i = order[j]
@@ -274,7 +275,7 @@ def _multi_derivatives_kernel(deg, kofs, knots, pofs, pshape, pw_flat, rational,
         y = v[i]
         y = y if y > v0 else v0
         y = y if y < v1 else v1
-        _surface_point01(pu, pv, ku, kv, pw, rat, x, y, 1, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv,
+        _surface_point01(pu, pv, ku, kv, pw, rat, x, y, one, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv,
                          tmp, skl, res)
         for d in range(3):
             out[0, i, d] = res[0, d]
@@ -318,8 +319,9 @@ def _packed(faces):
             kofs[i] = k
             pshape[i] = 0, 0, 3
             pofs[i + 1] = pofs[i]
-    args = (deg, kofs, np.concatenate(knots) if knots else np.zeros(0), pofs, pshape,
-            np.concatenate(pws) if pws else np.zeros(0), rational, dom)
+    # (read-only, as `_kernel_args` hands them to the per-face kernel: the same compiled `_surface_point01`)
+    args = (deg, kofs, read_only(np.concatenate(knots) if knots else np.zeros(0)), pofs, pshape,
+            read_only(np.concatenate(pws) if pws else np.zeros(0)), rational, dom)
     if len(_PACKED) >= 2:       # (it keeps its faces alive: a batch of shells must not pile up)
         _PACKED.clear()
     _PACKED[id(faces)] = (faces, tuple(faces), args)
