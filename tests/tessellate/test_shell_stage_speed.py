@@ -247,3 +247,33 @@ def test_derivatives01_equals_the_per_face_kernel(shared_data, fname):
         d = seams_mod._derivatives(faces[f].surface, pts[r], 1)
         for a, b in ((got[0, r], d[0, 0]), (got[1, r], d[1, 0]), (got[2, r], d[0, 1])):
             assert np.array_equal(a.view(np.int64), b.view(np.int64)), (fname, f)
+
+
+@pytest.mark.parametrize("fname,mode,h", [("occt__bearing.iges", "auto", 1.0), ("gmsh__U_Joint_2.stp", "loose", 1.0),
+                                          ("occtpr946__ec_turbine-A.stp", "loose", 0.03)])
+def test_fold_triangles_among_the_flipped_equals_all(shared_data, fname, mode, h, monkeypatch):
+    """Loose mode's fold pruning tests the centroid flip only among the triangles seam reduction found
+    flipped at the centroid or a corner: on real loose tessellations the same folded triangles as
+    testing every triangle (the turbine at 3 % max edge has 4 flipped at the centroid among 9)."""
+    from trimsurf.io import read_shell
+    from trimsurf.tessellate import stitch as stitch_mod
+    from trimsurf.tessellate import tessellate_shell
+
+    orig = stitch_mod._fold_triangles
+    seen = []
+
+    def both(mesh, cuv, faces, among=None):
+        got = orig(mesh, cuv, faces, among)
+        if among is not None:
+            ref = orig(mesh, cuv, faces)
+            assert np.array_equal(got, ref)
+            seen.append((len(among), mesh.n_triangles))
+        return got
+
+    monkeypatch.setattr(stitch_mod, "_fold_triangles", both)
+    shell = read_shell(shared_data / "cad" / fname)
+    d = shell.diagonal()
+    res = tessellate_shell(shell, tolerance=1e-3 * d, max_edge=h * d, measure=False, mode=mode)
+    assert res.mode == "loose" and seen and all(0 <= a < m for a, m in seen)
+    if "turbine" in fname:
+        assert res.report["stitch_folds_pruned"] > 0

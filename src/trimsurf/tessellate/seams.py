@@ -891,7 +891,7 @@ class _State:
 
 def reduce_seams(mesh: TriMesh, tolerance: float, *, tri_dev=None, max_edge: float = np.inf,
                  corner_uv=None, surfaces=None, faces=None, max_rounds: int = 6, short: float = 0.5,
-                 return_kept: bool = False, return_state: bool = False):
+                 return_kept: bool = False, return_state: bool = False, return_flipped: bool = False):
     """Collapse short seam edges within `tolerance`; returns the reduced mesh and the number of collapses.
 
     Parameters
@@ -922,12 +922,17 @@ def reduce_seams(mesh: TriMesh, tolerance: float, *, tri_dev=None, max_edge: flo
     return_kept, return_state : bool
         Also return the mask of kept input triangles; with `return_state` too, the kept
         triangles' deviation bounds and corner (u, v) (None without `corner_uv`).
+    return_flipped : bool
+        With `return_state`: also return, per kept triangle, whether it points against its face's
+        oriented normal at its (u, v) centroid or a corner (`_against_normal` with the corners;
+        None without `corner_uv` and `faces`).
     """
     if mesh.face_id is None or not mesh.n_triangles:
         if return_state:
             return (mesh, 0, np.ones(mesh.n_triangles, dtype=bool),
                     np.zeros(mesh.n_triangles) if tri_dev is None else np.asarray(tri_dev, dtype=np.float64),
-                    None if corner_uv is None else np.asarray(corner_uv, dtype=np.float64))
+                    None if corner_uv is None else np.asarray(corner_uv, dtype=np.float64)) + (
+                        (None,) if return_flipped else ())
         return (mesh, 0, np.ones(mesh.n_triangles, dtype=bool)) if return_kept else (mesh, 0)
     st = _State(mesh, tolerance, tri_dev, max_edge, corner_uv, surfaces, faces)
     V = st.V
@@ -989,5 +994,12 @@ def reduce_seams(mesh: TriMesh, tolerance: float, *, tri_dev=None, max_edge: flo
     used, inv = np.unique(T, return_inverse=True)
     out = TriMesh(V[used], inv.reshape(-1, 3), face_id=fid)
     if return_state:
-        return out, total, alive, st.dev[alive], None if st.cuv is None else st.cuv[alive]
+        state = (out, total, alive, st.dev[alive], None if st.cuv is None else st.cuv[alive])
+        if return_flipped:
+            flipped = None
+            if st.cuv is not None and faces is not None:
+                st.flipped()            # (only the triangles changed since its last call)
+                flipped = st._flip[alive]
+            state += (flipped,)
+        return state
     return (out, total, alive) if return_kept else (out, total)

@@ -545,19 +545,20 @@ def merge_face_meshes(face_meshes: dict, *, tolerance: float, stitch: bool = Tru
             for k, v in st.items():
                 info[k] = info.get(k, 0) + v
     info["triangles_stitched"] = mesh.n_triangles
+    flipped = None
     if stitch and reduce_seams:
         from .seams import reduce_seams as _reduce
 
         n_before = mesh.n_triangles
         kw = {} if cuv is None else {"corner_uv": cuv, "faces": faces,
                                      "surfaces": [None if f is None else f.surface for f in faces]}
-        mesh, n, alive, dev, cuv = _reduce(mesh, tolerance, tri_dev=dev, max_edge=max_edge, return_kept=True,
-                                           return_state=True, **kw)
+        mesh, n, alive, dev, cuv, flipped = _reduce(mesh, tolerance, tri_dev=dev, max_edge=max_edge,
+                                                    return_kept=True, return_state=True, return_flipped=True, **kw)
         q = remap(q, n_before, np.where(alive, np.cumsum(alive) - 1, -1))
         info["seam_collapses"] = n
     if stitch and cuv is not None and faces is not None:
         # folds left where a face is narrower than the stitching distance: removed and stitched across
-        pruned = _prune_folds(mesh, dev, cuv, q, faces, tolerance)
+        pruned = _prune_folds(mesh, dev, cuv, q, faces, tolerance, flipped=flipped)
         if pruned is not None:
             mesh, dev, cuv, q, n_pruned = pruned
             info["stitch_folds_pruned"] = n_pruned
@@ -565,15 +566,24 @@ def merge_face_meshes(face_meshes: dict, *, tolerance: float, stitch: bool = Tru
     return mesh, info
 
 
-def _fold_triangles(mesh: TriMesh, cuv, faces) -> np.ndarray:
+def _fold_triangles(mesh: TriMesh, cuv, faces, among=None) -> np.ndarray:
     """Triangles of a face folded over by stitching: flipped against the face's oriented normal, or two
     of one face's triangles on one non-manifold edge (a neck of the face narrower than the stitching
-    distance, both its sides stitched onto one neighbour)."""
+    distance, both its sides stitched onto one neighbour).
+
+    `among`: the only triangles that can be flipped at their (u, v) centroid, e.g. those flipped at
+    their centroid or a corner (`reduce_seams`'s ``return_flipped``); the test is per triangle."""
     from .seams import _against_normal, _normals
 
     # at the (u, v) centroid, as the measure module counts flips (the corners are stricter: a pole)
-    bad = _against_normal(faces, mesh.face_id, cuv, _normals(mesh.vertices, mesh.triangles),
-                          bary=np.array([[1 / 3, 1 / 3, 1 / 3]]))
+    centroid = np.array([[1 / 3, 1 / 3, 1 / 3]])
+    if among is None:
+        bad = _against_normal(faces, mesh.face_id, cuv, _normals(mesh.vertices, mesh.triangles), bary=centroid)
+    else:
+        bad = np.zeros(mesh.n_triangles, dtype=bool)
+        if len(among):
+            bad[among] = _against_normal(faces, mesh.face_id[among], cuv[among],
+                                         _normals(mesh.vertices, mesh.triangles[among]), bary=centroid)
     counts = mesh.edge_triangle_counts()
     if np.any(counts > 2):
         inv = mesh.half_edge_edges()
@@ -589,7 +599,7 @@ def _fold_triangles(mesh: TriMesh, cuv, faces) -> np.ndarray:
     return np.flatnonzero(bad)
 
 
-def _prune_folds(mesh: TriMesh, dev, cuv, q, faces, tolerance: float):
+def _prune_folds(mesh: TriMesh, dev, cuv, q, faces, tolerance: float, flipped=None):
     """Remove thin folded triangles (`_fold_triangles`) and stitch the hole they leave; kept only if better.
 
     Where a face is narrower than the stitching distance (the turbine's face 1 at the point where its
@@ -604,7 +614,8 @@ def _prune_folds(mesh: TriMesh, dev, cuv, q, faces, tolerance: float):
     from ..quality.sampling import sample_face_domain
     from .seams import _BARY, _against_normal, _normals
 
-    bad = _fold_triangles(mesh, cuv, faces)
+    # (`flipped`: per triangle, flipped at its centroid or a corner; only those can be at the centroid)
+    bad = _fold_triangles(mesh, cuv, faces, among=None if flipped is None else np.flatnonzero(flipped))
     # only thin ones: every point of a removed triangle within the stitching distance of its edges
     # (inradius 2 area / perimeter), so the neighbours stitched across it stay within the tolerance
     p = mesh.vertices[mesh.triangles[bad]]
