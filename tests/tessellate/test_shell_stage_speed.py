@@ -277,3 +277,27 @@ def test_fold_triangles_among_the_flipped_equals_all(shared_data, fname, mode, h
     assert res.mode == "loose" and seen and all(0 <= a < m for a, m in seen)
     if "turbine" in fname:
         assert res.report["stitch_folds_pruned"] > 0
+
+
+def test_scalar_round_is_np_round_12():
+    """`_triangulate_polygon`'s duplicate test rounds x / scale to 12 decimals in scalars: the values of
+    np.round(xy / scale, 12) (points at every scale, near-duplicates 1e-13..1e-12 of the size apart,
+    values that are exact halves after scaling: 2^-k multiples)."""
+    rng = np.random.default_rng(12)
+    n_diff = 0
+    for trial in range(5000):
+        m = int(rng.integers(3, 12))
+        xy = rng.standard_normal((m, 2)) * 10.0 ** rng.uniform(-8, 8)
+        if trial % 3 == 0:
+            xy[rng.integers(0, m)] = xy[0] + rng.choice([1e-13, 1e-12, 5e-13, 0.0]) * np.abs(xy).max()
+        if trial % 7 == 0:
+            xy = np.round(xy * 2.0 ** 40) / 2.0 ** 40        # dyadic: x * 1e12 / scale can be a tie
+        rows = xy.tolist()
+        scale = max(max(r[0] for r in rows) - min(r[0] for r in rows), max(r[1] for r in rows) - min(r[1] for r in rows))
+        if not scale > 0:
+            continue
+        want = np.round(xy / scale, 12).tolist()
+        got = [(round(x / scale * 1e12) / 1e12, round(y / scale * 1e12) / 1e12) for x, y in rows]
+        assert [tuple(w) for w in want] == got, trial
+        n_diff += len({tuple(w) for w in want}) != m
+    assert n_diff > 100

@@ -124,7 +124,12 @@ def _triangulate_polygon(V: np.ndarray, poly: list, corners: list) -> list:
         scale = float((xy.max(axis=0) - xy.min(axis=0)).max())
     if scale <= 0:
         return _sequential_fans(poly, corners)
-    r = np.round(xy / scale, 12).tolist()
+    # np.round(xy / scale, 12) per value in scalars (x / scale, times 1e12, rounded half to even, over
+    # 1e12: the same operations; |x / scale| <= 1, so the integer is exact): only compared (-0.0 == 0.0)
+    if scale != scale or not math.isfinite(scale):
+        r = np.round(xy / scale, 12).tolist()
+    else:
+        r = [(round(x / scale * 1e12) / 1e12, round(y / scale * 1e12) / 1e12) for x, y in rows]
     if len({(x, y) for x, y in r}) != m:         # (as np.unique(axis=0): -0.0 equals 0.0)
         return _sequential_fans(poly, corners)
     try:
