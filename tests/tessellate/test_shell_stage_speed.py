@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from trimsurf.model import TriMesh as _TriMesh
 from trimsurf.tessellate import seams as seams_mod
 
 
@@ -301,3 +302,94 @@ def test_scalar_round_is_np_round_12():
         assert [tuple(w) for w in want] == got, trial
         n_diff += len({tuple(w) for w in want}) != m
     assert n_diff > 100
+
+
+def _orient_reference(mesh):
+    """`orient.orient_meshes` of main 1fb9934 (votes gathered edge by edge in a dict)."""
+    if mesh.face_id is None or not mesh.n_triangles:
+        return mesh, []
+    fid = mesh.face_id
+    he = mesh.half_edges()
+    inv = mesh.half_edge_edges()
+    counts = mesh.edge_triangle_counts()
+    tri_of = np.repeat(np.arange(mesh.n_triangles), 3)
+    # pairs of half-edges on manifold edges between different faces
+    order = np.argsort(inv, kind="stable")
+    s_inv = inv[order]
+    same = (s_inv[1:] == s_inv[:-1]) & (counts[s_inv[1:]] == 2)
+    h1, h2 = order[:-1][same], order[1:][same]
+    f1, f2 = fid[tri_of[h1]], fid[tri_of[h2]]
+    cross = f1 != f2
+    h1, h2, f1, f2 = h1[cross], h2[cross], f1[cross], f2[cross]
+    agree = he[h1, 0] != he[h2, 0]            # opposite directions: consistent
+    faces = np.unique(fid)
+    # vote per face pair
+    key_a, key_b = np.minimum(f1, f2), np.maximum(f1, f2)
+    adj: dict = {}
+    for a, b, g in zip(key_a.tolist(), key_b.tolist(), agree.tolist()):
+        v = adj.setdefault((a, b), [0, 0])
+        v[0 if g else 1] += 1
+    nbrs: dict = {int(f): [] for f in faces}
+    for (a, b), (n_ok, n_bad) in adj.items():
+        same_orient = n_ok >= n_bad
+        nbrs[a].append((b, same_orient))
+        nbrs[b].append((a, same_orient))
+    flip = {}
+    remain = set(int(f) for f in faces)
+    while remain:
+        start = min(remain)
+        remain.discard(start)
+        flip[start] = False
+        queue = [start]
+        while queue:
+            f = queue.pop(0)
+            for g, same_orient in nbrs[f]:
+                if g in remain:
+                    flip[g] = flip[f] if same_orient else not flip[f]
+                    remain.discard(g)
+                    queue.append(g)
+    # a component whose majority of triangles was flipped: flip it back (keep the CAD orientation)
+    flipped = [f for f, v in flip.items() if v]
+    if not flipped:
+        return mesh, []
+    tri_flip = np.isin(fid, flipped)
+    n_area = np.bincount(fid, minlength=int(fid.max()) + 1)
+    if n_area[flipped].sum() > 0.5 * mesh.n_triangles:
+        tri_flip = ~tri_flip
+        flipped = [int(f) for f in faces if f not in set(flipped)]
+    t = np.where(tri_flip[:, None], mesh.triangles[:, ::-1], mesh.triangles)
+    return _TriMesh(mesh.vertices, t, uv=mesh.uv, face_id=fid), flipped
+
+
+
+def test_orient_meshes_equals_the_dict_votes():
+    """`orient_meshes` (votes by np.unique and bincount, face pairs in first-edge order) flips the same
+    faces and gives the same triangles as main's dict of votes: random meshes cut into faces, some faces
+    reversed, some triangles of a face reversed (disagreeing votes), several components."""
+    from scipy.spatial import Delaunay
+
+    from trimsurf.tessellate.orient import orient_meshes
+
+    rng = np.random.default_rng(21)
+    n_flipped = 0
+    for trial in range(80):
+        n = int(rng.integers(6, 200))
+        P = rng.random((n, 2))
+        T = Delaunay(P).simplices.astype(np.int64)
+        if trial % 4 == 0:
+            T = np.concatenate([T, T[: len(T) // 3] + n])
+            P = np.concatenate([P, P + 2.0])
+        cen = P[T].mean(axis=1)
+        k = int(rng.integers(1, 9))
+        fid = (np.floor(cen[:, 0] * k) + k * np.floor(cen[:, 1] * 2)).astype(np.int64)
+        rev = rng.random(fid.max() + 1) < 0.4
+        tri = np.where(rev[fid][:, None], T[:, ::-1], T)
+        odd = rng.random(len(tri)) < (0.1 if trial % 3 == 0 else 0.0)
+        tri = np.where(odd[:, None], tri[:, ::-1], tri)
+        mesh = _TriMesh(np.c_[P, np.zeros(len(P))], tri, face_id=fid)
+        got, got_f = orient_meshes(mesh)
+        want, want_f = _orient_reference(mesh)
+        assert got_f == want_f, trial
+        assert np.array_equal(got.triangles, want.triangles)
+        n_flipped += len(want_f)
+    assert n_flipped > 50

@@ -45,13 +45,17 @@ def orient_meshes(mesh: TriMesh) -> tuple[TriMesh, list]:
     faces = np.unique(fid)
     # vote per face pair
     key_a, key_b = np.minimum(f1, f2), np.maximum(f1, f2)
-    adj: dict = {}
-    for a, b, g in zip(key_a.tolist(), key_b.tolist(), agree.tolist()):
-        v = adj.setdefault((a, b), [0, 0])
-        v[0 if g else 1] += 1
+    # (face pairs in the order of their first edge, as a dict filled edge by edge would hold them)
+    n_f = int(fid.max()) + 1
+    pair = key_a * n_f + key_b
+    uniq, first, inv = np.unique(pair, return_index=True, return_inverse=True)
+    n_ok = np.bincount(inv, weights=agree, minlength=len(uniq))
+    n_all = np.bincount(inv, minlength=len(uniq))
+    by_first = np.argsort(first, kind="stable")
     nbrs: dict = {int(f): [] for f in faces}
-    for (a, b), (n_ok, n_bad) in adj.items():
-        same_orient = n_ok >= n_bad
+    for a, b, ok_, all_ in zip((uniq[by_first] // n_f).tolist(), (uniq[by_first] % n_f).tolist(),
+                               n_ok[by_first].tolist(), n_all[by_first].tolist()):
+        same_orient = ok_ >= all_ - ok_
         nbrs[a].append((b, same_orient))
         nbrs[b].append((a, same_orient))
     flip = {}
