@@ -287,8 +287,9 @@ _PACKED: dict = {}   # id(faces) -> (faces, its items, the packed kernel argumen
 
 
 def _packed(faces):
-    """The `_kernel_args` of every face's NURBS surface packed into flat arrays for
-    `_multi_derivatives_kernel` (other faces: a dummy entry), built once per list of faces."""
+    """(the `_kernel_args` of every face's NURBS surface packed into flat arrays for
+    `_multi_derivatives_kernel` (other faces: a dummy entry), (nf,) same_sense), built once per list
+    of faces."""
     hit = _PACKED.get(id(faces))
     if hit is not None and hit[0] is faces and len(hit[1]) == len(faces) and all(
             x is y for x, y in zip(hit[1], faces)):
@@ -322,10 +323,11 @@ def _packed(faces):
     # (read-only, as `_kernel_args` hands them to the per-face kernel: the same compiled `_surface_point01`)
     args = (deg, kofs, read_only(np.concatenate(knots) if knots else np.zeros(0)), pofs, pshape,
             read_only(np.concatenate(pws) if pws else np.zeros(0)), rational, dom)
+    out = (args, np.array([True if f is None else bool(f.same_sense) for f in faces], dtype=bool))
     if len(_PACKED) >= 2:       # (it keeps its faces alive: a batch of shells must not pile up)
         _PACKED.clear()
-    _PACKED[id(faces)] = (faces, tuple(faces), args)
-    return args
+    _PACKED[id(faces)] = (faces, tuple(faces), out)
+    return out
 
 
 def _derivatives01(faces, face_of, pts) -> np.ndarray:
@@ -334,7 +336,7 @@ def _derivatives01(faces, face_of, pts) -> np.ndarray:
     out = np.empty((3, len(pts), 3))
     if len(pts):
         face_of = np.asarray(face_of, dtype=np.int64)
-        _multi_derivatives_kernel(*_packed(faces), face_of, np.ascontiguousarray(pts[:, 0], dtype=np.float64),
+        _multi_derivatives_kernel(*_packed(faces)[0], face_of, np.ascontiguousarray(pts[:, 0], dtype=np.float64),
                                   np.ascontiguousarray(pts[:, 1], dtype=np.float64),
                                   np.argsort(face_of, kind="stable"), out)
     return out
@@ -342,11 +344,7 @@ def _derivatives01(faces, face_of, pts) -> np.ndarray:
 
 def _same_sense(faces) -> np.ndarray:
     """(nf,) bool: faces[f].same_sense (a missing face: True), cached with the packed surfaces."""
-    _packed(faces)
-    hit = _PACKED[id(faces)]
-    if len(hit) < 4:
-        _PACKED[id(faces)] = hit = hit + (np.array([True if f is None else bool(f.same_sense) for f in faces]),)
-    return hit[3]
+    return _packed(faces)[1]
 
 
 def _fast(surfaces, face_of, pts) -> bool:
