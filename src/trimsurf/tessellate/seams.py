@@ -191,7 +191,7 @@ def _seam_edges(T: np.ndarray, fid: np.ndarray, nv: int) -> np.ndarray:
     n = max(int(nv), 1)
     a, b = T.ravel(), T[:, [1, 2, 0]].ravel()           # half-edge 3 t + c: corner c -> c + 1
     key = np.minimum(a, b) * n + np.maximum(a, b)
-    order = np.argsort(key, kind="stable")
+    order = np.argsort(key)             # (any order of equal keys: only their count and faces' min/max read)
     sk = key[order]
     start = np.flatnonzero(np.r_[True, sk[1:] != sk[:-1]])
     cnt = np.diff(np.r_[start, len(sk)])
@@ -338,7 +338,7 @@ def _derivatives01(faces, face_of, pts) -> np.ndarray:
         face_of = np.asarray(face_of, dtype=np.int64)
         _multi_derivatives_kernel(*_packed(faces)[0], face_of, np.ascontiguousarray(pts[:, 0], dtype=np.float64),
                                   np.ascontiguousarray(pts[:, 1], dtype=np.float64),
-                                  np.argsort(face_of, kind="stable"), out)
+                                  np.argsort(face_of), out)       # (grouped by face; any order within)
     return out
 
 
@@ -676,7 +676,7 @@ class _State:
         nv = len(V)
         # the two seam neighbours of every degree-2 seam vertex (both ways, by first vertex)
         both = np.r_[seam, seam[:, ::-1]]
-        both = both[np.argsort(both[:, 0], kind="stable")]
+        both = both[np.argsort(both[:, 0])]     # (v's two neighbours are read symmetrically: any order)
         # the cheap tests of every candidate at once: v on the seam between two neighbours, u one of
         # them, v within chord_tol of the new seam chord (u, w)
         c = np.asarray(cands, dtype=np.int64).reshape(-1, 2)
