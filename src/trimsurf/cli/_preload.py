@@ -32,7 +32,8 @@ MODULES = ("trimsurf.tessellate", "trimsurf.tessellate.measure", "trimsurf.quali
 #: the command calls on the screw. s25-mesh: the face triangulation's kernels; `surface_distance_kernel` and
 #: `deviation_samples` (curved faces whose triangles' start bound exceeds the tolerance) and
 #: `_segments_apart_kernel` (trim loops not certainly simple) are left to their call, the screw calls none;
-#: s25-edges: `pcurve_ends_kernel`, the segment ends of `repair.quick_repairs`)
+#: s25-edges: `pcurve_ends_kernel`, the segment ends of `repair.quick_repairs`; s25-seams: the seam reduction's
+#: selection and its surface points of all faces in one call)
 KERNELS = {
     "trimsurf.geom._nurbs_kernels": ("curve_points_kernel", "surface_derivatives_kernel", "project_newton_kernel"),
     "trimsurf.geom._seed_kernels": ("seed_grid_kernel",),
@@ -45,6 +46,7 @@ KERNELS = {
     "trimsurf.tessellate._mesh_kernels": ("trim_loop_kernel", "deviation_start_bound"),
     "trimsurf.tessellate.slivers": ("_sliver_candidates_kernel", "_sliver_pick_kernel", "_sliver_result_kernel",
                                     "_corner_cosines"),
+    "trimsurf.tessellate.seams": ("_seam_select_kernel", "_multi_derivatives_kernel"),
     "trimsurf.quality._kernels": ("grid_build_kernel", "grid_closest_kernel", "hint_closest_kernel",
                                   "segments_distance_kernel", "uv_locate_kernel"),
 }
