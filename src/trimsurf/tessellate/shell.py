@@ -646,8 +646,8 @@ def _assemble_conforming(face_meshes: dict, n_shared: int, with_dev: bool = True
 def _face_trimeshes(face_meshes: dict, n: int) -> tuple:
     """``tuple(face_meshes[i].to_trimesh() if i in face_meshes else None for i in range(n))``, with the
     faces' arrays copied and checked together (as `TriMesh` checks each: finite float64 coordinates and
-    (u, v), int64 triangles in range without a repeated vertex) and each face's mesh holding read-only
-    row views of them. Anything the batch does not cover (another dtype or shape, a failed check):
+    (u, v), int64 triangles in range without a repeated vertex), each face's mesh holding its own
+    read-only copies of its rows (as `TriMesh` makes them). Anything the batch does not cover (another dtype or shape, a failed check):
     the per-face constructor, which raises its error for the first such face."""
     order = sorted(face_meshes)
     fms = [face_meshes[i] for i in order]
@@ -672,15 +672,18 @@ def _face_trimeshes(face_meshes: dict, n: int) -> tuple:
         if (tri.min() < 0 or np.any(tri.max(axis=1) >= lim)
                 or np.any((tri[:, 0] == tri[:, 1]) | (tri[:, 1] == tri[:, 2]) | (tri[:, 0] == tri[:, 2]))):
             return per_face()
-    for a in (xyz, uv, tri):
-        a.setflags(write=False)
     out: list = [None] * n
     vo = to = 0
+
+    def own(a):             # each face's own read-only copy, as `TriMesh` makes it (not a view of the batch)
+        a = a.copy()
+        a.setflags(write=False)
+        return a
     for i, nv, nt in zip(order, nvs, nts):
         m = object.__new__(TriMesh)         # the fields `TriMesh.__post_init__` would set, checked above
-        object.__setattr__(m, "vertices", xyz[vo:vo + nv])
-        object.__setattr__(m, "triangles", tri[to:to + nt])
-        object.__setattr__(m, "uv", uv[vo:vo + nv])
+        object.__setattr__(m, "vertices", own(xyz[vo:vo + nv]))
+        object.__setattr__(m, "triangles", own(tri[to:to + nt]))
+        object.__setattr__(m, "uv", own(uv[vo:vo + nv]))
         object.__setattr__(m, "face_id", None)
         out[i] = m
         vo += nv
