@@ -436,25 +436,64 @@ def _use_arrays(ci, ck, cpw, cku, ckv, cpw4, j):
     return kc, cw, ku, kv, pw
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _span_i(degree, knots, n_ctrl, t):
+    """`_nurbs_kernels._span`, IR-inlined (a compiled call per point costs more than the search)."""
+    if t >= knots[n_ctrl]:
+        last = n_ctrl - 1
+        while last > degree and knots[last] >= knots[n_ctrl]:
+            last -= 1
+        return last
+    lo, hi = degree, n_ctrl
+    while hi - lo > 1:  # knots[lo] <= t < knots[hi]
+        mid = (lo + hi) // 2
+        if t < knots[mid]:
+            hi = mid
+        else:
+            lo = mid
+    return lo
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _basis0_i(span, t, p, knots, left, right, nb):
+    """nb[0..p] = the basis functions at t (A2.2, in place): the numbers of `_ders_basis` with nd = 0
+    (its ders[0] = ndu[:, p]; ndu[j, r] = right[r + 1] + left[j - r] and ndu[r, j - 1] are the sum and the
+    previous level's value used here, the same operations in the same order)."""
+    nb[0] = 1.0
+    for j in range(1, p + 1):
+        left[j] = t - knots[span + 1 - j]
+        right[j] = knots[span + j] - t
+        saved = 0.0
+        for r in range(j):
+            temp = nb[r] / (right[r + 1] + left[j - r])
+            nb[r] = saved + right[r + 1] * temp
+            saved = left[j - r] * temp
+        nb[j] = saved
+
+
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop):
     """`_ChunkLines.criteria` (`pcurve_surface_kernel` then `chord_criteria_kernel`) over the intervals
     [a_i, b_i]: a point at the previous interval's last parameter is taken from it; with `stop`,
-    returns False at the first interval over max_len or max_dev."""
+    returns False at the first interval over max_len or max_dev.
+
+    The points as `_curve_point` and `_surface_point01` (nd = 0) compute them, their span searches and
+    bases IR-inlined here (`_span_i`, `_basis0_i`): no compiled call per point."""
     n_uses = ci.shape[0]
-    mcp, mpu, mpv = 0, np.int64(0), np.int64(0)
+    mcp, mpu, mpv, mdw = 0, np.int64(0), np.int64(0), np.int64(0)
     for j in range(n_uses):
         mcp = max(mcp, ci[j, 0])
         mpu = max(mpu, ci[j, 2])
         mpv = max(mpv, ci[j, 3])
-    ndu = np.empty((mcp + 1, mcp + 1))
-    aa = np.empty((2, mcp + 1))
-    left = np.empty(mcp + 1)
-    right = np.empty(mcp + 1)
-    ders = np.empty((1, mcp + 1))
-    ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(mpu, mpv, np.int64(4))
+        mdw = max(mdw, ci[j, 17])
+    left = np.empty(max(mcp, mpu, mpv) + 1)
+    right = np.empty(max(mcp, mpu, mpv) + 1)
+    nc = np.empty(mcp + 1)
+    nbu = np.empty(mpu + 1)
+    nbv = np.empty(mpv + 1)
+    tmp = np.empty((mpu + 1, mdw))
     uv = np.empty(2)
-    res = np.empty((3, 3))
+    res = np.empty(3)
     t = _linspace01(m)
     pts = np.empty((m, n_uses, 3))
     prev_s = np.nan
@@ -467,23 +506,64 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
                     pts[0, j, q] = pts[m - 1, j, q]
             k0 = 1
         for j in range(n_uses):
-            cp, crat, pu, pv, srat = ci[j, 0], ci[j, 1] != 0, ci[j, 2], ci[j, 3], ci[j, 4]
+            cp, crat, pu, pv, srat = ci[j, 0], ci[j, 1] != 0, ci[j, 2], ci[j, 3], ci[j, 4] != 0
             kc, cw, ku, kv, pw = _use_arrays(ci, ck, cpw, cku, ckv, cpw4, j)
             lo, hi = cf[j, 0], cf[j, 1]
             t0, t1 = kc[cp], kc[kc.shape[0] - cp - 1]
             su0, su1 = ku[pu], ku[ku.shape[0] - pu - 1]
             sv0, sv1 = kv[pv], kv[kv.shape[0] - pv - 1]
+            ncw, cdimw = cw.shape
+            cdim = cdimw - 1 if crat else cdimw
+            nu_c, nv_c, dimw = pw.shape
+            dim = dimw - 1 if srat else dimw
             for k in range(k0, m):
                 s = a[i] + d * t[k]
                 tt = lo + s * (hi - lo)
                 tt = min(max(tt, t0), t1)
-                _curve_point(cp, kc, cw, crat, tt, ndu, aa, left, right, ders, uv)
+                # _curve_point
+                sc = _span_i(cp, kc, ncw, tt)
+                _basis0_i(sc, tt, cp, kc, left, right, nc)
+                w = 1.0
+                if crat:
+                    w = 0.0
+                    for r in range(cp + 1):
+                        w += nc[r] * cw[sc - cp + r, cdim]
+                for dd in range(cdim):
+                    acc = 0.0
+                    for r in range(cp + 1):
+                        acc += nc[r] * cw[sc - cp + r, dd]
+                    uv[dd] = acc / w if crat else acc
                 uu = min(max(uv[0], cf[j, 2]), cf[j, 3])
                 vv = min(max(uv[1], cf[j, 4]), cf[j, 5])
-                _surface_point01(pu, pv, ku, kv, pw, srat != 0, min(max(uu, su0), su1), min(max(vv, sv0), sv1), np.int64(0),
-                                 ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
+                uu = min(max(uu, su0), su1)
+                vv = min(max(vv, sv0), sv1)
+                # _surface_point01, nd = 0
+                su = _span_i(pu, ku, nu_c, uu)
+                sv = _span_i(pv, kv, nv_c, vv)
+                _basis0_i(su, uu, pu, ku, left, right, nbu)
+                _basis0_i(sv, vv, pv, kv, left, right, nbv)
+                for r in range(pu + 1):
+                    for dd in range(dimw):
+                        tmp[r, dd] = 0.0
+                    for s_ in range(pv + 1):
+                        bb = nbv[s_]
+                        if bb != 0.0:
+                            row = su - pu + r
+                            col = sv - pv + s_
+                            for dd in range(dimw):
+                                tmp[r, dd] += bb * pw[row, col, dd]
+                w0 = 1.0
+                if srat:
+                    w0 = 0.0
+                    for r in range(pu + 1):
+                        w0 += nbu[r] * tmp[r, dim]
+                for dd in range(dim):
+                    acc = 0.0
+                    for r in range(pu + 1):
+                        acc += nbu[r] * tmp[r, dd]
+                    res[dd] = acc / w0 if srat else acc
                 for q in range(3):
-                    pts[k, j, q] = res[0, q]
+                    pts[k, j, q] = res[q]
         prev_s = a[i] + d * t[m - 1]
         # as chord_criteria_kernel
         lmax = 0.0
@@ -744,6 +824,41 @@ def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku
                 state = 5
                 continue
         return x, -1.0
+
+
+@njit(cache=True, nogil=True)
+def equidistributed_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
+                                  ci, cf, ck, cpw, cku, ckv, cpw4, c_off, x0, x_off, degen, tol_single, tol_shared,
+                                  max_edge, max_values):
+    """`equidistributed_kernel` of every chunk in one call (the chunk family kind 1 of all uses, chunk c
+    = uses c_off[c]:c_off[c + 1], its start values x0[x_off[c]:x_off[c + 1]]), as `trims.discretize_chunks`
+    called it chunk by chunk: [0, 1] for a degenerate chunk (degen[c]) and for one the kernel refuses
+    (status[c] = 1, needed >= 0); tolerance tol_shared for a chunk of two uses or more, else tol_single.
+
+    Returns (values (all chunks' one after the other), v_off (n + 1,), status (n,))."""
+    n = c_off.shape[0] - 1
+    parts = []
+    status = np.zeros(n, dtype=np.int64)
+    v_off = np.zeros(n + 1, dtype=np.int64)
+    for c in range(n):
+        u0, u1 = c_off[c], c_off[c + 1]
+        x = np.empty(2)
+        x[0], x[1] = 0.0, 1.0
+        if not degen[c]:
+            tol = tol_shared if u1 - u0 >= 2 else tol_single
+            v, needed = equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
+                                               ci[u0:u1].copy(), cf[u0:u1].copy(), ck, cpw, cku, ckv, cpw4,
+                                               x0[x_off[c]:x_off[c + 1]].copy(), 0.0, 1.0, tol, max_edge, max_values)
+            if needed >= 0:
+                status[c] = 1
+            else:
+                x = v
+        parts.append(x)
+        v_off[c + 1] = v_off[c] + x.shape[0]
+    out = np.empty(v_off[n])
+    for c in range(n):
+        out[v_off[c]:v_off[c + 1]] = parts[c]
+    return out, v_off, status
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
