@@ -39,7 +39,6 @@ KERNELS = {
     "trimsurf.geom._seed_kernels": ("seed_grid_kernel",),
     "trimsurf.geom.predicates": ("_slab_index", "_points_in_polygons_kernel"),
     "trimsurf.tessellate._line_kernels": ("loop_polylines_kernel", "inside_grids_kernel", "equidistributed_kernel",
-                                          "equidistributed_chunks_kernel",
                                           "line_net_kernel", "inside_grid_kernel", "cache_cells_kernel",
                                           "cell_deviation_kernel", "refine_round_kernel"),
     "trimsurf.tessellate._chunk_kernels": ("discretize_chunks_kernel", "pcurve_ends_kernel"),

@@ -826,41 +826,6 @@ def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku
         return x, -1.0
 
 
-@njit(cache=True, nogil=True)
-def equidistributed_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
-                                  ci, cf, ck, cpw, cku, ckv, cpw4, c_off, x0, x_off, degen, tol_single, tol_shared,
-                                  max_edge, max_values):
-    """`equidistributed_kernel` of every chunk in one call (the chunk family kind 1 of all uses, chunk c
-    = uses c_off[c]:c_off[c + 1], its start values x0[x_off[c]:x_off[c + 1]]), as `trims.discretize_chunks`
-    called it chunk by chunk: [0, 1] for a degenerate chunk (degen[c]) and for one the kernel refuses
-    (status[c] = 1, needed >= 0); tolerance tol_shared for a chunk of two uses or more, else tol_single.
-
-    Returns (values (all chunks' one after the other), v_off (n + 1,), status (n,))."""
-    n = c_off.shape[0] - 1
-    parts = []
-    status = np.zeros(n, dtype=np.int64)
-    v_off = np.zeros(n + 1, dtype=np.int64)
-    for c in range(n):
-        u0, u1 = c_off[c], c_off[c + 1]
-        x = np.empty(2)
-        x[0], x[1] = 0.0, 1.0
-        if not degen[c]:
-            tol = tol_shared if u1 - u0 >= 2 else tol_single
-            v, needed = equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
-                                               ci[u0:u1].copy(), cf[u0:u1].copy(), ck, cpw, cku, ckv, cpw4,
-                                               x0[x_off[c]:x_off[c + 1]].copy(), 0.0, 1.0, tol, max_edge, max_values)
-            if needed >= 0:
-                status[c] = 1
-            else:
-                x = v
-        parts.append(x)
-        v_off[c + 1] = v_off[c] + x.shape[0]
-    out = np.empty(v_off[n])
-    for c in range(n):
-        out[v_off[c]:v_off[c + 1]] = parts[c]
-    return out, v_off, status
-
-
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _use_uv(ci, cf, ck, cpw, j, s, out):
     """uv of use j of a chunk family at the chunk parameters s (as `ChunkUse.uv`: p(t(s)) clipped into
