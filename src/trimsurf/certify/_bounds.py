@@ -35,6 +35,9 @@ from numba import njit
 
 from ..geom import bezier_extract, bezier_extract_surface
 from ..model import NurbsCurve, NurbsSurface
+from .._numba_load import install as _install_lazy_bitcode
+
+_install_lazy_bitcode()     # before this module's kernels load (trimsurf._numba_load)
 
 __all__ = ["CurveBounds", "SurfaceBounds", "curve_bounds", "surface_bounds", "max_over_spans", "max_over_boxes",
            "box_bounds"]

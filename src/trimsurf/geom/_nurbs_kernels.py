@@ -12,7 +12,8 @@ from numba import njit
 
 from .._numba_load import install as _install_lazy_bitcode
 
-# every trimsurf kernel module imports this one (through trimsurf.model or trimsurf.geom) before its first call
+# before any kernel loads: this module is imported by the kernel modules that call its helpers; the others
+# call `_numba_load.install` themselves (geom.nurbs imports this module only on first use)
 _install_lazy_bitcode()
 
 

@@ -16,6 +16,9 @@ from fractions import Fraction
 import numpy as np
 from numba import njit
 from scipy.spatial import cKDTree
+from .._numba_load import install as _install_lazy_bitcode
+
+_install_lazy_bitcode()     # before this module's kernels load (trimsurf._numba_load)
 
 __all__ = ["orient2d", "points_in_polygons", "PolygonIndex", "segment_intersections", "polyline_self_intersections",
            "polygon_signed_area"]

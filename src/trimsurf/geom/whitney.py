@@ -51,6 +51,9 @@ import numpy as np
 from numba import njit
 
 from ..errors import GeometryError, TrimLoopError
+from .._numba_load import install as _install_lazy_bitcode
+
+_install_lazy_bitcode()     # before this module's kernels load (trimsurf._numba_load)
 
 __all__ = ["WhitneyExtension", "whitney_extension", "lipschitz_constant", "BoundaryData", "boundary_data",
            "lipschitz_loops", "WhitneyAverage", "whitney_average"]

@@ -19,9 +19,12 @@ import numpy as np
 import triangle as tr
 from numba import njit
 
+from .._numba_load import install as _install_lazy_bitcode
 from ..errors import TrimLoopError
 from ..geom.predicates import _CCW_BOUND, PolygonIndex, _point_in_index, _slab_index
 from .pslg import _is_clean_kernel, clean_pslg
+
+_install_lazy_bitcode()     # before this module's kernels load (trimsurf._numba_load)
 
 __all__ = ["outcodes", "cohen_sutherland_cells", "DomainTriangulation", "triangulate_domain"]
 

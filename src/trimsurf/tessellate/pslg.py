@@ -26,6 +26,9 @@ from scipy.spatial import cKDTree
 
 from ..errors import TrimLoopError
 from ..geom.predicates import _CCW_BOUND, _may_cross, orient2d
+from .._numba_load import install as _install_lazy_bitcode
+
+_install_lazy_bitcode()     # before this module's kernels load (trimsurf._numba_load)
 
 __all__ = ["clean_pslg", "crossing_segments"]
 
