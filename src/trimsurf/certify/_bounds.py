@@ -33,9 +33,9 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .._numba_load import install as _install_lazy_bitcode
 from ..geom import bezier_extract, bezier_extract_surface
 from ..model import NurbsCurve, NurbsSurface
-from .._numba_load import install as _install_lazy_bitcode
 
 _install_lazy_bitcode()     # before this module's kernels load (trimsurf._numba_load)
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+
 from .._numba_load import install as _install_lazy_bitcode
 
 _install_lazy_bitcode()     # before this module's kernels load (trimsurf._numba_load)

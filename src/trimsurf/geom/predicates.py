@@ -16,6 +16,7 @@ from fractions import Fraction
 import numpy as np
 from numba import njit
 from scipy.spatial import cKDTree
+
 from .._numba_load import install as _install_lazy_bitcode
 
 _install_lazy_bitcode()     # before this module's kernels load (trimsurf._numba_load)

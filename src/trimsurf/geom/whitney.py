@@ -50,8 +50,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ..errors import GeometryError, TrimLoopError
 from .._numba_load import install as _install_lazy_bitcode
+from ..errors import GeometryError, TrimLoopError
 
 _install_lazy_bitcode()     # before this module's kernels load (trimsurf._numba_load)
 

@@ -2,7 +2,36 @@
 
 from __future__ import annotations
 
-__all__ = ["collapse_sets"]
+import numpy as np
+from numba import njit
+
+from .._numba_load import install as _install_lazy_bitcode
+
+_install_lazy_bitcode()     # before this module's kernels load (trimsurf._numba_load)
+
+__all__ = ["collapse_sets", "vertex_triangles"]
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def vertex_triangles(T, idx, nv):
+    """Vertex -> triangles in CSR form over the triangles T[idx] (in idx order): the triangles of vertex w
+    are ``vtri[start[w]:start[w + 1]]`` (the compiled kernels' `collapse_sets` input)."""
+    m = idx.shape[0]
+    start = np.zeros(nv + 1, dtype=np.int64)
+    for r in range(m):
+        for c in range(3):
+            start[T[idx[r], c] + 1] += 1
+    for w in range(nv):
+        start[w + 1] += start[w]
+    fill = start[:-1].copy()
+    vtri = np.empty(3 * m, dtype=np.int64)
+    for r in range(m):
+        t = idx[r]
+        for c in range(3):
+            w = T[t, c]
+            vtri[fill[w]] = t
+            fill[w] += 1
+    return start, vtri
 
 
 def collapse_sets(Tl: list, vtri, vstart, v: int, u: int):

@@ -92,33 +92,41 @@ def _loop_polys(face: TrimmedFace, n: int = 6) -> list:
     return [loop.polyline(n) for loop in face.loops]
 
 
-def _loop_polylines(face: TrimmedFace, n_a: int, n_b: int) -> tuple[list, list]:
-    """[loop.polylines(n_a, n_b)[0] for each loop], [... [1] ...]: the same points, all segments in one
-    compiled call (`loop_polylines_kernel`)."""
+def _sample_loops(faces, n_a: int, n_b: int) -> tuple:
+    """Every trim segment of `faces` sampled as `loop.polylines(n_a, n_b)` does, all in one compiled call
+    (`loop_polylines_kernel`): (out_a, out_b) with n - 1 rows per segment in face, loop, segment order;
+    loop_segs, per loop (first segment, segment count); face_loops, per face (first loop, loop count)."""
     si, knots, pws, sf = [], [], [], []
     ko = po = 0
-    counts = []
-    for loop in face.loops:
-        counts.append(len(loop.segments))
-        for seg in loop.segments:
-            c = seg.curve
-            k = np.asarray(c.knots, dtype=np.float64)
-            pw = _homogeneous(c.control_points, c.weights)
-            si.append((c.degree, ko, len(k), po, pw.shape[0], pw.shape[1], c.weights is not None))
-            sf.append((seg.t0, seg.t1))
-            knots.append(k)
-            pws.append(pw.ravel())
-            ko += len(k)
-            po += pw.size
+    loop_segs = []
+    face_loops = []
+    for face in faces:
+        face_loops.append((len(loop_segs), len(face.loops)))
+        for loop in face.loops:
+            loop_segs.append((len(si), len(loop.segments)))
+            for seg in loop.segments:
+                c = seg.curve
+                k = np.asarray(c.knots, dtype=np.float64)
+                pw = _homogeneous(c.control_points, c.weights)
+                si.append((c.degree, ko, len(k), po, pw.shape[0], pw.shape[1], c.weights is not None))
+                sf.append((seg.t0, seg.t1))
+                knots.append(k)
+                pws.append(pw.ravel())
+                ko += len(k)
+                po += pw.size
     m = len(si)
     out_a, out_b = np.empty((m * (n_a - 1), 2)), np.empty((m * (n_b - 1), 2))
-    loop_polylines_kernel(np.array(si, dtype=np.int64), np.array(sf, dtype=np.float64),
-                          read_only(np.concatenate(knots)), read_only(np.concatenate(pws)), n_a, n_b, out_a, out_b)
-    a, b, j = [], [], 0
-    for c in counts:
-        a.append(out_a[j * (n_a - 1):(j + c) * (n_a - 1)])
-        b.append(out_b[j * (n_b - 1):(j + c) * (n_b - 1)])
-        j += c
+    if m:
+        loop_polylines_kernel(np.array(si, dtype=np.int64), np.array(sf, dtype=np.float64),
+                              read_only(np.concatenate(knots)), read_only(np.concatenate(pws)), n_a, n_b, out_a, out_b)
+    return out_a, out_b, loop_segs, face_loops
+
+
+def _loop_polylines(face: TrimmedFace, n_a: int, n_b: int) -> tuple[list, list]:
+    """[loop.polylines(n_a, n_b)[0] for each loop], [... [1] ...]: the same points (`_sample_loops`)."""
+    out_a, out_b, loop_segs, _ = _sample_loops([face], n_a, n_b)
+    a = [out_a[j * (n_a - 1):(j + c) * (n_a - 1)] for j, c in loop_segs]
+    b = [out_b[j * (n_b - 1):(j + c) * (n_b - 1)] for j, c in loop_segs]
     return a, b
 
 
@@ -407,29 +415,7 @@ def face_fronts(faces) -> list:
     numbers are those `_domain_values` computes per face (`_loop_polylines`, `grid_box`, `PolygonIndex`,
     `_inside_raster`)."""
     n_a, n_b = 32, 6
-    si, knots, pws, sf = [], [], [], []
-    ko = po = 0
-    loop_segs = []          # per loop: (first segment, segment count)
-    face_loops = []         # per face: (first loop, loop count)
-    for face in faces:
-        face_loops.append((len(loop_segs), len(face.loops)))
-        for loop in face.loops:
-            loop_segs.append((len(si), len(loop.segments)))
-            for seg in loop.segments:
-                c = seg.curve
-                k = np.asarray(c.knots, dtype=np.float64)
-                pw = _homogeneous(c.control_points, c.weights)
-                si.append((c.degree, ko, len(k), po, pw.shape[0], pw.shape[1], c.weights is not None))
-                sf.append((seg.t0, seg.t1))
-                knots.append(k)
-                pws.append(pw.ravel())
-                ko += len(k)
-                po += pw.size
-    m = len(si)
-    out_a, out_b = np.empty((m * (n_a - 1), 2)), np.empty((m * (n_b - 1), 2))
-    if m:
-        loop_polylines_kernel(np.array(si, dtype=np.int64), np.array(sf, dtype=np.float64),
-                              read_only(np.concatenate(knots)), read_only(np.concatenate(pws)), n_a, n_b, out_a, out_b)
+    out_a, out_b, loop_segs, face_loops = _sample_loops(faces, n_a, n_b)
     # each loop's next vertex by index (PolygonIndex's), over all loops
     nxt = np.arange(1, len(out_b) + 1)
     for s0, c in loop_segs:

@@ -24,9 +24,9 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from .._numba_load import install as _install_lazy_bitcode
 from ..errors import TrimLoopError
 from ..geom.predicates import _CCW_BOUND, _may_cross, orient2d
-from .._numba_load import install as _install_lazy_bitcode
 
 _install_lazy_bitcode()     # before this module's kernels load (trimsurf._numba_load)
 

@@ -28,6 +28,7 @@ from numba import njit
 from ..geom._nurbs_kernels import _point_scratch, _surface_point01, surface_derivatives_kernel
 from ..geom.nurbs import _clip, _homogeneous, read_only, unit_normals
 from ..model import NurbsSurface, TriMesh
+from ._collapse import vertex_triangles
 
 __all__ = ["reduce_seams"]
 
@@ -69,20 +70,7 @@ def _seam_select_kernel(T, idx, fid, nv, cv, cu, interior):
 
     Returns (taken q, moved triangles, their offsets per taken q, gone (s, 2), skipped q)."""
     m = idx.shape[0]
-    start = np.zeros(nv + 1, dtype=np.int64)
-    for r in range(m):
-        for c in range(3):
-            start[T[idx[r], c] + 1] += 1
-    for w in range(nv):
-        start[w + 1] += start[w]
-    fill = start[:-1].copy()
-    vtri = np.empty(3 * m, dtype=np.int64)
-    for r in range(m):
-        t = idx[r]
-        for c in range(3):
-            w = T[t, c]
-            vtri[fill[w]] = t
-            fill[w] += 1
+    start, vtri = vertex_triangles(T, idx, nv)
     n = cv.shape[0]
     locked = np.zeros(nv, dtype=np.bool_)
     in_star = np.full(nv, -1, dtype=np.int64)

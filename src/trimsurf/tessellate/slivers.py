@@ -15,10 +15,11 @@ import math
 
 import numpy as np
 from numba import njit
+
 from .._numba_load import install as _install_lazy_bitcode
+from ._collapse import vertex_triangles
 
 _install_lazy_bitcode()     # before this module's kernels load (trimsurf._numba_load)
-
 
 __all__ = ["collapse_boundary_slivers"]
 
@@ -99,20 +100,7 @@ def _select_collapses_kernel(T, idx, nv, inner, trim):
 
     Returns (q taken, moved triangles, their offsets per taken q, gone triangles, their offsets)."""
     m = idx.shape[0]
-    start = np.zeros(nv + 1, dtype=np.int64)
-    for r in range(m):
-        for c in range(3):
-            start[T[idx[r], c] + 1] += 1
-    for w in range(nv):
-        start[w + 1] += start[w]
-    fill = start[:-1].copy()
-    vtri = np.empty(3 * m, dtype=np.int64)
-    for r in range(m):
-        t = idx[r]
-        for c in range(3):
-            w = T[t, c]
-            vtri[fill[w]] = t
-            fill[w] += 1
+    start, vtri = vertex_triangles(T, idx, nv)
     n = inner.shape[0]
     locked = np.zeros(nv, dtype=np.bool_)
     in_nu = np.full(nv, -1, dtype=np.int64)
@@ -283,6 +271,28 @@ def _sliver_pick_kernel(T, idx, mixed, angle, is_trim, xyz, min_angle, nv):
     return thin_ang, inner, trim, qs, mv, ms, gn, gs
 
 
+def _apply_round(surface, uv, xyz, T, alive, changed, angle, sgn, inner, trim, thin_ang, picks,
+                 tolerance, max_edge) -> bool:
+    """Apply the collapses inner[q] -> trim[q] a round picked (`picks`: `_select_collapses_kernel`'s five
+    arrays) that pass `_check`, in place on T, alive, changed, angle; False if none passes."""
+    qs, mv, ms, gn, gs = picks
+    cv, cu = inner[qs], trim[qs]
+    ci = np.repeat(np.arange(len(qs)), np.diff(ms))
+    ok = _check(surface, uv, xyz, T, cv, cu, thin_ang[qs], mv, ci, sgn, tolerance, max_edge)
+    if not ok.any():
+        return False
+    # the good collapses at once (their stars do not overlap): v becomes u in the moved triangles
+    good = ok[ci]
+    if good.any():
+        mvg = mv[good]
+        tm = T[mvg]
+        T[mvg] = np.where(tm == cv[ci[good], None], cu[ci[good], None], tm)
+        changed[mvg] = True
+        angle[mvg] = np.nan
+    alive[gn[np.repeat(ok, np.diff(gs))]] = False
+    return True
+
+
 def collapse_boundary_slivers(surface, uv: np.ndarray, xyz: np.ndarray, triangles: np.ndarray, is_trim: np.ndarray,
                               *, tolerance: float, max_edge: float, min_angle_deg: float = 12.0,
                               rounds: int = 3) -> tuple[np.ndarray, np.ndarray]:
@@ -334,20 +344,9 @@ def collapse_boundary_slivers(surface, uv: np.ndarray, xyz: np.ndarray, triangle
                                                                         float(min_angle_deg), nv)
         if not len(qs):
             break
-        cv, cu = inner[qs], trim[qs]
-        ci = np.repeat(np.arange(len(qs)), np.diff(ms))
-        ok = _check(surface, uv, xyz, T, cv, cu, thin_ang[qs], mv, ci, sgn, tolerance, max_edge)
-        if not ok.any():
+        if not _apply_round(surface, uv, xyz, T, alive, changed, angle, sgn, inner, trim, thin_ang,
+                            (qs, mv, ms, gn, gs), tolerance, max_edge):
             break
-        # the good collapses at once (their stars do not overlap): v becomes u in the moved triangles
-        good = ok[ci]
-        if good.any():
-            mvg = mv[good]
-            tm = T[mvg]
-            T[mvg] = np.where(tm == cv[ci[good], None], cu[ci[good], None], tm)
-            changed[mvg] = True
-            angle[mvg] = np.nan
-        alive[gn[np.repeat(ok, np.diff(gs))]] = False
     return _sliver_result_kernel(T, alive, changed)
 
 
@@ -411,20 +410,9 @@ def _collapse_boundary_slivers_numpy(surface, uv: np.ndarray, xyz: np.ndarray, t
         qs, mv, ms, gn, gs = _select_collapses_kernel(T, idx, nv, inner, trim)
         if not len(qs):
             break
-        cv, cu = inner[qs], trim[qs]
-        ci = np.repeat(np.arange(len(qs)), np.diff(ms))
-        ok = _check(surface, uv, xyz, T, cv, cu, thin_ang[qs], mv, ci, sgn, tolerance, max_edge)
-        if not ok.any():
+        if not _apply_round(surface, uv, xyz, T, alive, changed, angle, sgn, inner, trim, thin_ang,
+                            (qs, mv, ms, gn, gs), tolerance, max_edge):
             break
-        # the good collapses at once (their stars do not overlap): v becomes u in the moved triangles
-        good = ok[ci]
-        if good.any():
-            mvg = mv[good]
-            tm = T[mvg]
-            T[mvg] = np.where(tm == cv[ci[good], None], cu[ci[good], None], tm)
-            changed[mvg] = True
-            angle[mvg] = np.nan
-        alive[gn[np.repeat(ok, np.diff(gs))]] = False
     kept = np.full(len(T), -1, dtype=np.int64)
     kept[alive] = np.arange(int(alive.sum()))
     kept[changed] = -1
