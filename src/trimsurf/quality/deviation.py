@@ -230,7 +230,7 @@ _SPAN_BOUNDS: dict = {}
 
 def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, two_sided: bool, tol_rel: float,
                        trim_tol_uv: float | None, adaptive: bool = False, pre: _Pre | None = None,
-                       skip_at: float = -np.inf):
+                       skip_at: float = -np.inf, prune: bool = False):
     """`surface_deviation` and, with `adaptive`, the state `refine_deviation` continues from.
 
     `pre` (`_prepare_face`, with `adaptive` and `two_sided`): the samples and vertex feet computed
@@ -315,6 +315,7 @@ def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, tw
                            two_sided, loop_polygons(face) if face.loops else None, loc, fine=fine)
         if skip is not None:
             state.skip, state.apriori = skip, pre.apriori
+        state.prune = bool(prune)
         if density % 3 == 0:    # the centroid (1, 1, 1) / 3 is a node of the grid: kept for `flipped_against_normal`
             k = density // 3
             cen = np.flatnonzero((samples.kind == 2) & np.all(np.rint(samples.barycentric * density) == k, axis=1))
@@ -482,7 +483,7 @@ def _shell_deviation(mesh: TriMesh, shell: Shell, *, density: int, n_domain: int
             pre = _prepare_face(subs[i], as_face(shell.faces[i]), density, tol_rel)
         dev, st = _surface_deviation(subs[i], shell.faces[i], density=density, n_domain=n_domain,
                                      two_sided=two_sided, tol_rel=tol_rel, trim_tol_uv=None,
-                                     adaptive=refine is not None, pre=pre, skip_at=t_skip)
+                                     adaptive=refine is not None, pre=pre, skip_at=t_skip, prune=bool(flat))
         if np.isfinite(dev.max_mesh_to_target):
             m1 = max(m1, float(dev.max_mesh_to_target))
         if np.isfinite(dev.max_target_to_mesh):
@@ -558,6 +559,7 @@ class _FaceState:
     skip: np.ndarray | None = None          # (m,) triangles skipped (a-priori bound below the maxima) or None
     apriori: np.ndarray | None = None       # (m,) their a-priori bounds (`interpolation_bound`) or None
     fine: list = field(default_factory=list)    # the fine trim polygons of `_drop_outside`, once computed
+    prune: bool = False         # refinement nodes below their thresholds by their chord bound are not measured
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -955,8 +957,13 @@ def _sample_more(devs, states, info, i, cand, tol_rel, surface_only=False, prev=
         # a node below both its triangle's largest value so far and the face's largest mesh sample
         # changes neither: the projection may stop at its warm-started run (`skip_below`)
         below = np.minimum(st.tri_max[rows], mx) if np.isfinite(mx) else None
-        d = np.empty(len(rows))
-        for sel, start in ((good, True), (~good, False)):
+        d = np.full(len(rows), -np.inf)
+        todo = np.ones(len(rows), dtype=bool)
+        if st.prune and below is not None:
+            # a node whose chord distance |S(x(w)) - p(w)| stays below its threshold cannot reach it
+            # (`_chord_bound`): not projected
+            todo = ~(_chord_bound(st.face.surface, uv0, pts, tol_rel) < below)
+        for sel, start in ((good & todo, True), (~good & todo, False)):
             if sel.all():
                 d = _project_once(pts, uv0 if start else None, on_edge, st.face, tol_rel, below if start else None)
                 break
@@ -967,12 +974,49 @@ def _sample_more(devs, states, info, i, cand, tol_rel, surface_only=False, prev=
         j = int(np.argmax(d))
         if d[j] > mx:
             mx, where = float(d[j]), pts[j].copy()
-        n1 += len(d)
+        n1 += int(todo.sum())
     if parts[1]:
         mx2, where2, n2 = _sample_surface_side(st, ok, parts[1], mx2, where2, n2)
     devs[i] = replace(dev, max_mesh_to_target=mx, where_mesh_to_target=where, max_target_to_mesh=mx2,
                       where_target_to_mesh=where2, n_mesh_samples=n1, n_target_samples=n2,
                       max_two_sided=float(np.nanmax([mx, mx2])))
+
+
+#: `_chord_bound`'s allowance for the projection's own convergence, in projection tolerances (tol_rel x the
+#: control net's diagonal): the Newton iteration stops within a few tol of a foot
+CHORD_SLACK_TOL = 100.0
+
+
+def _chord_bound(surface, uv: np.ndarray, pts: np.ndarray, tol_rel: float) -> np.ndarray:
+    """Per node (uv (n, 2), pts (n, 3)): ``|S(x) - p| + slack``, x the (u, v) clamped to the domain, with
+    slack = `CHORD_SLACK_TOL` x the projection tolerance + 64 ulp of the coordinates; inf where x or S(x) is
+    not finite.
+
+    S(x) is a point of the (untrimmed) surface, so the distance of p to the surface is at most |S(x) - p|;
+    where p = p(w) is a point of a triangle of the face's mesh and x = x(w) the same barycentric
+    combination of its corners' feet, |S(x(w)) - p(w)| also bounds the distance of the surface point
+    S(x(w)) to the mesh. Both samples a refinement node stands for are then at most this value: the
+    projection (a Newton run from x itself, which only descends, then restarts that keep closer feet) ends
+    within a few tolerances of a distance at most |S(x) - p|, and the mesh search is exact up to the
+    rounding of the coordinates. A node whose bound is below a threshold the caller compares against
+    (its triangle's largest value, the face's maximum) therefore cannot reach it: not measuring it
+    changes no maximum (`_sample_more`)."""
+    n = len(pts)
+    out = np.full(n, np.inf)
+    fin = np.all(np.isfinite(uv), axis=1) if n else np.zeros(0, dtype=bool)
+    if not fin.any():
+        return out
+    (u0, u1), (v0, v1) = surface.domain
+    x = np.column_stack([np.clip(uv[fin, 0], u0, u1), np.clip(uv[fin, 1], v0, v1)])
+    q = surface.evaluate(x)
+    p = pts[fin]
+    cp = np.asarray(surface.control_points, dtype=np.float64).reshape(-1, 3)
+    diag = float(np.linalg.norm(cp.max(axis=0) - cp.min(axis=0))) or 1.0
+    slack = CHORD_SLACK_TOL * tol_rel * diag + 64.0 * np.finfo(np.float64).eps * (
+        np.abs(p).max(axis=1) + np.abs(q).max(axis=1))
+    val = np.linalg.norm(q - p, axis=1) + slack
+    out[fin] = np.where(np.isfinite(val), val, np.inf)
+    return out
 
 
 def _project_once(pts: np.ndarray, uv0: np.ndarray | None, on_edge: np.ndarray, face, tol_rel: float,
@@ -1030,6 +1074,15 @@ def _sample_surface_side(st, ok, parts, mx2, where2, n2):
     rows2 = np.concatenate([np.repeat(tri, len(w)) for tri, w in parts])
     ww2 = np.concatenate([np.tile(w, (len(tri), 1)) for tri, w in parts])
     uv = np.einsum("kj,kjd->kd", ww2, st.vert_uv[t[rows2]])
+    if st.prune and np.isfinite(mx2):
+        # a node whose chord distance |S(x(w)) - p(w)| (p(w) a point of the mesh) stays below both its
+        # triangle's largest value and the face's surface -> mesh maximum changes neither: not measured
+        pw = np.einsum("kj,kjd->kd", ww2, st.mesh.vertices[t[rows2]])
+        todo = ~(_chord_bound(st.face.surface, uv, pw, 0.0) < np.minimum(st.tri_max[rows2], mx2))
+        if not todo.all():
+            rows2, uv = rows2[todo], uv[todo]
+            if not len(rows2):
+                return mx2, where2, n2
     q = st.face.surface.evaluate(uv)
     # a footprint point outside the trimmed region (a chord of a curved border) is no point of the face
     inside = np.ones(len(uv), dtype=bool) if st.polys is None else _inside_loops(st.face, uv)
