@@ -1074,15 +1074,6 @@ def _sample_surface_side(st, ok, parts, mx2, where2, n2):
     rows2 = np.concatenate([np.repeat(tri, len(w)) for tri, w in parts])
     ww2 = np.concatenate([np.tile(w, (len(tri), 1)) for tri, w in parts])
     uv = np.einsum("kj,kjd->kd", ww2, st.vert_uv[t[rows2]])
-    if st.prune and np.isfinite(mx2):
-        # a node whose chord distance |S(x(w)) - p(w)| (p(w) a point of the mesh) stays below both its
-        # triangle's largest value and the face's surface -> mesh maximum changes neither: not measured
-        pw = np.einsum("kj,kjd->kd", ww2, st.mesh.vertices[t[rows2]])
-        todo = ~(_chord_bound(st.face.surface, uv, pw, 0.0) < np.minimum(st.tri_max[rows2], mx2))
-        if not todo.all():
-            rows2, uv = rows2[todo], uv[todo]
-            if not len(rows2):
-                return mx2, where2, n2
     q = st.face.surface.evaluate(uv)
     # a footprint point outside the trimmed region (a chord of a curved border) is no point of the face
     inside = np.ones(len(uv), dtype=bool) if st.polys is None else _inside_loops(st.face, uv)
