@@ -811,7 +811,10 @@ def refine_deviation(devs: list, states: list, *, rel: float = 0.01, tol_rel: fl
     left: the same stopping rule as doubling, with fewer nodes (the grids are
     not nested, so the maximum may come out lower than doubling's, still
     within ``rel`` of the bound). Nodes of the previous grid and of the first
-    pass's that the new grid repeats are not measured again.
+    pass's that the new grid repeats are not measured again. With pruning (the report's measurement,
+    `_shell_deviation` with ``skip``), a mesh-side node whose chord bound (`_chord_bound`) is below both its
+    triangle's largest value and the face's mesh -> surface maximum is not projected: its value could
+    change neither, so every D_t, bound and decision is the same.
 
     What the result bounds: the maximum stays a sampled figure, within ``rel``
     of the bound; ``max(B_t)`` (returned, and each Deviation's ``max_bound``)
