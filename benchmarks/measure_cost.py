@@ -10,7 +10,8 @@ of the compiled kernels (Newton, surface evaluation, seed grids and their k-d qu
 polygon, (u, v) location) within one more measurement, timed per call; ``floor`` = kern s / mesh s, what
 the measurement would cost against the meshing with no Python around the kernels at all.
 
-``--reference SRC`` times another checkout's ``src`` in a child process on the same meshes (pickled), e.g.
+``--reference SRC`` times another checkout's ``src`` in a child process on the same meshes (pickled; ``ref s``,
+``ref kern`` its kernels as ``kern s``), e.g.
 ``--reference /work/main/src``, so old and new measure the same triangles.
 
 Usage: python benchmarks/measure_cost.py [--models a,b] [--reps 3] [--reference SRC] [--json out.json]
@@ -97,7 +98,7 @@ def main(argv=None) -> int:
     head = (f"{'model':30} {'mode':8} {'tris':>6} {'mesh s':>7} {'measure s':>9} {'ratio':>5} {'max/eps':>9} "
             f"{'bnd/eps':>8} {'kern s':>6} {'floor':>5}")
     if a.reference:
-        head += f" {'ref s':>6} {'ref max/eps':>11}"
+        head += f" {'ref s':>6} {'ref max/eps':>11} {'ref kern':>8}"
     print(head, flush=True)
     with tempfile.TemporaryDirectory() as tmp:
         for name in a.models.split(","):
@@ -121,8 +122,9 @@ def main(argv=None) -> int:
                 if a.reference:
                     ref = _measure(a.reference, shell, res, a.reps, Path(tmp))
                     row.update(reference_seconds_measure=ref["cpu"], reference_max_deviation=ref["max"],
-                               reference_max_deviation_bound=ref["bound"], reference_flipped=ref["flipped"])
-                    line += f" {ref['cpu']:6.3f} {ref['max'] / eps:11.6f}"
+                               reference_max_deviation_bound=ref["bound"], reference_flipped=ref["flipped"],
+                               reference_seconds_kernels=ref["kernels"])
+                    line += f" {ref['cpu']:6.3f} {ref['max'] / eps:11.6f} {ref['kernels']:8.3f}"
                 rows.append(row)
                 print(line, flush=True)
     if a.json:
