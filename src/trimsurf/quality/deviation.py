@@ -1003,7 +1003,10 @@ def _chord_bound(surface, uv: np.ndarray, pts: np.ndarray, tol_rel: float) -> np
     within a few tolerances of a distance at most |S(x) - p|, and the mesh search is exact up to the
     rounding of the coordinates. A node whose bound is below a threshold the caller compares against
     (its triangle's largest value, the face's maximum) therefore cannot reach it: not measuring it
-    changes no maximum (`_sample_more`)."""
+    changes no maximum (`_sample_more`). One case could differ: a warm run that does not converge is
+    redone from a seed and replaced by that run, which may end in a farther basin; that value (above
+    the true distance, which is at most the bound) is then not taken, and the pruned figure is the more
+    exact one (not seen on the 34 shared meshes: `benchmarks/measure_same.py`)."""
     n = len(pts)
     out = np.full(n, np.inf)
     fin = np.all(np.isfinite(uv), axis=1) if n else np.zeros(0, dtype=bool)
