@@ -1,6 +1,6 @@
 """Refinement nodes pruned by their chord bound change no figure (issue 17, item 2).
 
-`quality.deviation._sample_more` does not measure a refinement node whose chord bound
+`quality.deviation._sample_more` does not project a refinement node whose chord bound
 ``|S(x(w)) - p(w)|`` (+ slack, `_chord_bound`) stays below the values it is compared with (its triangle's
 largest value and the face's maximum). The checks:
 
@@ -9,7 +9,11 @@ largest value and the face's maximum). The checks:
   of the screw (tolerance-only), and it is close to them (it is not vacuous);
 - on real meshes the report's figures with pruning are those without, bit for bit, and so are the
   per-face maxima and every triangle's largest value and final density, with fewer samples;
-- a bound that is deliberately too small (0.9x) changes them: the comparison above can fail.
+- the nodes still projected keep a warm-started run whose distance stays below their threshold
+  (`project_to_surface`'s ``skip_below``, given the threshold over its settling fraction); the reference
+  above projects every node with the full search;
+- a bound that is deliberately too small (0.9x), or warm runs kept up to 1.5x the threshold, change
+  them: the comparison above can fail.
 """
 
 import numpy as np
@@ -83,10 +87,19 @@ def test_same_figures_with_and_without_pruning(shared_data, monkeypatch, name, e
     shell, res = _tessellate(shared_data, name, edge)
     pruned = _figures(res.mesh, shell)
     bound = D._chord_bound
-    monkeypatch.setattr(D, "_chord_bound", lambda *a: np.full(len(a[2]), np.inf))     # never prunes
-    full = _figures(res.mesh, shell)
+    with monkeypatch.context() as m:
+        m.setattr(D, "_chord_bound", lambda *a: np.full(len(a[2]), np.inf))     # never prunes
+        # and every node projected with the full search (no warm run kept below the threshold)
+        m.setattr(D, "_project_once", lambda pts, uv0, on_edge, face, tol_rel, below=None:
+                  D.project_to_face(pts, face, tol_rel=tol_rel, uv0=uv0).distance)
+        full = _figures(res.mesh, shell)
     assert _same(pruned, full)
     assert pruned[4] < 0.9 * full[4]
     # a bound 0.9x as large prunes nodes that reach their thresholds: the triangles' maxima move
-    monkeypatch.setattr(D, "_chord_bound", lambda *a: 0.9 * bound(*a))
-    assert not _same(_figures(res.mesh, shell), full)
+    with monkeypatch.context() as m:
+        m.setattr(D, "_chord_bound", lambda *a: 0.9 * bound(*a))
+        assert not _same(_figures(res.mesh, shell), full)
+    # so does a warm run kept up to 1.5x the threshold
+    with monkeypatch.context() as m:
+        m.setattr(D, "_SETTLED_FRACTION", D._SETTLED_FRACTION / 1.5)
+        assert not _same(_figures(res.mesh, shell), full)

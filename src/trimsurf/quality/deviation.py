@@ -20,7 +20,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import InputError, MeshError
-from ..geom.projection import project_to_surface
+from ..geom.projection import _SETTLED_FRACTION, project_to_surface
 from ..model import Shell, TriMesh
 from ._results import ResultMixin
 from ._kernels import uv_locate_kernel
@@ -966,6 +966,10 @@ def _sample_more(devs, states, info, i, cand, tol_rel, surface_only=False, prev=
             # a node whose chord distance |S(x(w)) - p(w)| stays below its threshold cannot reach it
             # (`_chord_bound`): not projected
             todo = ~(_chord_bound(st.face.surface, uv0, pts, tol_rel) < below)
+            # `project_to_surface` settles a warm run at d <= _SETTLED_FRACTION x skip_below - 100 tol, and
+            # the full search could only end within 10 tol above d (its docstring): with the threshold
+            # over _SETTLED_FRACTION, a settled node stays below the threshold itself either way
+            below = below / _SETTLED_FRACTION
         for sel, start in ((good & todo, True), (~good & todo, False)):
             if sel.all():
                 d = _project_once(pts, uv0 if start else None, on_edge, st.face, tol_rel, below if start else None)
