@@ -134,9 +134,10 @@ def measure_mesh(mesh: TriMesh, shell: Shell, *, density: int = 3, n_domain: int
     Shortcuts that change no figure: an edge node shared by two refined
     triangles is projected once (the same point and start give the same
     foot), and a refinement node whose warm-started projection converges
-    below 0.9 x both its triangle's largest sample and the face's largest
-    mesh sample keeps that run, without the global-minimum restarts (they
-    could only bring it closer: it can raise neither maximum either way).
+    below both its triangle's largest sample and the face's largest
+    mesh sample (less 100 projection tolerances) keeps that run, without the
+    global-minimum restarts (they could only bring it closer, or at most 10
+    tolerances farther: it can raise neither maximum either way).
     A refinement node p(w) whose chord distance ``|S(x(w)) - p(w)|`` (x(w) the same barycentric
     combination of its triangle's corners' feet; plus 100 projection tolerances and the coordinates'
     rounding, `quality.deviation._chord_bound`) is below both its triangle's largest sample and the face's
