@@ -559,7 +559,7 @@ class _FaceState:
     skip: np.ndarray | None = None          # (m,) triangles skipped (a-priori bound below the maxima) or None
     apriori: np.ndarray | None = None       # (m,) their a-priori bounds (`interpolation_bound`) or None
     fine: list = field(default_factory=list)    # the fine trim polygons of `_drop_outside`, once computed
-    prune: bool = False         # refinement nodes below their thresholds by their chord bound are not measured
+    prune: bool = False         # refinement nodes below their thresholds by their chord bound are not projected
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -814,7 +814,9 @@ def refine_deviation(devs: list, states: list, *, rel: float = 0.01, tol_rel: fl
     pass's that the new grid repeats are not measured again. With pruning (the report's measurement,
     `_shell_deviation` with ``skip``), a mesh-side node whose chord bound (`_chord_bound`) is below both its
     triangle's largest value and the face's mesh -> surface maximum is not projected: its value could
-    change neither, so every D_t, bound and decision is the same.
+    change neither, so every D_t, bound and decision is the same; a node still projected keeps its
+    warm-started run when that ends 100 tolerances below the same threshold (the full search could end
+    at most 10 tolerances above it).
 
     What the result bounds: the maximum stays a sampled figure, within ``rel``
     of the bound; ``max(B_t)`` (returned, and each Deviation's ``max_bound``)
