@@ -42,6 +42,23 @@ def _same(a, b):
     return a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
 
 
+def test_lazy_rasters_are_the_batch_rasters(model):
+    """A face `face_fronts` does not rasterize (`rasterize` False: `shell_domain_values` leaves the planes'
+    rasters until a compiled placement reads one) builds the same raster when first read."""
+    faces, _ = model
+    every = face_fronts(faces)
+    pick = [i % 3 == 0 for i in range(len(faces))]
+    lazy = face_fronts(faces, pick)
+    assert any(fr.polys is not None and fr._raster is face_mod._PENDING for fr in lazy)
+    for fr, ref in zip(lazy, every):
+        if ref.raster is None:
+            assert fr.raster is None
+            continue
+        r = fr.raster
+        assert _same(r.dil, ref.raster.dil) and _same(r.lo, ref.raster.lo) and _same(r.step, ref.raster.step)
+        assert fr.raster is r       # built once
+
+
 def _outside_face(face):
     """`face` with one loop outside its surface's domain (grid_box: TrimLoopError)."""
     (u0, u1), (v0, v1) = face.surface.domain
@@ -95,22 +112,67 @@ def test_shell_domain_values_equal_face_domain_values(model, paper):
         face_domain_values(bad, tolerance=tol, max_edge=h)
 
 
-def _placements(faces, tol, h):
-    """The (family, a, b, tolerance, max_edge, x0) of every placement `shell_domain_values` asks for."""
+def _placements(faces, tol, h, check=False):
+    """The (family, a, b, tolerance, max_edge, x0) of every placement `shell_domain_values` asks for. With
+    `check`, each placement's values (or error) are also compared with `_placed_values`' (the full path:
+    the family built, x0 clipped from it, `IsoLines.single_interval`), and the count of the placements
+    that skipped the compiled call (`_single_interval`) is returned too."""
     seen = []
-    real = face_mod._placed_values
+    real = face_mod._place_axis
+    skipped = [0]
 
-    def record(evaluate, a, b, tolerance, max_edge, init, max_values):
-        seen.append((evaluate, float(a), float(b), float(tolerance), float(max_edge),
-                     _clipped_values(float(a), np.asarray(init, dtype=np.float64), float(b))))
-        return real(evaluate, a, b, tolerance, max_edge, init, max_values)
+    def record(family, axis, a, b, x0, info, tolerance, max_edge, max_values):
+        ev = family(axis)
+        seen.append((ev, float(a), float(b), float(tolerance), float(max_edge), x0))
+        try:
+            got = real(family, axis, a, b, x0, info, tolerance, max_edge, max_values)
+        except face_mod.InputError as exc:
+            got = exc
+        if check:       # the compiled placement itself, no shortcut
+            ref, needed = equidistributed_kernel(*ev.family(), x0, float(a), float(b), float(tolerance),
+                                                 float(max_edge), float(max_values))
+            if needed >= 0:
+                assert isinstance(got, face_mod.InputError)
+            else:
+                assert _same(got, ref)
+            assert ev.single_interval(a, b, tolerance, max_edge, len(x0) - 1) == \
+                face_mod._single_interval(info, a, b, float(tolerance), float(max_edge), len(x0) - 1)
+            skipped[0] += face_mod._single_interval(info, a, b, float(tolerance), float(max_edge), len(x0) - 1)
+        if isinstance(got, Exception):
+            raise got
+        return got
 
-    face_mod._placed_values = record
+    face_mod._place_axis = record
     try:
         shell_domain_values(faces, tolerance=tol, max_edge=h)
     finally:
-        face_mod._placed_values = real
-    return seen
+        face_mod._place_axis = real
+    return (seen, skipped[0]) if check else seen
+
+
+@pytest.mark.parametrize("paper", [False, True])
+def test_placement_shortcuts_are_the_full_path(model, paper):
+    """Every placement of `shell_domain_values` (the start values kept per axis, `_single_interval` from
+    the family's `_straight_info`, the family built only when the compiled call runs) gives the values
+    the compiled placement gives from the full family, without the shortcut; the shortcut fires on some
+    of them."""
+    faces, d = model
+    tol, h = SAMPLING_MARGIN * 1e-3 * d, (0.03 * d if paper else d)
+    seen, skipped = _placements(faces, tol, h, check=True)
+    assert seen and (skipped > 0 or paper)
+
+
+def test_start_values_are_the_clipped_values():
+    """`face._start_values` (init itself when it runs from a to b) equals `_clipped_values` on the starts
+    `_domain_values` makes and where init does not start at a, end at b, or holds NaN."""
+    from trimsurf.tessellate.face import _start_values
+
+    for a, init, b in [(0.0, np.linspace(0.0, 1.0, 17), 1.0),
+                       (0.1, np.unique(np.r_[np.linspace(0.1, 0.7, 17), 0.25, 0.5]), 0.7),
+                       (0.0, np.linspace(0.1, 1.0, 17), 1.0), (0.0, np.linspace(0.0, 0.9, 17), 1.0),
+                       (0.0, np.linspace(-0.5, 1.5, 17), 1.0), (0.0, np.r_[0.0, 0.5, np.nan], 1.0),
+                       (0.0, np.r_[0.0, 0.5, 1.0, np.nan], 1.0)]:
+        assert _same(_start_values(a, init, b), _clipped_values(a, init, b))
 
 
 def _check_single_interval(seen, scales):

@@ -232,23 +232,14 @@ class IsoLines:
 
     def _straight(self) -> tuple[float, float]:
         """(`straight_bound`, the bound delta of a point's rounding noise it is made of; -1, -1 if not straight)."""
-        if self._straight_v is None:
-            self._straight_v = self._straight_bounds()
-        return self._straight_v
+        info = self._info()
+        return (-1.0, -1.0) if info is None else (info[0], info[1])
 
-    def _straight_bounds(self) -> tuple[float, float]:
-        s = self.surface
-        deg, n_ctrl = (s.degree_u, s.control_points.shape[0]) if self.axis == 0 else (s.degree_v, s.control_points.shape[1])
-        if deg != 1 or n_ctrl != 2:
-            return -1.0, -1.0
-        big = float(np.abs(s.control_points).max(initial=0.0))
-        hw = float(np.abs(self._pw).max(initial=0.0))
-        wmin, wmax = (1.0, 1.0) if s.weights is None else (float(s.weights.min()), float(s.weights.max()))
-        if not (np.isfinite(big) and np.isfinite(hw) and wmin > 0 and np.isfinite(wmax)):
-            return -1.0, -1.0
-        eps = np.finfo(np.float64).eps
-        delta = 64.0 * (s.degree_u + s.degree_v + 2) ** 2 * eps * (hw + big * wmax) / wmin
-        return 4.0 * delta + 128.0 * eps * big, delta
+    def _info(self):
+        """`_straight_info` of this family (computed once)."""
+        if self._straight_v is None:
+            self._straight_v = (_straight_info(self.surface, self.axis, self._pw),)
+        return self._straight_v[0]
 
     def single_interval(self, a: float, b: float, tolerance: float, max_edge: float, n_init: int) -> bool:
         """Whether `equidistributed_kernel` certainly places [a, b] (no value between) for this family, from
@@ -268,30 +259,7 @@ class IsoLines:
         (shorter than its skip length) counts at most sqrt(bound / tolerance) (1 + 1e-9): only the n_init
         first ones can be that short (a split interval is over 0.25 max_edge, its halves over the skip
         length). Argued bounds, as the straight skip's."""
-        s = self.surface
-        cp = s.control_points
-        if (s.degree_u, cp.shape[0]) != (1, 2) if self.axis == 0 else (s.degree_v, cp.shape[1]) != (1, 2):
-            return False
-        diff = cp[1] - cp[0] if self.axis == 0 else cp[:, 1] - cp[:, 0]
-        dmax = float(np.sqrt((diff * diff).sum(axis=-1)).max(initial=0.0))
-        k0, k1 = s.domain[self.axis]
-        lead = ((b - a) / (k1 - k0)) * dmax
-        if not lead <= _ONE_INTERVAL * max_edge:    # (the usual answer with a max edge: no need for the rest)
-            return False
-        bound, delta = self._straight()
-        if not (0.0 <= bound <= 1e-3 * tolerance):
-            return False
-        if s.weights is not None:
-            w = s.weights
-            if not np.array_equal(w[1], w[0]) if self.axis == 0 else not np.array_equal(w[:, 1], w[:, 0]):
-                return False
-        n_max = 2 * max(n_init, 20001) + 2
-        # an interval's last sample a + (b - a) * 1.0 may miss b by an ulp: the chords' parameters overlap by
-        # at most 2 eps max(|a|, |b|) per interval
-        slack = 2.0 * np.finfo(np.float64).eps * max(abs(a), abs(b)) / (k1 - k0) * dmax
-        total = (lead + n_max * (2.0 * delta + slack)) / max_edge \
-            + n_init * math.sqrt(bound / tolerance) * (1.0 + 1e-9)
-        return bool(math.isfinite(total) and total <= _ONE_INTERVAL)
+        return _single_interval(self._info(), a, b, tolerance, max_edge, n_init)
 
     def criteria(self, x: np.ndarray, n_sub: int, weights) -> tuple[np.ndarray, np.ndarray]:
         """`interval_criteria` of this family."""
@@ -308,6 +276,58 @@ class IsoLines:
         iso_line_criteria_kernel(s.degree_u, s.degree_v, self._ku, self._kv, self._pw, s.weights is not None,
                                  self.axis, self._lines_c, read_only(xs), w, length, dev)
         return length, dev
+
+
+_EPS = float(np.finfo(np.float64).eps)
+
+
+def _straight_info(s, axis: int, pw: np.ndarray):
+    """What `IsoLines.single_interval` needs of a surface's lines along `axis` (pw: its homogeneous net),
+    independent of the interval and the criteria: None if the lines are not straight (degree 1, one
+    span) or the net is not finite with positive weights, else (bound, delta, dmax, k0, k1, same_w):
+    `straight_bound` and its point noise delta, the largest difference of the net across the moving
+    direction, the moving parameter's span, and whether each row's weights are the same at both ends."""
+    cp = s.control_points
+    if not _straight_dir(s, axis):
+        return None
+    big = float(np.abs(cp).max(initial=0.0))
+    hw = float(np.abs(pw).max(initial=0.0))
+    w = s.weights
+    wmin, wmax = (1.0, 1.0) if w is None else (float(w.min()), float(w.max()))
+    if not (math.isfinite(big) and math.isfinite(hw) and wmin > 0 and math.isfinite(wmax)):
+        return None
+    delta = 64.0 * (s.degree_u + s.degree_v + 2) ** 2 * _EPS * (hw + big * wmax) / wmin
+    bound = 4.0 * delta + 128.0 * _EPS * big
+    diff = cp[1] - cp[0] if axis == 0 else cp[:, 1] - cp[:, 0]
+    dmax = float(np.sqrt((diff * diff).sum(axis=-1)).max(initial=0.0))
+    k0, k1 = s.domain[axis]
+    same_w = w is None or bool(np.array_equal(w[1], w[0]) if axis == 0 else np.array_equal(w[:, 1], w[:, 0]))
+    return bound, delta, dmax, float(k0), float(k1), same_w
+
+
+def _straight_dir(s, axis: int) -> bool:
+    """Whether the surface's lines along `axis` are straight as `_straight_info` asks (degree 1, one span)."""
+    return (s.degree_u, s.control_points.shape[0]) == (1, 2) if axis == 0 else \
+        (s.degree_v, s.control_points.shape[1]) == (1, 2)
+
+
+def _single_interval(info, a: float, b: float, tolerance: float, max_edge: float, n_init: int) -> bool:
+    """`IsoLines.single_interval` from the family's `_straight_info` (the same decision, its arithmetic)."""
+    if info is None:
+        return False
+    bound, delta, dmax, k0, k1, same_w = info
+    lead = ((b - a) / (k1 - k0)) * dmax
+    if not lead <= _ONE_INTERVAL * max_edge:    # (the usual answer with a max edge: no need for the rest)
+        return False
+    if not (0.0 <= bound <= 1e-3 * tolerance) or not same_w:
+        return False
+    n_max = 2 * max(n_init, 20001) + 2
+    # an interval's last sample a + (b - a) * 1.0 may miss b by an ulp: the chords' parameters overlap by
+    # at most 2 eps max(|a|, |b|) per interval
+    slack = 2.0 * _EPS * max(abs(a), abs(b)) / (k1 - k0) * dmax
+    total = (lead + n_max * (2.0 * delta + slack)) / max_edge \
+        + n_init * math.sqrt(bound / tolerance) * (1.0 + 1e-9)
+    return bool(math.isfinite(total) and total <= _ONE_INTERVAL)
 
 
 def _knots_in(knots: np.ndarray, a: float, b: float) -> np.ndarray:
@@ -347,7 +367,10 @@ def shell_domain_values(faces, *, tolerance: float, max_edge: float, strategy: s
     values, the same errors): the loops of all faces sampled, boxed and rasterized at once (`face_fronts`),
     then each face's placement and refinement."""
     out = []
-    for face, front in zip(faces, face_fronts(faces)):
+    # the rasters only serve compiled placements: a face straight in both directions (a plane, a bilinear
+    # patch) usually needs none (`_single_interval`); it builds its own if it does
+    curved = [not (_straight_dir(f.surface, 0) and _straight_dir(f.surface, 1)) for f in faces]
+    for face, front in zip(faces, face_fronts(faces, curved)):
         try:
             out.append(_face_values(face, tolerance=tolerance, max_edge=max_edge, strategy=strategy,
                                     n_lines=n_lines, with_fits=True, front=front))
@@ -371,7 +394,24 @@ class _Front:
     `face_fronts`: the grid box (lo, hi), the trim polygons `polys` (`_loop_polys`), their index (edges
     a -> b as `PolygonIndex` has them) and the inside raster (`_inside_raster`), the same numbers."""
 
-    __slots__ = ("lo", "hi", "polys", "index", "raster")
+    __slots__ = ("lo", "hi", "polys", "index", "_raster")
+
+    @property
+    def raster(self):
+        """The inside raster's lookup (None without loops); a face `face_fronts` did not rasterize gets it
+        here, from its own edges (`inside_grids_kernel` of this face alone: the same raster)."""
+        if self._raster is _PENDING:
+            dil = np.empty((1, _RASTER, _RASTER), dtype=np.bool_)
+            a, b = self.index.a, self.index.b
+            inside_grids_kernel(self.lo.reshape(1, 2).copy(), self.hi.reshape(1, 2).copy(), a, b,
+                                np.array([[0, len(a)]], dtype=np.int64), dil)
+            step = np.maximum((self.hi - self.lo) / (_RASTER - 1), 1e-300)
+            self._raster = _raster_lookup(dil[0], self.lo, self.hi, _RASTER, step)
+        return self._raster
+
+    @raster.setter
+    def raster(self, value):
+        self._raster = value
 
 
 class _EdgeIndex(PolygonIndex):
@@ -406,14 +446,16 @@ def _raster_lookup(dil, lo, hi, n, step=None):
 
 
 _RASTER = 96        # `_inside_raster`'s default size
+_PENDING = object()  # `_Front._raster` of a face whose raster is built when first read
 
 
-def face_fronts(faces) -> list:
+def face_fronts(faces, rasterize=None) -> list:
     """Per face, its `_Front` (or the TrimLoopError `grid_box` raises for it), for all faces at once: every
     loop segment sampled in one `loop_polylines_kernel` call, the grid boxes by `np.minimum.reduceat`
     (the same minima), the polygon edges by index, the rasters in one `inside_grids_kernel` call. The
     numbers are those `_domain_values` computes per face (`_loop_polylines`, `grid_box`, `PolygonIndex`,
-    `_inside_raster`)."""
+    `_inside_raster`). `rasterize`: per face whether to build its raster here (default all); the others
+    build it when first read (`_Front.raster`)."""
     n_a, n_b = 32, 6
     out_a, out_b, loop_segs, face_loops = _sample_loops(faces, n_a, n_b)
     # each loop's next vertex by index (PolygonIndex's), over all loops
@@ -426,6 +468,7 @@ def face_fronts(faces) -> list:
     fronts: list = [None] * nf
     los, his = np.empty((nf, 2)), np.empty((nf, 2))
     seg_rows = np.zeros((nf, 2), dtype=np.int64)   # each face's segments (its rows: x (n - 1))
+    wanted = rasterize
     rasterize = np.zeros(nf, dtype=np.bool_)
     for f, face in enumerate(faces):
         (u0, u1), (v0, v1) = face.surface.domain
@@ -457,7 +500,10 @@ def face_fronts(faces) -> list:
             fr.polys = [out_b[s0 * (n_b - 1):(s0 + c) * (n_b - 1)] for s0, c in loop_segs[l0:l0 + nl]]
             r0, r1 = seg_rows[f, 0] * (n_b - 1), seg_rows[f, 1] * (n_b - 1)
             fr.index = _EdgeIndex(fr.polys, np.ascontiguousarray(out_b[r0:r1]), np.ascontiguousarray(b_all[r0:r1]))
-            rasterize[f] = True
+            if wanted is None or wanted[f]:
+                rasterize[f] = True
+            else:
+                fr.raster = _PENDING
         fronts[f] = fr
     ras = np.flatnonzero(rasterize)
     if len(ras):
@@ -477,47 +523,65 @@ def _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front=No
     if front is not None:
         if isinstance(front, Exception):
             raise front
-        lo, hi, polys, raster = front.lo, front.hi, front.polys, front.raster
+        lo, hi, polys = front.lo, front.hi, front.polys
         if polys is not None:
             cache._loops = (face, front.index)
             cache._index = (polys, front.index)
+
+        def raster():
+            return front.raster
     else:
         # the loops sampled for the grid box (32 per segment) and as trim polygons (`_loop_polys`, 6) at once
         box_polys, polys = None, None
         if face.loops:
             box_polys, polys = _loop_polylines(face, 32, 6)
         lo, hi = grid_box(face, box_polys)
-        raster = None
         if polys is not None:       # refine_cells and _worst_cell_ratio index the same trim polygons
             cache.seed(face, polys)
-            raster = _inside_raster(polys, lo, hi, index=cache.polygon_index(polys))
-    kin = (_knots_in(s.knots_u, lo[0], hi[0]), _knots_in(s.knots_v, lo[1], hi[1]))     # interior knots in the box
-    lines = {}
-    for axis in (0, 1):
-        o = 1 - axis
-        lines[axis] = unique_values(np.concatenate((_linspace(lo[o], hi[o], n_lines), kin[o])))
+        lazy = []
 
-    families = {}
+        def raster():               # (only a compiled placement reads it: built when first needed)
+            if not lazy:
+                lazy.append(None if polys is None else _inside_raster(polys, lo, hi, index=cache.polygon_index(polys)))
+            return lazy[0]
+    kin = (_knots_in(s.knots_u, lo[0], hi[0]), _knots_in(s.knots_v, lo[1], hi[1]))     # interior knots in the box
+    axes, families = {}, {}
+
+    def start(axis):
+        """(a, b, init, x0, straight info) of the axis, once for both placements: x0 is what
+        `_placed_values` starts from (`_clipped_values(a, init, b)`; init already runs from a to b)."""
+        if axis not in axes:
+            a, b = float(lo[axis]), float(hi[axis])
+            init = unique_values(np.concatenate((_linspace(lo[axis], hi[axis], 17), kin[axis])))
+            x0 = _start_values(a, init, b)
+            axes[axis] = (a, b, init, x0, _straight_info(s, axis, cache._surf[4]))
+        return axes[axis]
+
+    def family(axis):
+        """The line family (and its compiled form), built when a placement first needs it: the lines
+        and the inside raster are only read by the compiled placement (not by `_single_interval`)."""
+        if axis not in families:
+            o = 1 - axis
+            lines = unique_values(np.concatenate((_linspace(lo[o], hi[o], n_lines), kin[o])))
+            families[axis] = IsoLines(s, axis, lines, raster(), _surf=cache._surf[2:5])
+        return families[axis]
 
     def place(line_tol: float, edge: float = max_edge):
         out = []
         for axis in (0, 1):
             # the cells of the whole grid are bounded too (MAX_CELLS): the v lines by what the u lines leave
             limit = MAX_VALUES if axis == 0 else max(1, min(MAX_VALUES, MAX_CELLS // max(len(out[0]) - 1, 1)))
-            if axis not in families:    # the line families (and their compiled form) serve both placements
-                ev = IsoLines(s, axis, lines[axis], raster, _surf=cache._surf[2:5])
-                families[axis] = (ev, unique_values(np.concatenate((_linspace(lo[axis], hi[axis], 17), kin[axis]))))
-            evaluate, init = families[axis]
-            weights_fn = None if raster is None else evaluate.weights
+            a, b, init, x0, info = start(axis)
             # grid size max_edge / sqrt(2): the cell diagonals (triangle edges) stay within max_edge
             try:
                 if strategy == "equidistributed":
-                    out.append(_placed_values(evaluate, lo[axis], hi[axis], line_tol, edge / np.sqrt(2.0), init,
-                                              limit))
+                    out.append(_place_axis(family, axis, a, b, x0, info, line_tol, edge / np.sqrt(2.0), limit))
                 else:
+                    evaluate = family(axis)
                     out.append(adaptive_values(evaluate, lo[axis], hi[axis], tolerance=line_tol,
                                                max_edge=edge / np.sqrt(2.0), strategy=strategy, init=init,
-                                               weights_fn=weights_fn, max_values=limit))
+                                               weights_fn=None if evaluate.raster is None else evaluate.weights,
+                                               max_values=limit))
             except InputError as exc:
                 if not hasattr(exc, "needed"):
                     raise
@@ -552,6 +616,37 @@ def _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front=No
         if (len(alt[0]) - 1) * (len(alt[1]) - 1) < (len(best[0]) - 1) * (len(best[1]) - 1):
             best = alt
     return best
+
+
+def _start_values(a: float, init: np.ndarray, b: float) -> np.ndarray:
+    """`_clipped_values(a, init, b)` of sorted unique values `init` (`unique_values`' output): init itself
+    when it runs from a to b (then nothing is clipped and a, b are in it already), else the full path."""
+    if len(init) and init[0] == a and init[-1] == b:
+        return init
+    return _clipped_values(a, init, b)
+
+
+def _place_axis(family, axis: int, a: float, b: float, x0: np.ndarray, info, tolerance: float, max_edge: float,
+                max_values: int) -> np.ndarray:
+    """`_placed_values(family(axis), a, b, tolerance, max_edge, init, max_values)` (the same values and
+    errors) from what `_domain_values` keeps per axis for both placements: x0 (the clipped start values),
+    info (`_straight_info`, for `_single_interval`); `family(axis)`, the `IsoLines`, is only called when
+    the compiled placement runs."""
+    from ._line_kernels import equidistributed_kernel
+
+    tolerance, max_edge = float(tolerance), float(max_edge)
+    if not (math.isfinite(tolerance) and tolerance > 0):
+        raise InputError(f"tolerance must be a positive finite number; got {tolerance!r}")
+    if not (math.isfinite(max_edge) and max_edge > 0):
+        raise InputError(f"max_edge must be a positive finite number; got {max_edge!r}")
+    if not (math.isfinite(a) and math.isfinite(b) and a < b):
+        raise InputError(f"parameter interval must satisfy a < b; got [{a}, {b}]")
+    if _single_interval(info, a, b, tolerance, max_edge, len(x0) - 1):
+        return np.array([a, b])     # what the kernel places: straight lines within max_edge (a bound)
+    x, needed = equidistributed_kernel(*family(axis).family(), x0, a, b, tolerance, max_edge, float(max_values))
+    if needed >= 0:
+        raise _too_many(needed, max_values, tolerance, max_edge)
+    return x
 
 
 def _placed_values(evaluate: IsoLines, a, b, tolerance: float, max_edge: float, init, max_values: int):
