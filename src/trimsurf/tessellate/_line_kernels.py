@@ -285,6 +285,10 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
         for l in range(n_lines):
             lix[l] = _raster_ix(rgeo, nr, 1 - axis, lines_raw[l])
     prev_ok = np.zeros(n_lines, dtype=np.bool_)     # pts[l, m - 1] holds the point at prev_x on line l
+    k0l = np.zeros(n_lines, dtype=np.int64)         # per line: its first sample to compute (1: taken)
+    abl = np.empty((n_lines, 3))                    # per line: its chord, the chord's squared length
+    ddl = np.empty(n_lines)                         # (1 if 0) and its largest deviation
+    worst_l = np.empty(n_lines)
     prev_x = np.nan
     w = np.empty(n_lines, dtype=np.bool_)
     nt = nu_ctrl if axis == 1 and not net else 1
@@ -325,18 +329,19 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
                     mbasis[0, k, r] = ders[0, r]
         same = xs[0, 0] == prev_x
         for l in range(n_lines):
-            if not w[l]:
-                continue
-            k0 = 0
-            if same and prev_ok[l]:
+            k0l[l] = 0
+            if w[l] and same and prev_ok[l]:
                 for q in range(3):
                     pts[l, 0, q] = pts[l, m - 1, q]
-                k0 = 1
-            if net:     # `_iso_point`'s net sums, in place (the same products and sums)
-                for k in range(k0, m):
-                    if straight and 0 < k < m - 1:
+                k0l[l] = 1
+        if net:     # `_iso_point`'s net sums, in place (the same products and sums), sample by sample
+            for k in range(m):
+                if straight and 0 < k < m - 1:
+                    continue
+                base = mspan[0, k] - pu
+                for l in range(n_lines):
+                    if not w[l] or k < k0l[l]:
                         continue
-                    base = mspan[0, k] - pu
                     w0 = 1.0
                     for dd_ in range(dimw):
                         acc = 0.0
@@ -349,52 +354,86 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
                     if rational:
                         for dd_ in range(dimw - 1):
                             pts[l, k, dd_] = pts[l, k, dd_] / w0
-            elif axis == 1:     # `_iso_point`'s axis-1 sums, in place (the same products and sums)
-                su = lspan[0, l]
-                for k in range(k0, m):
-                    if straight and 0 < k < m - 1:
-                        continue
-                    if stamp[su, k] != cur:
-                        sv = mspan[0, k]
-                        for r in range(pu + 1):
-                            for dd_ in range(dimw):
-                                tk[su, k, r, dd_] = 0.0
-                            for s_ in range(pv + 1):
-                                bb = mbasis[0, k, s_]
-                                if bb != 0.0:
-                                    row = su - pu + r
-                                    col = sv - pv + s_
-                                    for dd_ in range(dimw):
-                                        tk[su, k, r, dd_] += bb * pw[row, col, dd_]
-                        stamp[su, k] = cur
-                    w0 = 1.0
-                    for dd_ in range(dimw):
-                        acc = 0.0
-                        for r in range(pu + 1):
-                            acc += lbasis[0, l, r] * tk[su, k, r, dd_]
-                        if dd_ < 3:
-                            pts[l, k, dd_] = acc
-                        else:
-                            w0 = acc
-                    if rational:
-                        for dd_ in range(dimw - 1):
-                            pts[l, k, dd_] = pts[l, k, dd_] / w0
-            else:
-                for k in range(k0, m):
-                    if straight and 0 < k < m - 1:
-                        continue
-                    _iso_point(axis, rational, pu, pv, pw, dimw, lspan, lbasis, mspan, mbasis, tmp, pts, l, k, net,
-                               tk, stamp, cur)
+        else:
+            for l in range(n_lines):
+                if not w[l]:
+                    continue
+                k0 = k0l[l]
+                if axis == 1:     # `_iso_point`'s axis-1 sums, in place (the same products and sums)
+                    su = lspan[0, l]
+                    for k in range(k0, m):
+                        if straight and 0 < k < m - 1:
+                            continue
+                        if stamp[su, k] != cur:
+                            sv = mspan[0, k]
+                            for r in range(pu + 1):
+                                for dd_ in range(dimw):
+                                    tk[su, k, r, dd_] = 0.0
+                                for s_ in range(pv + 1):
+                                    bb = mbasis[0, k, s_]
+                                    if bb != 0.0:
+                                        row = su - pu + r
+                                        col = sv - pv + s_
+                                        for dd_ in range(dimw):
+                                            tk[su, k, r, dd_] += bb * pw[row, col, dd_]
+                            stamp[su, k] = cur
+                        w0 = 1.0
+                        for dd_ in range(dimw):
+                            acc = 0.0
+                            for r in range(pu + 1):
+                                acc += lbasis[0, l, r] * tk[su, k, r, dd_]
+                            if dd_ < 3:
+                                pts[l, k, dd_] = acc
+                            else:
+                                w0 = acc
+                        if rational:
+                            for dd_ in range(dimw - 1):
+                                pts[l, k, dd_] = pts[l, k, dd_] / w0
+                else:
+                    for k in range(k0, m):
+                        if straight and 0 < k < m - 1:
+                            continue
+                        _iso_point(axis, rational, pu, pv, pw, dimw, lspan, lbasis, mspan, mbasis, tmp, pts, l, k, net,
+                                   tk, stamp, cur)
+        # the chords, then the deviations (`_chord_worst`'s arithmetic per line) sample by sample across
+        # the lines. The maxima are taken of the squares, one square root at the end: sqrt is correctly
+        # rounded and monotone, so sqrt(max s) = max sqrt(s) bit for bit, and a NaN is skipped (or kept
+        # as a line's first sample) the same way as the square roots' comparisons skip (keep) it
+        lmax2 = 0.0
+        for l in range(n_lines):
+            if not w[l]:
+                continue
             a0, a1, a2 = pts[l, 0, 0], pts[l, 0, 1], pts[l, 0, 2]
             ab0, ab1, ab2 = pts[l, m - 1, 0] - a0, pts[l, m - 1, 1] - a1, pts[l, m - 1, 2] - a2
             den = (ab0 * ab0 + ab2 * ab2) + ab1 * ab1
-            lnl = np.sqrt(den)
-            if lnl > lmax:
-                lmax = lnl
-            if not straight:
-                worst = _chord_worst_i(pts[l], m, den)
-                if worst > dmax:
-                    dmax = worst
+            if den > lmax2:
+                lmax2 = den
+            abl[l, 0], abl[l, 1], abl[l, 2] = ab0, ab1, ab2
+            ddl[l] = den if den > 0 else 1.0
+            worst_l[l] = 0.0
+        lmax = np.sqrt(lmax2)
+        if not straight:
+            for k in range(1, m - 1):
+                for l in range(n_lines):
+                    if not w[l]:
+                        continue
+                    a0, a1, a2 = pts[l, 0, 0], pts[l, 0, 1], pts[l, 0, 2]
+                    ab0, ab1, ab2 = abl[l, 0], abl[l, 1], abl[l, 2]
+                    q0, q1, q2 = pts[l, k, 0] - a0, pts[l, k, 1] - a1, pts[l, k, 2] - a2
+                    tq = ((q0 * ab0 + q2 * ab2) + q1 * ab1) / ddl[l]
+                    if tq < 0.0:
+                        tq = 0.0
+                    elif tq > 1.0:
+                        tq = 1.0
+                    r0, r1, r2 = q0 - tq * ab0, q1 - tq * ab1, q2 - tq * ab2
+                    d2 = (r0 * r0 + r1 * r1) + r2 * r2
+                    if d2 > worst_l[l] or k == 1:
+                        worst_l[l] = d2
+            dmax2 = 0.0
+            for l in range(n_lines):
+                if w[l] and worst_l[l] > dmax2:
+                    dmax2 = worst_l[l]
+            dmax = np.sqrt(dmax2)
         if straight and any_w and not (lmax >= thr and lmax < np.inf):
             # a short (or non-finite) interval: its interior samples after all
             for k in range(1, m - 1):
