@@ -171,8 +171,10 @@ def test_start_values_are_the_clipped_values():
                        (0.1, np.unique(np.r_[np.linspace(0.1, 0.7, 17), 0.25, 0.5]), 0.7),
                        (0.0, np.linspace(0.1, 1.0, 17), 1.0), (0.0, np.linspace(0.0, 0.9, 17), 1.0),
                        (0.0, np.linspace(-0.5, 1.5, 17), 1.0), (0.0, np.r_[0.0, 0.5, np.nan], 1.0),
-                       (0.0, np.r_[0.0, 0.5, 1.0, np.nan], 1.0)]:
-        assert _same(_start_values(a, init, b), _clipped_values(a, init, b))
+                       (0.0, np.r_[0.0, 0.5, 1.0, np.nan], 1.0), (-0.0, np.linspace(0.0, 1.0, 17), 1.0),
+                       (-1.0, np.linspace(-1.0, 0.0, 17), -0.0)]:
+        got, ref = _start_values(a, init, b), _clipped_values(a, init, b)
+        assert _same(got, ref) and _same(np.signbit(got), np.signbit(ref))
 
 
 def _check_single_interval(seen, scales):

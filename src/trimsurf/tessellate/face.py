@@ -281,19 +281,29 @@ class IsoLines:
 _EPS = float(np.finfo(np.float64).eps)
 
 
-def _straight_info(s, axis: int, pw: np.ndarray):
+def _net_extremes(s, pw: np.ndarray) -> tuple:
+    """(max |control point coordinate|, max |homogeneous coordinate|, min weight, max weight) of a surface."""
+    big = float(np.abs(s.control_points).max(initial=0.0))
+    hw = float(np.abs(pw).max(initial=0.0))
+    w = s.weights
+    wmin, wmax = (1.0, 1.0) if w is None else (float(w.min()), float(w.max()))
+    return big, hw, wmin, wmax
+
+
+def _straight_info(s, axis: int, pw: np.ndarray, common: tuple | None = None):
     """What `IsoLines.single_interval` needs of a surface's lines along `axis` (pw: its homogeneous net),
     independent of the interval and the criteria: None if the lines are not straight (degree 1, one
     span) or the net is not finite with positive weights, else (bound, delta, dmax, k0, k1, same_w):
     `straight_bound` and its point noise delta, the largest difference of the net across the moving
-    direction, the moving parameter's span, and whether each row's weights are the same at both ends."""
+    direction, the moving parameter's span, and whether each row's weights are the same at both ends.
+    `common`: the surface's `_net_extremes` when the caller has them (both axes share them)."""
     cp = s.control_points
     if not _straight_dir(s, axis):
         return None
-    big = float(np.abs(cp).max(initial=0.0))
-    hw = float(np.abs(pw).max(initial=0.0))
+    if common is None:
+        common = _net_extremes(s, pw)
+    big, hw, wmin, wmax = common
     w = s.weights
-    wmin, wmax = (1.0, 1.0) if w is None else (float(w.min()), float(w.max()))
     if not (math.isfinite(big) and math.isfinite(hw) and wmin > 0 and math.isfinite(wmax)):
         return None
     delta = 64.0 * (s.degree_u + s.degree_v + 2) ** 2 * _EPS * (hw + big * wmax) / wmin
@@ -309,6 +319,15 @@ def _straight_dir(s, axis: int) -> bool:
     """Whether the surface's lines along `axis` are straight as `_straight_info` asks (degree 1, one span)."""
     return (s.degree_u, s.control_points.shape[0]) == (1, 2) if axis == 0 else \
         (s.degree_v, s.control_points.shape[1]) == (1, 2)
+
+
+def _straight_lead(s, axis: int, a: float, b: float) -> float:
+    """(b - a) / span * D of straight lines along `axis` (`_single_interval`'s lead term; only a guess of
+    whether a raster is needed is made of it)."""
+    cp = s.control_points
+    diff = cp[1] - cp[0] if axis == 0 else cp[:, 1] - cp[:, 0]
+    k0, k1 = s.domain[axis]
+    return ((b - a) / (k1 - k0)) * float(np.sqrt((diff * diff).sum(axis=-1)).max(initial=0.0))
 
 
 def _single_interval(info, a: float, b: float, tolerance: float, max_edge: float, n_init: int) -> bool:
@@ -368,9 +387,15 @@ def shell_domain_values(faces, *, tolerance: float, max_edge: float, strategy: s
     then each face's placement and refinement."""
     out = []
     # the rasters only serve compiled placements: a face straight in both directions (a plane, a bilinear
-    # patch) usually needs none (`_single_interval`); it builds its own if it does
-    curved = [not (_straight_dir(f.surface, 0) and _straight_dir(f.surface, 1)) for f in faces]
-    for face, front in zip(faces, face_fronts(faces, curved)):
+    # patch) within the grid size needs none (`_single_interval`); a face that does after all builds its own
+    edge = max_edge / np.sqrt(2.0)
+
+    def rasterize(f, lo, hi):
+        s = faces[f].surface
+        return not all(_straight_dir(s, axis) and _straight_lead(s, axis, lo[axis], hi[axis]) <= _ONE_INTERVAL * edge
+                       for axis in (0, 1))
+
+    for face, front in zip(faces, face_fronts(faces, rasterize)):
         try:
             out.append(_face_values(face, tolerance=tolerance, max_edge=max_edge, strategy=strategy,
                                     n_lines=n_lines, with_fits=True, front=front))
@@ -454,8 +479,8 @@ def face_fronts(faces, rasterize=None) -> list:
     loop segment sampled in one `loop_polylines_kernel` call, the grid boxes by `np.minimum.reduceat`
     (the same minima), the polygon edges by index, the rasters in one `inside_grids_kernel` call. The
     numbers are those `_domain_values` computes per face (`_loop_polylines`, `grid_box`, `PolygonIndex`,
-    `_inside_raster`). `rasterize`: per face whether to build its raster here (default all); the others
-    build it when first read (`_Front.raster`)."""
+    `_inside_raster`). `rasterize`: per face whether to build its raster here (default all), or a function
+    (face index, lo, hi) -> bool; the others build it when first read (`_Front.raster`)."""
     n_a, n_b = 32, 6
     out_a, out_b, loop_segs, face_loops = _sample_loops(faces, n_a, n_b)
     # each loop's next vertex by index (PolygonIndex's), over all loops
@@ -500,7 +525,7 @@ def face_fronts(faces, rasterize=None) -> list:
             fr.polys = [out_b[s0 * (n_b - 1):(s0 + c) * (n_b - 1)] for s0, c in loop_segs[l0:l0 + nl]]
             r0, r1 = seg_rows[f, 0] * (n_b - 1), seg_rows[f, 1] * (n_b - 1)
             fr.index = _EdgeIndex(fr.polys, np.ascontiguousarray(out_b[r0:r1]), np.ascontiguousarray(b_all[r0:r1]))
-            if wanted is None or wanted[f]:
+            if wanted is None or (wanted(f, fr.lo, fr.hi) if callable(wanted) else wanted[f]):
                 rasterize[f] = True
             else:
                 fr.raster = _PENDING
@@ -554,7 +579,12 @@ def _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front=No
             a, b = float(lo[axis]), float(hi[axis])
             init = unique_values(np.concatenate((_linspace(lo[axis], hi[axis], 17), kin[axis])))
             x0 = _start_values(a, init, b)
-            axes[axis] = (a, b, init, x0, _straight_info(s, axis, cache._surf[4]))
+            common = None
+            if _straight_dir(s, axis):      # (the net's extremes: once for both axes)
+                if "net" not in axes:
+                    axes["net"] = _net_extremes(s, cache._surf[4])
+                common = axes["net"]
+            axes[axis] = (a, b, init, x0, _straight_info(s, axis, cache._surf[4], common))
         return axes[axis]
 
     def family(axis):
@@ -620,8 +650,10 @@ def _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front=No
 
 def _start_values(a: float, init: np.ndarray, b: float) -> np.ndarray:
     """`_clipped_values(a, init, b)` of sorted unique values `init` (`unique_values`' output): init itself
-    when it runs from a to b (then nothing is clipped and a, b are in it already), else the full path."""
-    if len(init) and init[0] == a and init[-1] == b:
+    when it runs from a to b (then nothing is clipped and a, b are in it already; a zero end of the other
+    sign than a or b is left to the full path, which keeps the one sorted first), else the full path."""
+    if len(init) and init[0] == a and init[-1] == b and (a != 0.0 or math.copysign(1.0, init[0]) == math.copysign(1.0, a)) \
+            and (b != 0.0 or math.copysign(1.0, init[-1]) == math.copysign(1.0, b)):
         return init
     return _clipped_values(a, init, b)
 
