@@ -320,3 +320,34 @@ def test_bilinear_screen_on_a_twisted_patch():
     assert fired > 0
     tol = 0.5 * float(np.max(ref))
     assert not _screen_agrees(s, us, vs, tol, lin=(0.0, lin[1]))
+
+
+def test_placement_start_record_is_the_fresh_placement(model):
+    """`IsoLines.family` keeps the compiled placement's fine-sampling start (`equidistributed_kernel`'s
+    record in the family's cf) for the face's second placement: a family that placed once places at
+    another tolerance and max edge, and from other start values, exactly as a fresh family does; the
+    record is taken only for the same start (bit for bit, zeros' signs too)."""
+    from trimsurf.tessellate.face import IsoLines
+
+    faces, d = model
+    tol = SAMPLING_MARGIN * 1e-3 * d
+    seen = [p for p in _placements(faces[:60], tol, 0.03 * d) if p[0]._straight()[0] < 0]
+    assert seen
+    used = 0
+    for ev, a, b, t, me, x0 in seen[:25]:
+        fam = ev.family()
+        rec = fam[11]
+        assert rec.shape == (face_mod._START_ROWS, 6)
+        fresh = lambda: IsoLines(ev.surface, ev.axis, ev.lines, ev.raster, _surf=(ev._ku, ev._kv, ev._pw)).family()
+        x1 = np.unique(np.r_[x0, 0.5 * (x0[:-1] + x0[1:])[::3]])     # other start values
+        x2 = x0.copy()                                                  # as many, others inside
+        x2[1:-1] = 0.5 * (x0[:-2] + x0[2:])
+        for args in [(x0, a, b, t / 3.0, me), (x0, a, b, t, me / 2.0), (x1, a, b, t, me), (x0, a, b, t / 2.0, me),
+                     (x2, a, b, t / 2.0, me), (x0, a, b, t / 2.0, me)]:
+            before = rec[0, 0]
+            got = equidistributed_kernel(*fam, *args, 20000.0)
+            ref = equidistributed_kernel(*fresh(), *args, 20000.0)
+            assert _same(got[0], ref[0]) and got[1] == ref[1]
+            used += before == len(args[0]) - 1 and rec[0, 0] == before
+        assert rec[0, 0] == len(x0) - 1
+    assert used > 0

@@ -686,6 +686,12 @@ def _place(cum, x, a, b, n):
 
 
 @njit(cache=True, nogil=True, inline="always")
+def _same_bits(p, q):
+    """p and q are the same float bit for bit (== with the zeros' signs; NaN: never)."""
+    return p == q and (p != 0.0 or np.signbit(p) == np.signbit(q))
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _halves(x, bad, nbad):
     """The two halves (sa, sb) of every bad interval of x."""
     n = x.shape[0] - 1
@@ -769,9 +775,32 @@ def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku
     n0 = np.int64(0)
     nn = np.int64(0)
     v = np.empty(2)
+    # kind 0, curved lines: cf is the family's record of its fine sampling's start (`face.IsoLines.family`;
+    # the two placements of a face start from the same values): rows 1..n the start's intervals
+    # (x_i, x_i+1, length, deviation), cf[0, 0] = n (0: none). Those criteria depend on the family and
+    # the two ends only (all lines, no limits; not on the tolerance: the straight skip is off), so a
+    # start with the same ends bit for bit takes them
+    rec = kind == 0 and cf.shape[0] > n and cf.shape[1] >= 4 and not (iso_f.shape[0] > 2 and iso_f[2] >= 0.0)
     while True:
-        ok = _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
-                       ci, cf, ck, cpw, cku, ckv, cpw4, ra, rb, rm, rl, rd, rml, rmd, rst)
+        hit = state == 0 and rec and cf[0, 0] == n
+        if hit:
+            for i in range(n):
+                if not (_same_bits(cf[i + 1, 0], x[i]) and _same_bits(cf[i + 1, 1], x[i + 1])):
+                    hit = False
+                    break
+        if hit:
+            for i in range(n):
+                length[i] = cf[i + 1, 2]
+                dev[i] = cf[i + 1, 3]
+            ok = True
+        else:
+            ok = _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
+                           ci, cf, ck, cpw, cku, ckv, cpw4, ra, rb, rm, rl, rd, rml, rmd, rst)
+            if state == 0 and rec:
+                for i in range(n):
+                    cf[i + 1, 0], cf[i + 1, 1] = x[i], x[i + 1]
+                    cf[i + 1, 2], cf[i + 1, 3] = length[i], dev[i]
+                cf[0, 0] = n
         if state == 1 or state == 5:
             x, length, dev = _merge(x, length, dev, bad, nbad, sb, rl, rd)
             if state == 5 and x.shape[0] - 1 > max_values:

@@ -12,7 +12,7 @@ from ..geom.nurbs import _homogeneous, read_only
 from ..geom.predicates import PolygonIndex
 from ..model import TriMesh, TrimmedFace
 from .domain import MAX_VALUES, _clipped_values, _too_many, adaptive_values, unique_values
-from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CF, DUMMY_CI, cache_cells_kernel, cell_deviation_kernel,
+from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CI, cache_cells_kernel, cell_deviation_kernel,
                             cell_surface_kernel,
                             inside_grid_kernel, inside_grids_kernel, line_net_kernel, loop_polylines_kernel,
                             refine_round_kernel)
@@ -46,6 +46,8 @@ _BARY = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5,
 #: `IsoLines.single_interval`: the largest bound of a placement's total density (ceil: 1 interval) taken
 #: as one interval without the compiled placement (the margin covers the sums' relative rounding)
 _ONE_INTERVAL = 0.99
+#: rows of an `IsoLines.family`'s record of its placement's start (`equidistributed_kernel`)
+_START_ROWS = 65
 # empty arguments of the compiled cell kernels' unused members (one compiled signature for all their uses)
 _NO_I, _NO_B, _NO_F = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.bool_), np.zeros(0)
 _NO_UV, _NO_P, _NO_D = np.zeros((0, 5, 2)), np.zeros((0, 5, 3)), np.zeros((0, 2))
@@ -219,8 +221,11 @@ class IsoLines:
                          dtype=np.int64)
         iso_f = np.array([self._xr[0], self._xr[1], self.straight_bound()], dtype=np.float64)
         rgeo = np.zeros(4) if r is None else np.concatenate((r.lo, r.step)).astype(np.float64)
+        # cf: the compiled placement's record of its fine sampling's start (both placements of a face
+        # start from the same values; `equidistributed_kernel`), up to _START_ROWS - 1 intervals
         return (0, iso_i, iso_f, self._lines_c, read_only(self.lines), DUMMY_BOOL if r is None else r.dil, rgeo,
-                self._ku, self._kv, pw, DUMMY_CI, DUMMY_CF, DUMMY_1D, DUMMY_1D, DUMMY_1D, DUMMY_1D, DUMMY_1D)
+                self._ku, self._kv, pw, DUMMY_CI, np.zeros((_START_ROWS, 6)), DUMMY_1D, DUMMY_1D, DUMMY_1D, DUMMY_1D,
+                DUMMY_1D)
 
     def straight_bound(self) -> float:
         """-1, or when every line is straight (degree 1 along it, one knot span: a segment, rational or
@@ -245,7 +250,9 @@ class IsoLines:
         """Whether `equidistributed_kernel` certainly places [a, b] (no value between) for this family, from
         the fine sampling's start with `n_init` intervals: straight lines (`straight_bound` within the
         kernel's 1e-3 tolerance, so its straight skip applies) whose fine intervals' densities cannot add
-        up to more than _ONE_INTERVAL = 0.99 (the kernel then places ceil(total) = 1 interval, or none for
+        up to more than _ONE_INTERVAL = 0.99
+#: rows of an `IsoLines.family`'s record of its placement's start (`equidistributed_kernel`)
+_START_ROWS = 65 (the kernel then places ceil(total) = 1 interval, or none for
         a total of 0, and that one passes its check).
 
         The bound: along a straight line the point moves linearly in x (degree 1, one span; rational only
