@@ -114,9 +114,9 @@ def test_shell_domain_values_equal_face_domain_values(model, paper):
 
 def _placements(faces, tol, h, check=False):
     """The (family, a, b, tolerance, max_edge, x0) of every placement `shell_domain_values` asks for. With
-    `check`, each placement's values (or error) are also compared with `_placed_values`' (the full path:
-    the family built, x0 clipped from it, `IsoLines.single_interval`), and the count of the placements
-    that skipped the compiled call (`_single_interval`) is returned too."""
+    `check`, each placement's values (or error) are also compared with the compiled placement's from the
+    full family (no shortcut), and the count of the placements that skipped the compiled call
+    (`_single_interval`) is returned too."""
     seen = []
     real = face_mod._place_axis
     skipped = [0]

@@ -17,7 +17,8 @@ as separate arguments (`*F`: numba compiles functions with a tuple of arrays sev
 kind 0: iso_i = (axis, has_raster, pu, pv, rational), iso_f = (x0, x1) (the moving parameter's range) or
 (x0, x1, bound) for straight lines (bound: of the rounding noise of their sampled chord deviation),
 lines_c / lines_raw the lines clipped into the domain / as given, dil the inside raster of
-`face._inside_raster` and rgeo = (u0, v0, du, dv) its origin and steps, ku, kv, pw the surface.
+`face._inside_raster` and rgeo = (u0, v0, du, dv) its origin and steps, ku, kv, pw the surface; cf (a
+kind-1 member) the family's own record of its placement's start (`equidistributed_kernel`).
 
 kind 1 per use j: ci[j] = (cp, crat, pu, pv, srat, o_ck, n_ck, o_cw, rows_cw, cols_cw, o_ku, n_ku, o_kv,
 n_kv, o_pw, nu, nv, dimw) (degrees, flags, offsets and shapes in the flat read-only arrays ck, cpw, cku,

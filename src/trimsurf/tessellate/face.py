@@ -250,9 +250,7 @@ class IsoLines:
         """Whether `equidistributed_kernel` certainly places [a, b] (no value between) for this family, from
         the fine sampling's start with `n_init` intervals: straight lines (`straight_bound` within the
         kernel's 1e-3 tolerance, so its straight skip applies) whose fine intervals' densities cannot add
-        up to more than _ONE_INTERVAL = 0.99
-#: rows of an `IsoLines.family`'s record of its placement's start (`equidistributed_kernel`)
-_START_ROWS = 65 (the kernel then places ceil(total) = 1 interval, or none for
+        up to more than _ONE_INTERVAL = 0.99 (the kernel then places ceil(total) = 1 interval, or none for
         a total of 0, and that one passes its check).
 
         The bound: along a straight line the point moves linearly in x (degree 1, one span; rational only
@@ -580,8 +578,8 @@ def _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front=No
     axes, families = {}, {}
 
     def start(axis):
-        """(a, b, init, x0, straight info) of the axis, once for both placements: x0 is what
-        `_placed_values` starts from (`_clipped_values(a, init, b)`; init already runs from a to b)."""
+        """(a, b, init, x0, straight info) of the axis, once for both placements: x0 is the compiled
+        placement's start (`_clipped_values(a, init, b)`, `_start_values`)."""
         if axis not in axes:
             a, b = float(lo[axis]), float(hi[axis])
             init = unique_values(np.concatenate((_linspace(lo[axis], hi[axis], 17), kin[axis])))
@@ -667,10 +665,12 @@ def _start_values(a: float, init: np.ndarray, b: float) -> np.ndarray:
 
 def _place_axis(family, axis: int, a: float, b: float, x0: np.ndarray, info, tolerance: float, max_edge: float,
                 max_values: int) -> np.ndarray:
-    """`_placed_values(family(axis), a, b, tolerance, max_edge, init, max_values)` (the same values and
-    errors) from what `_domain_values` keeps per axis for both placements: x0 (the clipped start values),
-    info (`_straight_info`, for `_single_interval`); `family(axis)`, the `IsoLines`, is only called when
-    the compiled placement runs."""
+    """`adaptive_values(family(axis), a, b, tolerance=..., max_edge=..., init=init, weights_fn=its weights
+    (None without a raster), max_values=...)` of the default strategy for a face's iso-lines (the same
+    values and errors: its checks, then the compiled placement) from what `_domain_values` keeps per axis
+    for both placements: x0 (the clipped start values), info (`_straight_info`, for `_single_interval`,
+    which places [a, b] where the compiled placement certainly does); `family(axis)`, the `IsoLines`, is
+    only called when the compiled placement runs."""
     from ._line_kernels import equidistributed_kernel
 
     tolerance, max_edge = float(tolerance), float(max_edge)
@@ -683,27 +683,6 @@ def _place_axis(family, axis: int, a: float, b: float, x0: np.ndarray, info, tol
     if _single_interval(info, a, b, tolerance, max_edge, len(x0) - 1):
         return np.array([a, b])     # what the kernel places: straight lines within max_edge (a bound)
     x, needed = equidistributed_kernel(*family(axis).family(), x0, a, b, tolerance, max_edge, float(max_values))
-    if needed >= 0:
-        raise _too_many(needed, max_values, tolerance, max_edge)
-    return x
-
-
-def _placed_values(evaluate: IsoLines, a, b, tolerance: float, max_edge: float, init, max_values: int):
-    """`adaptive_values(evaluate, a, b, tolerance=..., max_edge=..., init=init, weights_fn=evaluate.weights
-    (or None without a raster), max_values=...)` of the default strategy for a face's iso-lines: the same
-    checks, the same compiled call, without the general entry's dispatch (two calls per face)."""
-    from ._line_kernels import equidistributed_kernel
-
-    tolerance, max_edge, a, b = float(tolerance), float(max_edge), float(a), float(b)
-    for name, v in (("tolerance", tolerance), ("max_edge", max_edge)):
-        if not (math.isfinite(v) and v > 0):
-            raise InputError(f"{name} must be a positive finite number; got {v!r}")
-    if not (math.isfinite(a) and math.isfinite(b) and a < b):
-        raise InputError(f"parameter interval must satisfy a < b; got [{a}, {b}]")
-    x0 = _clipped_values(a, np.asarray(init, dtype=np.float64), b)
-    if evaluate.single_interval(a, b, tolerance, max_edge, len(x0) - 1):
-        return np.array([a, b])     # what the kernel places: straight lines within max_edge (a bound)
-    x, needed = equidistributed_kernel(*evaluate.family(), x0, a, b, tolerance, max_edge, float(max_values))
     if needed >= 0:
         raise _too_many(needed, max_values, tolerance, max_edge)
     return x
