@@ -13,7 +13,7 @@ from ..geom.predicates import PolygonIndex
 from ..model import TriMesh, TrimmedFace
 from .domain import MAX_VALUES, _clipped_values, _too_many, adaptive_values, unique_values
 from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CI, cache_cells_kernel, cell_deviation_kernel,
-                            cell_surface_kernel,
+                            cell_surface_kernel, equidistributed_kernel,
                             inside_grid_kernel, inside_grids_kernel, line_net_kernel, loop_polylines_kernel,
                             refine_round_kernel)
 from .grid import triangulate_domain
@@ -671,8 +671,6 @@ def _place_axis(family, axis: int, a: float, b: float, x0: np.ndarray, info, tol
     for both placements: x0 (the clipped start values), info (`_straight_info`, for `_single_interval`,
     which places [a, b] where the compiled placement certainly does); `family(axis)`, the `IsoLines`, is
     only called when the compiled placement runs."""
-    from ._line_kernels import equidistributed_kernel
-
     tolerance, max_edge = float(tolerance), float(max_edge)
     if not (math.isfinite(tolerance) and tolerance > 0):
         raise InputError(f"tolerance must be a positive finite number; got {tolerance!r}")
