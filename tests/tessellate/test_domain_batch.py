@@ -351,3 +351,38 @@ def test_placement_start_record_is_the_fresh_placement(model):
             used += before == len(args[0]) - 1 and rec[0, 0] == before
         assert rec[0, 0] == len(x0) - 1
     assert used > 0
+
+
+def test_knots_and_linspace_shortcuts_are_unique_values(model):
+    """`face._knots_in` (no sort when no knot is inside) and `face._with_knots` (the linspace itself when
+    no knot is added and it increases strictly) equal the unique_values path they skip, bit for bit, on
+    every face's knots and grid box of the models and where a linspace has equal values, knots are added,
+    or zeros of both signs and NaN are among the knots."""
+    from trimsurf.tessellate.domain import unique_values
+    from trimsurf.tessellate.face import _knots_in, _linspace, _with_knots
+
+    def ref_kin(k, a, b):
+        u = unique_values(k)
+        return u[(u > a) & (u < b)]
+
+    def ref_with(a, b, n, kin):
+        return unique_values(np.concatenate((_linspace(a, b, n), kin)))
+
+    faces, _ = model
+    for f, fr in zip(faces, face_fronts(faces)):
+        s = f.surface
+        for axis, k in ((0, s.knots_u), (1, s.knots_v)):
+            a, b = fr.lo[axis], fr.hi[axis]
+            kin = _knots_in(k, a, b)
+            assert _same(kin, ref_kin(k, a, b))
+            for n in (17, 24):
+                assert _same(_with_knots(a, b, n, kin), ref_with(a, b, n, kin))
+    for k, a, b in [(np.array([0.0, 0.0, 1.0, 1.0]), 0.1, 0.9), (np.array([0.0, 0.0, 0.5, 1.0, 1.0]), 0.1, 0.9),
+                    (np.array([0.0, 0.0, 0.5, 0.5, 1.0, 1.0]), 0.0, 1.0), (np.array([-1.0, -0.0, 0.0, 1.0]), -0.5, 0.5),
+                    (np.array([0.0, np.nan, 1.0]), 0.0, 1.0), (np.array([0.0, 0.2, 0.1, 1.0]), 0.0, 1.0)]:
+        assert _same(_knots_in(k, a, b), ref_kin(k, a, b))
+    for a, b, n, kin in [(0.1, 0.7, 17, np.zeros(0)), (0.1, 0.7, 24, np.array([0.25, 0.5])),
+                         (1.0, 1.0 + 4e-16, 17, np.zeros(0)), (0.0, 0.5, 17, np.array([0.25])),
+                         (-1.0, 1.0, 24, np.zeros(0))]:
+        assert _same(_with_knots(a, b, n, kin), ref_with(a, b, n, kin))
+    assert len(_with_knots(1.0, 1.0 + 4e-16, 17, np.zeros(0))) < 17     # (repeats: the full path drops them)

@@ -355,8 +355,21 @@ def _single_interval(info, a: float, b: float, tolerance: float, max_edge: float
 
 
 def _knots_in(knots: np.ndarray, a: float, b: float) -> np.ndarray:
+    """The distinct knots strictly inside (a, b), increasing (unique_values(knots) masked; without the
+    sort when there are none, the usual case)."""
+    if not ((knots > a) & (knots < b)).any():
+        return knots[:0].astype(np.float64)
     k = unique_values(knots)
     return k[(k > a) & (k < b)]
+
+
+def _with_knots(a, b, n: int, kin: np.ndarray) -> np.ndarray:
+    """unique_values(np.concatenate((_linspace(a, b, n), kin))) (the same array): the linspace itself
+    when there are no knots and its values increase strictly (nothing to sort or drop)."""
+    y = _linspace(a, b, n)
+    if not len(kin) and bool((y[1:] > y[:-1]).all()):
+        return y
+    return unique_values(np.concatenate((y, kin)))
 
 
 def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
@@ -582,7 +595,7 @@ def _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front=No
         placement's start (`_clipped_values(a, init, b)`, `_start_values`)."""
         if axis not in axes:
             a, b = float(lo[axis]), float(hi[axis])
-            init = unique_values(np.concatenate((_linspace(lo[axis], hi[axis], 17), kin[axis])))
+            init = _with_knots(lo[axis], hi[axis], 17, kin[axis])
             x0 = _start_values(a, init, b)
             common = None
             if _straight_dir(s, axis):      # (the net's extremes: once for both axes)
@@ -597,7 +610,7 @@ def _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front=No
         and the inside raster are only read by the compiled placement (not by `_single_interval`)."""
         if axis not in families:
             o = 1 - axis
-            lines = unique_values(np.concatenate((_linspace(lo[o], hi[o], n_lines), kin[o])))
+            lines = _with_knots(lo[o], hi[o], n_lines, kin[o])
             families[axis] = IsoLines(s, axis, lines, raster(), _surf=cache._surf[2:5])
         return families[axis]
 
