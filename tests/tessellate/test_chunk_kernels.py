@@ -82,3 +82,48 @@ def test_compiled_chunks_forced_degenerate_and_refusal():
     for strategy in ("bisection", "uniform"):
         a = discretize_chunks([uses], tolerance=tol, max_edge=h, strategy=strategy)[0]
         assert _same(a, _discretize_chunk_numpy(uses, tolerance=tol, max_edge=h, strategy=strategy))
+
+
+@pytest.mark.parametrize("model,rel_h,least", [("trimesh__featuretype.STEP", 1.0, 60), ("occt__screw.step", 1.0, 1),
+                                               ("trimesh__featuretype.STEP", 0.03, 1)])
+def test_straight_chunks_skip_placement(shared_data, monkeypatch, model, rel_h, least):
+    """A straight chunk (`_chunk_kernels._straight_scale`) takes [0, 1] without the placement: every chunk
+    is the same bit for bit as with the placement run on every chunk (`_STRAIGHT_SHORTCUT = False`) and
+    as the numpy path, the placement of every skipped chunk gives exactly [0, 1], and the shortcut is
+    taken on real straight edges."""
+    from trimsurf.tessellate import _line_kernels, trims
+
+    shell = read_shell(shared_data / "cad" / model)
+    d = shell.diagonal()
+    tol, h = 1e-3 * d, rel_h * d
+    chunks, degs = _chunks(shell, tol, h)
+    placed = []
+    real = _line_kernels.equidistributed_kernel
+
+    def spy(*a):
+        out = real(*a)
+        placed.append(out)
+        return out
+
+    monkeypatch.setattr(_line_kernels, "equidistributed_kernel", spy)
+    got = discretize_chunks(chunks, tolerance=tol, max_edge=h, degenerate=degs)
+    monkeypatch.setattr(trims, "_STRAIGHT_SHORTCUT", False)
+    ref = discretize_chunks(chunks, tolerance=tol, max_edge=h, degenerate=degs)
+    bad = [i for i, (a, b) in enumerate(zip(got, ref)) if not _same(a, b)]
+    assert not bad, f"{len(bad)} of {len(chunks)} chunks differ"
+    # chunk by chunk: which skip the placement, and what the placement gives them
+    skipped = []
+    for i, (uses, deg) in enumerate(zip(chunks, degs)):
+        for short in (True, False):
+            monkeypatch.setattr(trims, "_STRAIGHT_SHORTCUT", short)
+            placed.clear()
+            discretize_chunks([uses], tolerance=tol, max_edge=h, degenerate=[deg])
+            if short and placed:
+                break
+            if not short and placed:
+                x, needed = placed[0]
+                assert x.tolist() == [0.0, 1.0] and needed < 0
+                skipped.append(i)
+    assert len(skipped) >= least
+    for i in skipped[:: max(1, len(skipped) // 5)]:
+        assert _same(got[i], _discretize_chunk_numpy(chunks[i], tolerance=tol, max_edge=h, degenerate=degs[i]))

@@ -362,6 +362,75 @@ def _grow(a, n):
     return out
 
 
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _straight_scale(ci, cf, ck, cpw, cku, ckv, cpw4, j):
+    """M >= 0 when use j's points P(s) = S(clip(p(t(s)))) are affine in s (a straight segment run at
+    constant speed) up to rounding, whose size M scales (the surface's largest |control point| over its
+    smallest weight, times 1 + |knot end| / knot span per direction); else -1. Exact tests on the arrays:
+    a linear p-curve (non-rational, two control points) inside the grid box and the surface's knot range
+    (so the clipping changes nothing but rounding), and either an iso-line (the two points share u, or v)
+    on a surface of degree 1 with two control rows in the other direction whose weights are equal across
+    the two rows (S(u0, v) = A (1 - t) + B t, t affine in v: a plane's iso-line, a cylinder's ruling), or
+    any line on a 2 x 2 patch of degree (1, 1) with equal weights and zero twist (an affine map)."""
+    if ci[j, 1] != 0:
+        return -1.0
+    kc, cw, ku, kv, pw = _use_arrays(ci, ck, cpw, cku, ckv, cpw4, j)
+    pu, pv, srat = ci[j, 2], ci[j, 3], ci[j, 4] != 0
+    nu, nv, dimw = pw.shape
+    dim = dimw - 1 if srat else dimw
+    if cw.shape[0] != 2 or cw.shape[1] != 2:
+        return -1.0
+    ku0, ku1 = ku[pu], ku[ku.shape[0] - pu - 1]
+    kv0, kv1 = kv[pv], kv[kv.shape[0] - pv - 1]
+    if not (ku1 > ku0 and kv1 > kv0):
+        return -1.0
+    lo_u, hi_u = max(cf[j, 2], ku0), min(cf[j, 3], ku1)
+    lo_v, hi_v = max(cf[j, 4], kv0), min(cf[j, 5], kv1)
+    for q in range(2):
+        if not (lo_u <= cw[q, 0] <= hi_u and lo_v <= cw[q, 1] <= hi_v):
+            return -1.0
+    big = 0.0
+    wmin = np.inf
+    for a in range(nu):
+        for b in range(nv):
+            w = pw[a, b, dimw - 1] if srat else 1.0
+            if not w > 0.0:
+                return -1.0
+            wmin = min(wmin, w)
+            for d in range(dimw):
+                big = max(big, abs(pw[a, b, d]))
+    scale = big / wmin * (1.0 + max(abs(ku0), abs(ku1)) / (ku1 - ku0) + max(abs(kv0), abs(kv1)) / (kv1 - kv0))
+    if not scale < np.inf:
+        return -1.0
+    if cw[0, 0] == cw[1, 0]:            # u constant: degree 1 in v, two rows, equal weights across them
+        if pv == 1 and nv == 2:
+            same = True
+            if srat:
+                for a in range(nu):
+                    same = same and pw[a, 0, dimw - 1] == pw[a, 1, dimw - 1]
+            if same:
+                return scale
+    if cw[0, 1] == cw[1, 1]:            # v constant
+        if pu == 1 and nu == 2:
+            same = True
+            if srat:
+                for b in range(nv):
+                    same = same and pw[0, b, dimw - 1] == pw[1, b, dimw - 1]
+            if same:
+                return scale
+    # any line on an affine patch
+    if pu != 1 or pv != 1 or nu != 2 or nv != 2:
+        return -1.0
+    if srat:
+        w0 = pw[0, 0, dimw - 1]
+        if pw[1, 0, dimw - 1] != w0 or pw[0, 1, dimw - 1] != w0 or pw[1, 1, dimw - 1] != w0:
+            return -1.0
+    for d in range(dim):
+        if pw[0, 0, d] - pw[1, 0, d] - pw[0, 1, d] + pw[1, 1, d] != 0.0:
+            return -1.0
+    return scale
+
+
 @njit(cache=True, nogil=True)
 def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, d_ku, d_kv, d_pw,
                              ci, cf, ck, cpw, cku, ckv, cpw4, gi, gf, ptol_all, c_off, forced,
@@ -370,7 +439,9 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
     uses c_off[c] .. c_off[c + 1] - 1 (rows of ci, cf, gi, ptol_all); forced[c] = 1 / 0: degenerate or
     not, -1: decided from the 3D extent of 33 probe points.
     The first ten arguments are the unused kind-0 members of the family tuple (`kind` = 1); flags =
-    (reduce, 5, 9, 0): run-time constants. Returns (info (C, 3): points k_c, degenerate, status (0 done,
+    (reduce, 5, 9, mode): run-time constants. Mode 0: the placement's start values; status 2: a straight
+    chunk whose placement is [0, 1] (see `_straight_scale` and `trims.discretize_chunks`). Mode 1: from
+    the placed values s_in. Returns (info (C, 3): points k_c, degenerate, status (0 done,
     1 more than max_values intervals needed: the caller runs the numpy path, which refuses); pts
     (sum k_c, 5): s, xyz (the mean of the uses' S(uv), before the degenerate averaging), iso (0 / 1);
     uv (sum L_c k_c, 2), use-major per chunk)."""
@@ -381,6 +452,8 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
     info = np.zeros((n_chunks, 3), dtype=np.int64)       # points, degenerate, status
     o_pts = np.empty((64, 5))                            # s, xyz, iso
     o_uv = np.empty((128, 2))
+    s0 = np.empty(1)
+    s1_ = np.empty(1)
     ns = 0
     nuv = 0
     for c in range(n_chunks):
@@ -478,6 +551,23 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
             k = xin.shape[0]
             info[c, 0] = k
             info[c, 1] = degenerate
+            # a straight chunk: the placement gives [0, 1] when [0, 1] passes its check (status 2: the
+            # caller skips the placement); see `trims.discretize_chunks`
+            if not degenerate and L <= 4:
+                scale = 0.0
+                for j in range(L):
+                    sj = _straight_scale(cic, cfc, ck, cpw, cku, ckv, cpw4, j)
+                    if sj < 0.0:
+                        scale = -1.0
+                        break
+                    scale = max(scale, sj)
+                noise = 1e-13 * scale
+                if scale >= 0.0 and noise <= 1e-3 * chord_tol:
+                    s0[0], s1_[0] = 0.0, 1.0
+                    ok, ln, _ = _crit(cic, cfc, ck, cpw, cku, ckv, cpw4, s0, s1_, m9, max_edge, chord_tol, m9 > 0)
+                    ell = ln[0] * (1.0 + 1e-9)
+                    if ok and ell / max_edge + (k - 1) * (np.sqrt(noise / chord_tol) + noise / max_edge) <= 1.05:
+                        info[c, 2] = 2
             o_pts = _grow(o_pts, ns + k)
             for i in range(k):
                 o_pts[ns + i, 0] = xin[i]

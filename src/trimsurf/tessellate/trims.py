@@ -389,6 +389,9 @@ def _batch_arrays_loop(chunks: list) -> tuple:
 
 _S9W, _S33W = np.linspace(0.0, 1.0, 9), np.linspace(0.0, 1.0, 33)     # the kernel's (writable) copies
 
+#: straight chunks skip the placement (it gives [0, 1]; see `discretize_chunks`); False: the tests' reference
+_STRAIGHT_SHORTCUT = True
+
 
 def discretize_chunks(chunks: list, *, tolerance: float, max_edge: float, strategy: str = "equidistributed",
                       reduce: bool = True, degenerate: list | None = None) -> list:
@@ -427,14 +430,27 @@ def discretize_chunks(chunks: list, *, tolerance: float, max_edge: float, strate
     # 2. the placement (`domain.adaptive_values`' compiled path, per chunk: linked into the chunk
     #    kernel it would be compiled a second time; a kernel of its own looping over the chunks,
     #    measured: edges stage ~1 ms faster per featuretype tol run (of 18), ~1.9 s more cold compile)
+    #    A straight chunk (status 2 of step 1) takes [0, 1] without it: `equidistributed_kernel` returns
+    #    [0, 1] whenever the sum `total` of max(len_i / h, sqrt(dev_i / tol)) over its fine intervals is
+    #    below 1.1 (one value placed: [0, 1]; with total in (1, 1.1) the n0 - 1 = 1 of its first try) and
+    #    [0, 1] passes its check, which step 1 computed with the same call (`_chunk_criteria` on [0, 1], 9
+    #    points, stop). Step 1 takes a chunk whose every use's points are affine in s (a straight segment
+    #    at constant speed: `_chunk_kernels._straight_scale`, exact tests on the arrays): with ell the
+    #    largest |P_j(1) - P_j(0)| (<= h: the check), every fine interval's length is ell x its width in s
+    #    (<= ell / 8 < h / 4: no bisection for length), its sampled deviation rounding only, below
+    #    noise = 1e-13 x the surfaces' scale (some 20 x the rounding of the point and distance arithmetic,
+    #    argued, not proven to the last bit) <= 1e-3 x tol (no bisection for deviation), so over its k
+    #    start values total <= ell / h + (k - 1) (sqrt(noise / tol) + noise / h) <= 1.05.
+    #    `_STRAIGHT_SHORTCUT = False` runs the placement on every chunk (the tests' reference).
     placed, status, o = [], np.zeros(len(chunks), dtype=np.int64), 0
+    straight_ok = _STRAIGHT_SHORTCUT
     s01 = np.array([0.0, 1.0])
     x0 = pts[:, 0]
     tols = (float(tolerance), float(SHARED_CHORD * tolerance))
     h, mv = float(max_edge), float(MAX_VALUES)
     cl = c_off.tolist()
-    for c, (k, degen, _) in enumerate(info.tolist()):
-        if degen:
+    for c, (k, degen, straight) in enumerate(info.tolist()):
+        if degen or (straight == 2 and straight_ok):
             placed.append(s01)
         else:
             u0, u1 = cl[c], cl[c + 1]
