@@ -127,3 +127,32 @@ def test_straight_chunks_skip_placement(shared_data, monkeypatch, model, rel_h, 
     assert len(skipped) >= least
     for i in skipped[:: max(1, len(skipped) // 5)]:
         assert _same(got[i], _discretize_chunk_numpy(chunks[i], tolerance=tol, max_edge=h, degenerate=degs[i]))
+
+
+def test_straight_shortcut_refuses_curves(shared_data, monkeypatch):
+    """Arcs whose chord passes the check on [0, 1] (grid size 1.01 x the chord, a tolerance far above the
+    sagitta) but whose length needs more points: the placement gives more than [0, 1], and so must the
+    chunk with the shortcut on (a shortcut that took curves for straight would give [0, 1])."""
+    from trimsurf.tessellate import trims
+
+    shell = read_shell(shared_data / "cad" / "trimesh__featuretype.STEP")
+    d = shell.diagonal()
+    chunks, degs = _chunks(shell, 1e-3 * d, d)
+    tested = 0
+    for uses, deg in zip(chunks, degs):
+        if deg:
+            continue
+        p = uses[0].xyz(np.linspace(0.0, 1.0, 201))
+        chord = float(np.linalg.norm(p[-1] - p[0]))
+        arc = float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum())
+        if not (chord > 1e-3 * d and arc > 1.3 * chord):
+            continue
+        h = 1.01 * chord
+        monkeypatch.setattr(trims, "_STRAIGHT_SHORTCUT", True)
+        got = discretize_chunks([uses], tolerance=10 * d, max_edge=h)[0]
+        monkeypatch.setattr(trims, "_STRAIGHT_SHORTCUT", False)
+        ref = discretize_chunks([uses], tolerance=10 * d, max_edge=h)[0]
+        assert _same(got, ref)
+        assert len(ref.s) > 2
+        tested += 1
+    assert tested >= 5
