@@ -91,42 +91,38 @@ def test_straight_chunks_skip_placement(shared_data, monkeypatch, model, rel_h, 
     is the same bit for bit as with the placement run on every chunk (`_STRAIGHT_SHORTCUT = False`) and
     as the numpy path, the placement of every skipped chunk gives exactly [0, 1], and the shortcut is
     taken on real straight edges."""
-    from trimsurf.tessellate import _line_kernels, trims
+    from trimsurf.tessellate import trims
+    from trimsurf.tessellate._line_kernels import equidistributed_kernel
 
     shell = read_shell(shared_data / "cad" / model)
     d = shell.diagonal()
     tol, h = 1e-3 * d, rel_h * d
     chunks, degs = _chunks(shell, tol, h)
-    placed = []
-    real = _line_kernels.equidistributed_kernel
-
-    def spy(*a):
-        out = real(*a)
-        placed.append(out)
-        return out
-
-    monkeypatch.setattr(_line_kernels, "equidistributed_kernel", spy)
     got = discretize_chunks(chunks, tolerance=tol, max_edge=h, degenerate=degs)
+    x0, degen, straight = trims._placement_starts(chunks, tolerance=tol, max_edge=h, degenerate=degs)
     monkeypatch.setattr(trims, "_STRAIGHT_SHORTCUT", False)
     ref = discretize_chunks(chunks, tolerance=tol, max_edge=h, degenerate=degs)
+    assert not trims._placement_starts(chunks, tolerance=tol, max_edge=h, degenerate=degs)[2].any()
     bad = [i for i, (a, b) in enumerate(zip(got, ref)) if not _same(a, b)]
     assert not bad, f"{len(bad)} of {len(chunks)} chunks differ"
-    # chunk by chunk: which skip the placement, and what the placement gives them
-    skipped = []
-    for i, (uses, deg) in enumerate(zip(chunks, degs)):
-        for short in (True, False):
-            monkeypatch.setattr(trims, "_STRAIGHT_SHORTCUT", short)
-            placed.clear()
-            discretize_chunks([uses], tolerance=tol, max_edge=h, degenerate=[deg])
-            if short and placed:
-                break
-            if not short and placed:
-                x, needed = placed[0]
-                assert x.tolist() == [0.0, 1.0] and needed < 0
-                skipped.append(i)
-    assert len(skipped) >= least
+    skipped = np.flatnonzero(straight).tolist()
+    assert len(skipped) >= least and not degen[skipped].any()
+    # the placement itself (as the kernel calls it) gives exactly [0, 1] on every skipped chunk
+    fam = trims._ChunkLines
+    for i in skipped:
+        tol_i = tol if len(chunks[i]) < 2 else trims.SHARED_CHORD * tol
+        x, needed = equidistributed_kernel(*fam(chunks[i]).family()[:10], *_rows(chunks[i]), x0[i].copy(), 0.0, 1.0,
+                                           tol_i, h, 20000.0)
+        assert x.tolist() == [0.0, 1.0] and needed < 0
     for i in skipped[:: max(1, len(skipped) // 5)]:
         assert _same(got[i], _discretize_chunk_numpy(chunks[i], tolerance=tol, max_edge=h, degenerate=degs[i]))
+
+
+def _rows(uses):
+    """The kind-1 family members of one chunk (ci, cf, ck, cpw, cku, ckv, cpw4) as `discretize_chunks` builds them."""
+    from trimsurf.tessellate.trims import _batch_arrays
+
+    return _batch_arrays([uses])[:7]
 
 
 def test_straight_shortcut_refuses_curves(shared_data, monkeypatch):

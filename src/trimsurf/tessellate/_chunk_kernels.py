@@ -24,7 +24,7 @@ from numba import njit
 
 from ..geom._nurbs_kernels import _curve_point, _point_scratch, _surface_point01
 from ._line_kernels import (_chunk_criteria, _nonzero, _snap1, _ss_left, _ss_right, _stable_order, _unique,
-                            _use_arrays, _use_uv, chunk_iso_kernel)
+                            _use_arrays, _use_uv, chunk_iso_kernel, equidistributed_kernel)
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
@@ -439,9 +439,11 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
     uses c_off[c] .. c_off[c + 1] - 1 (rows of ci, cf, gi, ptol_all); forced[c] = 1 / 0: degenerate or
     not, -1: decided from the 3D extent of 33 probe points.
     The first ten arguments are the unused kind-0 members of the family tuple (`kind` = 1); flags =
-    (reduce, 5, 9, mode): run-time constants. Mode 0: the placement's start values; status 2: a straight
-    chunk whose placement is [0, 1] (see `_straight_scale` and `trims.discretize_chunks`). Mode 1: from
-    the placed values s_in. Returns (info (C, 3): points k_c, degenerate, status (0 done,
+    (reduce, 5, 9, mode, straight): run-time constants. Mode 0: the placement's start values (pts[:, 0]),
+    status 2: a straight chunk whose placement is [0, 1] (see `_straight_scale` and
+    `trims.discretize_chunks`; only with `straight`). Mode 1: from the placed values s_in (s_off per
+    chunk). Mode 2: both, the placement (`_line_kernels.equidistributed_kernel`) in between; what
+    `trims.discretize_chunks` runs. Returns (info (C, 3): points k_c, degenerate, status (0 done,
     1 more than max_values intervals needed: the caller runs the numpy path, which refuses); pts
     (sum k_c, 5): s, xyz (the mean of the uses' S(uv), before the degenerate averaging), iso (0 / 1);
     uv (sum L_c k_c, 2), use-major per chunk)."""
@@ -484,7 +486,7 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
             mpu, mpv = max(mpu, cic[j, 2]), max(mpv, cic[j, 3])
         ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(mpu, mpv, np.int64(4))
         res = np.empty((3, 3))
-        if mode == 0:
+        if mode != 1:
             # the start values: the first use's p-curve knots inside its range, mapped onto [0, 1], and s9
             cp = cic[0, 0]
             kc = ck[cic[0, 5]:cic[0, 5] + cic[0, 6]]
@@ -553,7 +555,7 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
             info[c, 1] = degenerate
             # a straight chunk: the placement gives [0, 1] when [0, 1] passes its check (status 2: the
             # caller skips the placement); see `trims.discretize_chunks`
-            if not degenerate and L <= 4:
+            if not degenerate and L <= 4 and flags[4] != 0:
                 scale = 0.0
                 for j in range(L):
                     sj = _straight_scale(cic, cfc, ck, cpw, cku, ckv, cpw4, j)
@@ -568,16 +570,31 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
                     ell = ln[0] * (1.0 + 1e-9)
                     if ok and ell / max_edge + (k - 1) * (np.sqrt(noise / chord_tol) + noise / max_edge) <= 1.05:
                         info[c, 2] = 2
-            o_pts = _grow(o_pts, ns + k)
-            for i in range(k):
-                o_pts[ns + i, 0] = xin[i]
-            ns += k
-            continue
-        # mode 1: from the placed values s (`equidistributed_kernel`, called by the caller per chunk)
-        degenerate = forced[c] == 1
-        s = np.empty(s_off[c + 1] - s_off[c])
-        for i in range(s.shape[0]):
-            s[i] = s_in[s_off[c] + i]
+            if mode == 0:
+                o_pts = _grow(o_pts, ns + k)
+                for i in range(k):
+                    o_pts[ns + i, 0] = xin[i]
+                ns += k
+                continue
+            # mode 2: the placement here (`domain.adaptive_values`' compiled path)
+            if degenerate or info[c, 2] == 2:
+                s = np.empty(2)
+                s[0], s[1] = 0.0, 1.0
+                info[c, 2] = 0
+            else:
+                s, needed = equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, d_ku, d_kv, d_pw,
+                                                   cic, cfc, ck, cpw, cku, ckv, cpw4, xin, 0.0, 1.0, chord_tol, max_edge,
+                                                   max_values)
+                if needed >= 0:         # more than max_values intervals: the caller runs the numpy path
+                    info[c, 2] = 1
+                    s = np.empty(2)
+                    s[0], s[1] = 0.0, 1.0
+        else:
+            # mode 1: from the placed values s (`equidistributed_kernel`, called by the caller per chunk)
+            degenerate = forced[c] == 1
+            s = np.empty(s_off[c + 1] - s_off[c])
+            for i in range(s.shape[0]):
+                s[i] = s_in[s_off[c] + i]
         s_all, uvs, iso = chunk_iso_kernel(cic, cfc, ck, cpw, G, gl, ptol, s)
         if s_all.shape[0] > 2:
             s_all, uvs, iso = _merge_close(G, gl, ptol, s_all, uvs, iso)

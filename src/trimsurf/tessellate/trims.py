@@ -416,7 +416,7 @@ def discretize_chunks(chunks: list, *, tolerance: float, max_edge: float, strate
         return [_discretize_chunk_numpy(uses, tolerance=tolerance, max_edge=max_edge, strategy=strategy,
                                         reduce=reduce, degenerate=deg) for uses, deg in zip(chunks, degenerate)]
     from ._chunk_kernels import discretize_chunks_kernel
-    from ._line_kernels import DUMMY_1D as D1, DUMMY_3D as D3, DUMMY_BOOL as DB, equidistributed_kernel
+    from ._line_kernels import DUMMY_1D as D1, DUMMY_3D as D3, DUMMY_BOOL as DB
     from .domain import MAX_VALUES
 
     ci, cf, ck, cpw, cku, ckv, cpw4, gi, gf, ptol, c_off = _batch_arrays(chunks)
@@ -424,49 +424,22 @@ def discretize_chunks(chunks: list, *, tolerance: float, max_edge: float, strate
     fam0 = (1, np.zeros(5, dtype=np.int64), np.zeros(2), D1, D1, DB, np.zeros(4), D1, D1, D3)
     args = (*fam0, ci, cf, ck, cpw, cku, ckv, cpw4, gi, gf, ptol, c_off)
     tail = (float(tolerance), float(SHARED_CHORD), float(max_edge), float(MAX_VALUES))
-    # 1. per chunk the placement's start values and whether it is degenerate (the 33-point probe)
-    info, pts, _ = discretize_chunks_kernel(*args, forced, _S9W, _S33W, _S9W, c_off, *tail,
-                                            np.array([bool(reduce), 5, 9, 0], dtype=np.int64))
-    # 2. the placement (`domain.adaptive_values`' compiled path, per chunk: linked into the chunk
-    #    kernel it would be compiled a second time; a kernel of its own looping over the chunks,
-    #    measured: edges stage ~1 ms faster per featuretype tol run (of 18), ~1.9 s more cold compile)
-    #    A straight chunk (status 2 of step 1) takes [0, 1] without it: `equidistributed_kernel` returns
-    #    [0, 1] whenever the sum `total` of max(len_i / h, sqrt(dev_i / tol)) over its fine intervals is
-    #    below 1.1 (one value placed: [0, 1]; with total in (1, 1.1) the n0 - 1 = 1 of its first try) and
-    #    [0, 1] passes its check, which step 1 computed with the same call (`_chunk_criteria` on [0, 1], 9
-    #    points, stop). Step 1 takes a chunk whose every use's points are affine in s (a straight segment
-    #    at constant speed: `_chunk_kernels._straight_scale`, exact tests on the arrays): with ell the
-    #    largest |P_j(1) - P_j(0)| (<= h: the check), every fine interval's length is ell x its width in s
-    #    (<= ell / 8 < h / 4: no bisection for length), its sampled deviation rounding only, below
-    #    noise = 1e-13 x the surfaces' scale (some 20 x the rounding of the point and distance arithmetic,
-    #    argued, not proven to the last bit) <= 1e-3 x tol (no bisection for deviation), so over its k
-    #    start values total <= ell / h + (k - 1) (sqrt(noise / tol) + noise / h) <= 1.05.
+    # per chunk the placement's start values and whether it is degenerate (the 33-point probe), the
+    # placement (`domain.adaptive_values`' compiled path), the iso-values, the reduction and the shared
+    # points, in one call (mode 2). A straight chunk takes [0, 1] without the placement:
+    #    `equidistributed_kernel` returns [0, 1] whenever the sum `total` of max(len_i / h, sqrt(dev_i / tol))
+    #    over its fine intervals is below 1.1 (one value placed: [0, 1]; with total in (1, 1.1) the n0 - 1 = 1
+    #    of its first try) and [0, 1] passes its check, which the kernel computes with the same call
+    #    (`_chunk_criteria` on [0, 1], 9 points, stop). It takes a chunk whose every use's points are affine in
+    #    s (a straight segment at constant speed: `_chunk_kernels._straight_scale`, exact tests on the
+    #    arrays): with ell the largest |P_j(1) - P_j(0)| (<= h: the check), every fine interval's length is
+    #    ell x its width in s (<= ell / 8 < h / 4: no bisection for length), its sampled deviation rounding
+    #    only, below noise = 1e-13 x the surfaces' scale (some 20 x the rounding of the point and distance
+    #    arithmetic, argued, not proven to the last bit) <= 1e-3 x tol (no bisection for deviation), so over
+    #    its k start values total <= ell / h + (k - 1) (sqrt(noise / tol) + noise / h) <= 1.05.
     #    `_STRAIGHT_SHORTCUT = False` runs the placement on every chunk (the tests' reference).
-    placed, status, o = [], np.zeros(len(chunks), dtype=np.int64), 0
-    straight_ok = _STRAIGHT_SHORTCUT
-    s01 = np.array([0.0, 1.0])
-    x0 = pts[:, 0]
-    tols = (float(tolerance), float(SHARED_CHORD * tolerance))
-    h, mv = float(max_edge), float(MAX_VALUES)
-    cl = c_off.tolist()
-    for c, (k, degen, straight) in enumerate(info.tolist()):
-        if degen or (straight == 2 and straight_ok):
-            placed.append(s01)
-        else:
-            u0, u1 = cl[c], cl[c + 1]
-            x, needed = equidistributed_kernel(*fam0, ci[u0:u1], cf[u0:u1], ck, cpw, cku, ckv, cpw4,
-                                               x0[o:o + k].copy(), 0.0, 1.0, tols[u1 - u0 >= 2], h, mv)
-            if needed >= 0:
-                status[c] = 1
-                x = s01
-            placed.append(x)
-        o += k
-    s_off = np.zeros(len(chunks) + 1, dtype=np.int64)
-    np.cumsum([len(x) for x in placed], out=s_off[1:])
-    # 3. the iso-values, the reduction and the shared points
-    info, pts, uv = discretize_chunks_kernel(*args, info[:, 1].copy(), _S9W, _S33W, np.concatenate(placed), s_off,
-                                             *tail, np.array([bool(reduce), 5, 9, 1], dtype=np.int64))
-    info[:, 2] = status
+    info, pts, uv = discretize_chunks_kernel(*args, forced, _S9W, _S33W, _S9W, c_off, *tail,
+                                             np.array([bool(reduce), 5, 9, 2, _STRAIGHT_SHORTCUT], dtype=np.int64))
     s, xyz, iso = pts[:, 0].copy(), pts[:, 1:4].copy(), pts[:, 4] > 0.5
     out = []
     o = ouv = 0
@@ -483,6 +456,24 @@ def discretize_chunks(chunks: list, *, tolerance: float, max_edge: float, strate
         o += k
         ouv += len(uses) * k
     return out
+
+
+def _placement_starts(chunks: list, *, tolerance: float, max_edge: float, degenerate: list) -> tuple:
+    """Per chunk (mode 0 of `discretize_chunks_kernel`, the tests' view of step one): the placement's start
+    values, whether it is degenerate and whether it is straight (takes [0, 1] without the placement)."""
+    from ._chunk_kernels import discretize_chunks_kernel
+    from ._line_kernels import DUMMY_1D as D1, DUMMY_3D as D3, DUMMY_BOOL as DB
+    from .domain import MAX_VALUES
+
+    ci, cf, ck, cpw, cku, ckv, cpw4, gi, gf, ptol, c_off = _batch_arrays(chunks)
+    forced = np.array([-1 if d is None else int(bool(d)) for d in degenerate], dtype=np.int64)
+    fam0 = (1, np.zeros(5, dtype=np.int64), np.zeros(2), D1, D1, DB, np.zeros(4), D1, D1, D3)
+    info, pts, _ = discretize_chunks_kernel(*fam0, ci, cf, ck, cpw, cku, ckv, cpw4, gi, gf, ptol, c_off, forced,
+                                            _S9W, _S33W, _S9W, c_off, float(tolerance), float(SHARED_CHORD),
+                                            float(max_edge), float(MAX_VALUES),
+                                            np.array([1, 5, 9, 0, _STRAIGHT_SHORTCUT], dtype=np.int64))
+    x0 = np.split(pts[:, 0], np.cumsum(info[:, 0])[:-1])
+    return x0, info[:, 1] != 0, info[:, 2] == 2
 
 
 def _discretize_chunk_numpy(uses: list, *, tolerance: float, max_edge: float, strategy: str = "equidistributed",
