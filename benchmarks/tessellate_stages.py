@@ -33,6 +33,7 @@ STAGES = [  # (module, attribute, label)
     ("trimsurf.tessellate.face", "triangulate_domain", "triangulate"),
     ("trimsurf.tessellate.grid", "clean_pslg", "clean_pslg"),
     ("triangle", "triangulate", "Triangle"),
+    ("trimsurf.tessellate.grid", "_triang", "Triangle"),       # Triangle's core, called directly (session 26)
     ("trimsurf.tessellate.face", "collapse_boundary_slivers", "slivers"),
     ("trimsurf.tessellate.seams", "reduce_seams", "seams"),
     ("trimsurf.tessellate.stitch", "stitch_mesh", "stitch"),

@@ -291,6 +291,7 @@ def _reference_paths(monkeypatch):
     monkeypatch.setattr(face_mod, "trim_loop_kernel", loop_always_checked)
     monkeypatch.setattr(face_mod._TriangleDeviations, "start_bound",
                         lambda self, uv, xyz, t: np.full(len(t), np.inf))
+    monkeypatch.setattr(face_mod, "_lift_points", face_mod._lift_points_numpy)
 
 
 def test_face_meshes_equal_reference_paths(shared_data, monkeypatch):
@@ -353,3 +354,53 @@ def test_min_angles_compiled_cosines_equal_numpy():
         got, want = _min_angles_deg(P), _min_angles_deg_numpy(P)
         assert np.array_equal(got, want, equal_nan=True)
         assert (want == 0).sum() > 1000 and (want < 1e-3).sum() > 3000
+
+
+def test_lift_points_equal_numpy(shared_data, monkeypatch):
+    """`_lift_points` (one compiled pass: surface points, trim offsets, the triangles whose start bound
+    exceeds the tolerance) equals `_lift_points_numpy` (`evaluate`, `start_bound`) bit for bit in every
+    call of t20's and the screw's tessellations (planar and curved faces), and for the curved ones also at
+    tolerances near the start bounds (the boundary: a bound equal to the tolerance is not "maybe") and with
+    trim points off the surface; (u, v) that are not finite take the numpy path (which raises)."""
+    import trimsurf.tessellate.face as face_mod
+    from trimsurf.errors import GeometryError
+    from trimsurf.io import read_shell
+    from trimsurf.tessellate import tessellate_shell
+
+    calls = []
+    real = face_mod._lift_points
+
+    def rec(*a):
+        calls.append(a)
+        return real(*a)
+
+    monkeypatch.setattr(face_mod, "_lift_points", rec)
+    for name in ("gmsh__t20_data.step", "occt__screw.step"):
+        shell = read_shell(shared_data / "cad" / name)
+        d = shell.diagonal()
+        for mode in ("tol", "paper"):
+            tessellate_shell(shell, tolerance=1e-3 * d, max_edge=d if mode == "tol" else 3e-2 * d, measure=False)
+    n_cmp = n_maybe = n_flat = 0
+    rng = np.random.default_rng(3)
+    for s, uv, trim_xyz, *rest in calls:
+        variants = [(trim_xyz, *rest)]
+        if rest and rest[0] is not None:
+            tris, tol, known = rest
+            moved = trim_xyz + rng.normal(scale=tol, size=trim_xyz.shape)
+            sb = known.start_bound(uv, real(s, uv, trim_xyz)[0], tris)
+            variants += [(moved, tris, tol, known), (trim_xyz, tris, 1e-3 * tol, known)]
+            variants += [(trim_xyz, tris, float(np.median(sb)), known)] if len(sb) else []
+        else:
+            n_flat += 1
+        for v in variants:
+            a, b = real(s, uv, *v), face_mod._lift_points_numpy(s, uv, *v)
+            for x, y in zip(a, b):
+                assert (x is None and y is None) or np.array_equal(x, y)
+            n_cmp += 1
+            n_maybe += a[2] is not None and 0 < len(a[2]) < len(v[1])
+    assert n_cmp > 100 and n_maybe > 20 and n_flat > 10, (n_cmp, n_maybe, n_flat)
+    s, uv, trim_xyz, tris, tol, known = next(c for c in calls if len(c) > 3 and c[3] is not None)
+    uv = uv.copy()
+    uv[-1, 0] = np.nan
+    with pytest.raises(GeometryError):
+        real(s, uv, trim_xyz, tris, tol, known)

@@ -1168,7 +1168,7 @@ def _check_cut_loop(face: TrimmedFace, poly: np.ndarray, xyz: np.ndarray, seg: n
 
 # the mesh side's own imports (kept here, below the domain values' part of this module)
 from ..geom.predicates import _CCW_BOUND  # noqa: E402
-from ._mesh_kernels import deviation_start_bound, trim_loop_kernel  # noqa: E402
+from ._mesh_kernels import deviation_start_bound, lift_kernel, trim_loop_kernel  # noqa: E402
 
 _NO_IDS = np.zeros(0, dtype=np.int64)
 
@@ -1258,14 +1258,6 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
     cell_main = _split_from_fits(fits, tol, prefer)
 
     trim_xyz = np.concatenate(xyzs)
-
-    def lift(dt):
-        xyz = np.empty((len(dt.uv), 3))
-        xyz[:dt.n_trim] = trim_xyz
-        if len(dt.uv) > dt.n_trim:
-            xyz[dt.n_trim:] = s.evaluate(dt.uv[dt.n_trim:])
-        return xyz
-
     dt = triangulate_domain(us, vs, polys, cell_main=cell_main, tie_main=prefer)
     known = _TriangleDeviations(s)
     # a plane: a triangle with its corners on it lies in it, its deviation is its corners' offsets at most
@@ -1279,14 +1271,13 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
         extra = np.zeros((0, 2))
         # a trim point off the surface (the mean of two faces' curves, a gap in the model) makes its
         # triangles deviate by its own offset, which no interior point can remove (the surface at the
-        # trim points and at the other vertices in one evaluation: per point the same numbers as `lift`)
-        xyz = s.evaluate(dt.uv)
-        trim_off = np.linalg.norm(xyz[:dt.n_trim] - trim_xyz, axis=1)
-        xyz[:dt.n_trim] = trim_xyz
-        for _ in range(4):
-            # only a triangle whose samples' first distances (an upper bound of its deviation) exceed the
-            # tolerance may be bad: the deviation of those alone (the others' is computed when read)
-            maybe = np.flatnonzero(~(known.start_bound(dt.uv, xyz, dt.triangles) <= tol))
+        # trim points and at the other vertices in one evaluation: per point the same numbers as `lift`);
+        # only a triangle whose samples' first distances (an upper bound of its deviation) exceed the
+        # tolerance may be bad: the deviation of those alone (the others' is computed when read)
+        xyz, trim_off, maybe = _lift_points(s, dt.uv, trim_xyz, dt.triangles, tol, known)
+        for it in range(4):
+            if it:
+                maybe = np.flatnonzero(~(known.start_bound(dt.uv, xyz, dt.triangles) <= tol))
             if not len(maybe):
                 break
             tm = dt.triangles[maybe]
@@ -1300,11 +1291,11 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
             extra = np.concatenate([extra, dt.uv[dt.triangles[bad]].mean(axis=1)])
             n_before = len(dt.uv)
             dt = triangulate_domain(us, vs, polys, cell_main=cell_main, extra=extra, tie_main=prefer)
-            xyz = lift(dt)
+            xyz = _lift_points(s, dt.uv, trim_xyz)[0]
             if len(dt.uv) == n_before:
                 break
     else:
-        xyz = lift(dt)
+        xyz = _lift_points(s, dt.uv, trim_xyz)[0]
     n_trim = dt.n_trim
     vid = np.full(len(dt.uv), -1, dtype=np.int64)
     vid[:n_trim] = np.concatenate(vids)
@@ -1332,6 +1323,44 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
         tri_dev = None
         task = (s, known if dev is None else None, dt.uv, xyz, dt.triangles, dev, kept, tris, face.same_sense)
     return FaceMesh(dt.uv, xyz, tris, vid, quads, us, vs, dt.n_crossed_cells, tri_dev, removed, task)
+
+
+def _lift_points(s, uv, trim_xyz, tris=None, tol=None, known=None):
+    """The points of a triangulation whose first len(trim_xyz) vertices are the trim points: (xyz, trim_off,
+    maybe), xyz S(uv) with the trim points' rows `trim_xyz`; with `tris` also each trim point's distance
+    |S(uv) - trim_xyz| and the triangles whose start bound (`_TriangleDeviations.start_bound`) is not at
+    most `tol` (else None, None). One compiled pass (`_mesh_kernels.lift_kernel`); `_lift_points_numpy` is
+    its reference, and its path for (u, v) that are not finite."""
+    nt = len(trim_xyz)
+    if nt > len(uv):
+        return _lift_points_numpy(s, uv, trim_xyz, tris, tol, known)
+    with_tris = tris is not None
+    status, xyz, off, maybe = lift_kernel(
+        _BARY, np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(trim_xyz, dtype=np.float64),
+        np.ascontiguousarray(tris, dtype=np.int64) if with_tris else _NO_TRIS, s.degree_u, s.degree_v,
+        read_only(s.knots_u), read_only(s.knots_v), _homogeneous(s.control_points, s.weights), s.weights is not None,
+        np.bool_(with_tris), float(tol) if with_tris else 0.0)
+    if status:
+        return _lift_points_numpy(s, uv, trim_xyz, tris, tol, known)
+    return (xyz, off, maybe) if with_tris else (xyz, None, None)
+
+
+_NO_TRIS = np.zeros((0, 3), dtype=np.int64)
+
+
+def _lift_points_numpy(s, uv, trim_xyz, tris=None, tol=None, known=None):
+    """`_lift_points` with `NurbsSurface.evaluate` and `_TriangleDeviations.start_bound` (the reference)."""
+    nt = len(trim_xyz)
+    if tris is None:
+        xyz = np.empty((len(uv), 3))
+        xyz[:nt] = trim_xyz
+        if len(uv) > nt:
+            xyz[nt:] = s.evaluate(uv[nt:])
+        return xyz, None, None
+    xyz = s.evaluate(uv)
+    trim_off = np.linalg.norm(xyz[:nt] - trim_xyz, axis=1)
+    xyz[:nt] = trim_xyz
+    return xyz, trim_off, np.flatnonzero(~(known.start_bound(uv, xyz, tris) <= tol))
 
 
 def _face_tri_dev(s, known, uv, xyz, dt_triangles, dev, kept, tris, same_sense) -> np.ndarray:

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import triangle as tr
+from triangle.core import triang as _triang
 from numba import njit
 
 from .._numba_load import install as _install_lazy_bitcode
@@ -959,8 +960,10 @@ def _triangulate_compiled(us, vs, pts, polys, e, cell_main, tie_main):
     if status >= 2:
         return None
     if status == 1:
-        res = tr.triangulate({"vertices": q, "segments": lseg}, "pQ")
-        out_v, out_t = res["vertices"], res["triangles"]
+        # `tr.triangulate({"vertices": q, "segments": lseg}, "pQ")` without its renaming of the dicts' keys:
+        # the same call of Triangle (its options string too)
+        res, _ = _triang({"pointlist": q, "segmentlist": lseg}, "Qz{pQ}")
+        out_v, out_t = res["pointlist"], res["trianglelist"]
     else:
         out_v, out_t = _EMPTY2, _EMPTY_TRI
     uv, tris, grid_node, quads, n_crossed = _domain_finish_kernel(
