@@ -273,7 +273,8 @@ def _reference_paths(monkeypatch):
     import trimsurf.tessellate.face as face_mod
     from trimsurf.tessellate.slivers import _collapse_boundary_slivers_numpy
 
-    def numpy_triangulation(us, vs, polys, *, cell_main=None, split=None, **k):
+    def numpy_triangulation(us, vs, polys, *, cell_main=None, split=None, packed=None, **k):
+        polys = [np.array(p) for p in polys]        # the packed polygons' views copied
         nv1 = len(vs) - 1
         if split is None and cell_main is not None:
             def split(ki, kj):
@@ -292,6 +293,8 @@ def _reference_paths(monkeypatch):
     monkeypatch.setattr(face_mod._TriangleDeviations, "start_bound",
                         lambda self, uv, xyz, t: np.full(len(t), np.inf))
     monkeypatch.setattr(face_mod, "_lift_points", face_mod._lift_points_numpy)
+    monkeypatch.setattr(face_mod, "_face_loops", face_mod._face_loops_numpy)
+    monkeypatch.setattr(face_mod, "_cell_main", face_mod._split_from_fits)
 
 
 def test_face_meshes_equal_reference_paths(shared_data, monkeypatch):
@@ -404,3 +407,106 @@ def test_lift_points_equal_numpy(shared_data, monkeypatch):
     uv[-1, 0] = np.nan
     with pytest.raises(GeometryError):
         real(s, uv, trim_xyz, tris, tol, known)
+
+
+def test_face_loops_and_cell_splits_equal_numpy(shared_data, monkeypatch):
+    """`_face_loops` (`face_loops_kernel`: the chunks of every loop assembled and checked in one pass) and
+    `_cell_main` (`cell_main_kernel`) equal `_face_loops_numpy` and `_split_from_fits` bit for bit on every
+    face of featuretype and the screw in both settings and modes (conforming: vertex ids; loose: none),
+    also with the chunks' ids partly missing and the cell fits scaled around the switching thresholds; a
+    loop that is not certainly simple takes the loop-by-loop path (the same result)."""
+    import trimsurf.tessellate.face as face_mod
+    from trimsurf.io import read_shell
+    from trimsurf.tessellate import tessellate_shell
+
+    calls = []
+    real = face_mod._face_loops
+    real_cm = face_mod._cell_main
+    cm_calls = []
+
+    def rec(*a):
+        calls.append(a)
+        return real(*a)
+
+    def rec_cm(*a):
+        cm_calls.append(a)
+        return real_cm(*a)
+
+    monkeypatch.setattr(face_mod, "_face_loops", rec)
+    monkeypatch.setattr(face_mod, "_cell_main", rec_cm)
+    for name in ("trimesh__featuretype.STEP", "occt__screw.step"):
+        shell = read_shell(shared_data / "cad" / name)
+        d = shell.diagonal()
+        for mode in ("tol", "paper"):
+            for m in ("conforming", "loose"):
+                tessellate_shell(shell, tolerance=1e-3 * d, max_edge=d if mode == "tol" else 3e-2 * d,
+                                 measure=False, mode=m)
+
+    def same(a, b):
+        polys_a, x_a, v_a, rem_a, packed = a
+        polys_b, x_b, v_b, rem_b, _ = b
+        assert len(polys_a) == len(polys_b) and rem_a == rem_b
+        for p, q in zip(polys_a, polys_b):
+            assert np.array_equal(p, q)
+        assert np.array_equal(x_a, x_b) and np.array_equal(v_a, v_b)
+        if packed is not None:
+            assert np.array_equal(packed[0], np.concatenate(polys_b))
+            assert packed[1].tolist() == [len(p) for p in polys_b]
+
+    n_ids = n_packed = 0
+    for face, chunks, tol in calls:
+        same(real(face, chunks, tol), face_mod._face_loops_numpy(face, chunks, tol))
+        n_packed += real(face, chunks, tol)[4] is not None
+        # the ids of every other chunk dropped (a loop with ids and without)
+        part = [[(c, u, None if k % 2 else ids) for k, (c, u, ids) in enumerate(entries)] for entries in chunks]
+        if any(ids is not None for entries in chunks for _, _, ids in entries):
+            same(real(face, part, tol), face_mod._face_loops_numpy(face, part, tol))
+            n_ids += 1
+    assert len(calls) > 400 and n_packed > 400 and n_ids > 100, (len(calls), n_packed, n_ids)
+    # a self-crossing loop (a bow tie with a small lobe) and a loop without area next to a square: the
+    # loop-by-loop path for the first (the same polygons), the compiled one for the second
+    from types import SimpleNamespace as NS
+
+    def chunk(uv, forward=True, ids=None):
+        uv = np.array(uv, dtype=np.float64)
+        pc = NS(t0=0.0 if forward else 1.0, t1=1.0 if forward else 0.0, edge_id=None)
+        use = NS(pcurve=pc, segment=0, forward=forward)
+        c = NS(uv=[uv], xyz=np.column_stack([uv, np.zeros(len(uv))]), uses=[use])
+        return (c, 0, ids)
+
+    face = calls[0][0]
+    bow = [[chunk([(0, 0), (4, 0), (4, 4)]), chunk([(0, 4), (0, 3), (4, 4)][::-1], forward=False),
+            chunk([(0, 3), (4.5, 3.2), (0, 0)])]]
+    got = real(face, bow, None)
+    assert got[4] is None and got[3] > 0
+    same(got, face_mod._face_loops_numpy(face, bow, None))
+    square = [[chunk([(0, 0), (1, 0), (1, 1), (0, 1), (0, 0)], ids=np.arange(5))],
+              [chunk([(2, 2), (3, 2), (2, 2)])]]
+    got = real(face, square, None)
+    assert got[4] is not None and len(got[0]) == 1
+    same(got, face_mod._face_loops_numpy(face, square, None))
+    n_cmp = 0
+    for fits, t, prefer in cm_calls:
+        for scale in (1.0, 0.5 * t / max(float(fits.max()), 1e-300), t / max(float(fits.max()), 1e-300)):
+            f = fits * scale
+            for p in (prefer, not prefer) if t is not None else (None,):
+                assert np.array_equal(real_cm(f, t, p), face_mod._split_from_fits(f, t, p))
+                n_cmp += 1
+        assert np.array_equal(real_cm(fits, None, None), face_mod._split_from_fits(fits, None, None))
+    assert n_cmp > 1000, n_cmp
+    # synthetic fits at the thresholds: the preferred cost at and around half and 0.9 of the tolerance,
+    # the other at and just below 0.8 and 0.98 of it, either way round, NaN and infinite ones
+    rng = np.random.default_rng(5)
+    t = 0.01
+    dp = np.concatenate([np.array([0.5, 0.9]) * t, np.nextafter(np.array([0.5, 0.9]) * t, np.inf),
+                         rng.uniform(0, 2 * t, 200), [np.nan, np.inf, 0.0]])
+    ratio = np.array([0.8, 0.98, np.nextafter(0.8, 0), np.nextafter(0.98, 0), 0.5, 0.9, 1.0, 1.5])
+    pp, rr = np.meshgrid(dp, ratio, indexing="ij")
+    do = (pp * rr).ravel()
+    do = np.concatenate([do, np.nextafter(do, 0), np.nextafter(do, np.inf)])
+    dq = np.tile(pp.ravel(), 3)
+    for f in (np.column_stack([dq, do]), np.column_stack([do, dq])):
+        for p in (True, False):
+            got, want = real_cm(f, t, p), face_mod._split_from_fits(f, t, p)
+            assert np.array_equal(got, want) and 0.05 < got.mean() < 0.95
+        assert np.array_equal(real_cm(f, None, None), face_mod._split_from_fits(f, None, None))

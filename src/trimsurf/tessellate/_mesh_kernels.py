@@ -8,7 +8,8 @@ from numba import njit
 from ..geom._nurbs_kernels import _point_scratch, _surface_point01
 from ..geom.predicates import _segments_apart_kernel
 
-__all__ = ["deviation_samples", "deviation_start_bound", "lift_kernel", "trim_loop_kernel"]
+__all__ = ["cell_main_kernel", "deviation_samples", "deviation_start_bound", "face_loops_kernel", "lift_kernel",
+           "trim_loop_kernel"]
 
 
 @njit(cache=True, nogil=True)
@@ -201,3 +202,73 @@ def lift_kernel(bary, uv, trim_xyz, tris, pu, pv, ku, kv, pw, rational, all_poin
                 maybe[k] = t
                 k += 1
     return 0, xyz, off, maybe
+
+
+@njit(cache=True, nogil=True)
+def face_loops_kernel(uv, xyz, ids, counts, forward, loop_start, bound):
+    """Every trim loop of a face (`trimsurf.tessellate.face.mesh_face_from_chunks`) from its chunks in one
+    pass: chunk c (rows of uv, xyz, ids after those of the chunks before it; counts[c] points) adds its
+    points but the last in its direction (forward[c]; else reversed, without its first point), loop l
+    being chunks loop_start[l]:loop_start[l + 1]; then `trim_loop_kernel` of each loop (ids -1: no id).
+
+    Returns (status, pts, x, vid, lens): the loops that kept 3 points or more (lens[l] 0 for a loop that
+    did not) concatenated; status 2 where some loop is not certainly simple (then nothing else is
+    meaningful: `remove_polygon_loops` must decide, loop by loop), else 0."""
+    n_loops = loop_start.shape[0] - 1
+    total = 0
+    for c in range(counts.shape[0]):
+        total += max(counts[c] - 1, 0)
+    pts = np.empty((total, 2))
+    x = np.empty((total, 3))
+    vid = np.empty(total, dtype=np.int64)
+    lens = np.zeros(n_loops, dtype=np.int64)
+    first = np.zeros(counts.shape[0] + 1, dtype=np.int64)
+    for c in range(counts.shape[0]):
+        first[c + 1] = first[c] + counts[c]
+    out = 0
+    for lp in range(n_loops):
+        m = 0
+        for c in range(loop_start[lp], loop_start[lp + 1]):
+            m += max(counts[c] - 1, 0)
+        p = np.empty((m, 2))
+        q = np.empty((m, 3))
+        v = np.empty(m, dtype=np.int64)
+        j = 0
+        for c in range(loop_start[lp], loop_start[lp + 1]):
+            k = counts[c] - 1
+            for r in range(k):
+                src = first[c] + r if forward[c] else first[c] + k - r
+                p[j, 0], p[j, 1] = uv[src, 0], uv[src, 1]
+                q[j, 0], q[j, 1], q[j, 2] = xyz[src, 0], xyz[src, 1], xyz[src, 2]
+                v[j] = ids[src]
+                j += 1
+        p2, x2, v2, keep, status = trim_loop_kernel(p, q, v, np.bool_(True), bound)
+        if status == 2:
+            return 2, pts, x, vid, lens
+        if status == 0:
+            continue
+        lens[lp] = p2.shape[0]
+        for i in range(p2.shape[0]):
+            pts[out, 0], pts[out, 1] = p2[i, 0], p2[i, 1]
+            x[out, 0], x[out, 1], x[out, 2] = x2[i, 0], x2[i, 1], x2[i, 2]
+            vid[out] = v2[i]
+            out += 1
+    return 0, pts[:out], x[:out], vid[:out], lens
+
+
+@njit(cache=True, nogil=True)
+def cell_main_kernel(d, has_tol, tolerance, pref):
+    """`trimsurf.tessellate.face._split_from_fits(d, tolerance, pref)` with the preference given (the same
+    comparisons per cell): with a tolerance, the preferred diagonal unless the other one fits clearly
+    better where the preferred one costs more than half the tolerance; without, the better fitting one."""
+    k = d.shape[0]
+    out = np.empty(k, dtype=np.bool_)
+    half, most = 0.5 * tolerance, 0.9 * tolerance
+    for c in range(k):
+        if not has_tol:
+            out[c] = d[c, 0] <= d[c, 1]
+            continue
+        dp, do = (d[c, 0], d[c, 1]) if pref else (d[c, 1], d[c, 0])
+        switch = ((dp > half) and (do < 0.8 * dp)) or ((dp > most) and (do < 0.98 * dp))
+        out[c] = (not pref) if switch else pref
+    return out

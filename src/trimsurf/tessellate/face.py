@@ -1168,35 +1168,15 @@ def _check_cut_loop(face: TrimmedFace, poly: np.ndarray, xyz: np.ndarray, seg: n
 
 # the mesh side's own imports (kept here, below the domain values' part of this module)
 from ..geom.predicates import _CCW_BOUND  # noqa: E402
-from ._mesh_kernels import deviation_start_bound, lift_kernel, trim_loop_kernel  # noqa: E402
+from ._mesh_kernels import (cell_main_kernel, deviation_start_bound, face_loops_kernel, lift_kernel,  # noqa: E402
+                            trim_loop_kernel)
 
 _NO_IDS = np.zeros(0, dtype=np.int64)
 
 
-def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loop_chunks: list, *,
-                          tolerance: float | None = None, max_edge: float = np.inf,
-                          slivers: bool = True, fits: np.ndarray | None = None) -> FaceMesh:
-    """Triangulate a face whose loops are given as discretized chunks.
-
-    Parameters
-    ----------
-    face : TrimmedFace
-    us, vs : domain values of the face
-    loop_chunks : list (per loop) of list of (Chunk, use index, ids or None)
-        In segment order; ``ids`` (k,) global vertex ids of the chunk's points or None.
-    tolerance : float or None
-        Untouched cells take one diagonal direction, switching only where it
-        costs more than half the tolerance (see `_cell_split`); None: the
-        paper's best-fitting diagonal per cell.
-    max_edge : float
-        Limit for edges the sliver reduction creates.
-    slivers : bool
-        With a tolerance: collapse grid nodes that make thin triangles at the
-        trim into the trim vertex (`trimsurf.tessellate.slivers`, paper Sec. 5.1).
-    fits : (n_cells, 2) float64 or None
-        The grid's `_diagonal_fits` when known (`face_domain_values(..., with_fits=True)`); None:
-        computed here.
-    """
+def _face_loops_numpy(face: TrimmedFace, loop_chunks: list, tolerance) -> tuple:
+    """`_face_loops` loop by loop (the reference of `face_loops_kernel`, and the path of a loop that
+    `remove_polygon_loops` must decide)."""
     polys, xyzs, vids = [], [], []
     removed = 0
     for entries in loop_chunks:
@@ -1244,6 +1224,76 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
         xyzs.append(xyz[sel])
         vids.append(vid[sel])
     if not polys:
+        return polys, None, None, removed, None
+    return polys, np.concatenate(xyzs), np.concatenate(vids), removed, None
+
+
+def _face_loops(face: TrimmedFace, loop_chunks: list, tolerance) -> tuple:
+    """The trim polygons of a face from its loops' chunks (`mesh_face_from_chunks`): (polygons (list of
+    (k, 2)), their points' xyz and vertex ids concatenated, points cut out by `remove_polygon_loops`,
+    (pts, lens) the polygons packed or None). One compiled pass (`face_loops_kernel`) where every loop is
+    certainly simple or has no area; else loop by loop (`_face_loops_numpy`)."""
+    uvs, xs, idl, fw, counts, loop_start = [], [], [], [], [], [0]
+    n_ids = 0
+    for entries in loop_chunks:
+        if not entries:
+            return _face_loops_numpy(face, loop_chunks, tolerance)
+        for chunk, ui, ids in entries:
+            uv = chunk.uv[ui]
+            uvs.append(uv)
+            xs.append(chunk.xyz)
+            idl.append(ids)
+            n_ids += ids is not None
+            pc = chunk.uses[ui].pcurve
+            fw.append(pc.t0 < pc.t1)
+            counts.append(len(uv))
+        loop_start.append(len(uvs))
+    n = sum(counts)
+    if n_ids == len(idl):
+        ids = np.concatenate(idl)
+    elif n_ids == 0:
+        ids = np.full(n, -1, dtype=np.int64)
+    else:
+        ids = np.concatenate([np.full(c, -1, dtype=np.int64) if i is None else i for i, c in zip(idl, counts)])
+    status, pts, x, vid, lens = face_loops_kernel(
+        np.concatenate(uvs), np.concatenate(xs), np.ascontiguousarray(ids, dtype=np.int64), np.array(counts, dtype=np.int64), np.array(fw, dtype=np.bool_),
+        np.array(loop_start, dtype=np.int64), _CCW_BOUND)
+    if status == 2:
+        return _face_loops_numpy(face, loop_chunks, tolerance)
+    lens = lens[lens > 0]
+    polys, o = [], 0
+    for k in lens.tolist():
+        polys.append(pts[o:o + k])
+        o += k
+    return polys, x, vid, 0, (pts, lens)
+
+
+def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loop_chunks: list, *,
+                          tolerance: float | None = None, max_edge: float = np.inf,
+                          slivers: bool = True, fits: np.ndarray | None = None) -> FaceMesh:
+    """Triangulate a face whose loops are given as discretized chunks.
+
+    Parameters
+    ----------
+    face : TrimmedFace
+    us, vs : domain values of the face
+    loop_chunks : list (per loop) of list of (Chunk, use index, ids or None)
+        In segment order; ``ids`` (k,) global vertex ids of the chunk's points or None.
+    tolerance : float or None
+        Untouched cells take one diagonal direction, switching only where it
+        costs more than half the tolerance (see `_cell_split`); None: the
+        paper's best-fitting diagonal per cell.
+    max_edge : float
+        Limit for edges the sliver reduction creates.
+    slivers : bool
+        With a tolerance: collapse grid nodes that make thin triangles at the
+        trim into the trim vertex (`trimsurf.tessellate.slivers`, paper Sec. 5.1).
+    fits : (n_cells, 2) float64 or None
+        The grid's `_diagonal_fits` when known (`face_domain_values(..., with_fits=True)`); None:
+        computed here.
+    """
+    polys, trim_xyz, trim_vid, removed, packed = _face_loops(face, loop_chunks, tolerance)
+    if not polys:
         raise TrimLoopError(f"{face.name or 'face'}: no trim loop with area")
     s = face.surface
 
@@ -1255,10 +1305,8 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
     prefer = None if tol is None else _prefer_main(s, us, vs, fits)
     # every cell's diagonal (`_split_from_fits` is elementwise with the preference given): what a split
     # callback would answer for the cells the triangulation keeps
-    cell_main = _split_from_fits(fits, tol, prefer)
-
-    trim_xyz = np.concatenate(xyzs)
-    dt = triangulate_domain(us, vs, polys, cell_main=cell_main, tie_main=prefer)
+    cell_main = _cell_main(fits, tol, prefer)
+    dt = triangulate_domain(us, vs, polys, cell_main=cell_main, tie_main=prefer, packed=packed)
     known = _TriangleDeviations(s)
     # a plane: a triangle with its corners on it lies in it, its deviation is its corners' offsets at most
     # (a trim point off the surface), which the interior points of the rounds below never remove: skip them
@@ -1290,7 +1338,7 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
                 break
             extra = np.concatenate([extra, dt.uv[dt.triangles[bad]].mean(axis=1)])
             n_before = len(dt.uv)
-            dt = triangulate_domain(us, vs, polys, cell_main=cell_main, extra=extra, tie_main=prefer)
+            dt = triangulate_domain(us, vs, polys, cell_main=cell_main, extra=extra, tie_main=prefer, packed=packed)
             xyz = _lift_points(s, dt.uv, trim_xyz)[0]
             if len(dt.uv) == n_before:
                 break
@@ -1298,7 +1346,7 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
         xyz = _lift_points(s, dt.uv, trim_xyz)[0]
     n_trim = dt.n_trim
     vid = np.full(len(dt.uv), -1, dtype=np.int64)
-    vid[:n_trim] = np.concatenate(vids)
+    vid[:n_trim] = trim_vid
     tris = dt.triangles if face.same_sense else dt.triangles[:, ::-1]
     quads = dt.quads
     kept = None
@@ -1323,6 +1371,16 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
         tri_dev = None
         task = (s, known if dev is None else None, dt.uv, xyz, dt.triangles, dev, kept, tris, face.same_sense)
     return FaceMesh(dt.uv, xyz, tris, vid, quads, us, vs, dt.n_crossed_cells, tri_dev, removed, task)
+
+
+def _cell_main(fits: np.ndarray, tol: float | None, prefer: bool | None) -> np.ndarray:
+    """`_split_from_fits(fits, tol, prefer)` (prefer given where tol is) in one compiled pass
+    (`cell_main_kernel`); `_split_from_fits` is its reference."""
+    d = fits if fits.dtype == np.float64 and fits.flags.c_contiguous and fits.ndim == 2 else \
+        np.ascontiguousarray(fits, dtype=np.float64).reshape(-1, 2)
+    if tol is not None and prefer is None:
+        return _split_from_fits(fits, tol, prefer)
+    return cell_main_kernel(d, np.bool_(tol is not None), 0.0 if tol is None else float(tol), np.bool_(bool(prefer)))
 
 
 def _lift_points(s, uv, trim_xyz, tris=None, tol=None, known=None):

@@ -857,7 +857,7 @@ class DomainTriangulation:
 
 def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=None,
                        extra=None, metric=None, tie_main: bool | None = None,
-                       cell_main: np.ndarray | None = None) -> DomainTriangulation:
+                       cell_main: np.ndarray | None = None, packed: tuple | None = None) -> DomainTriangulation:
     """Triangulate the region bounded by `polygons` on the grid us x vs (paper Sec. 4.3, 5.1).
 
     Parameters
@@ -885,6 +885,9 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
     cell_main : ((len(us) - 1) * (len(vs) - 1),) bool or None
         Per cell (flat index i * (len(vs) - 1) + j) what `split` would answer for it; takes the place of
         `split` (one compiled pass over the grid, no call back).
+    packed : (pts (n, 2) float64, lens (k,) int64) or None
+        The polygons concatenated and their lengths, when the caller has them (`polygons` being
+        views of pts, each of 3 points or more: no copies then).
     metric : (2,) float64 or None
         3D length per unit of u and of v (e.g. mean |S_u|, |S_v|): the crossed cells'
         Delaunay triangulation is computed in (u * metric[0], v * metric[1]), so that
@@ -903,21 +906,24 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
 
     us = np.asarray(us, dtype=np.float64)
     vs = np.asarray(vs, dtype=np.float64)
-    polys = [np.asarray(p, dtype=np.float64) for p in polygons]
-    if any(len(p) < 3 for p in polys) or not polys:
-        raise TrimLoopError("a trim polygon has fewer than 3 points")
+    if packed is None:
+        polys = [np.asarray(p, dtype=np.float64) for p in polygons]
+        if any(len(p) < 3 for p in polys) or not polys:
+            raise TrimLoopError("a trim polygon has fewer than 3 points")
+    else:
+        polys = polygons
     nu, nv = len(us), len(vs)
     if cell_main is not None and len(cell_main) != max(nu - 1, 0) * max(nv - 1, 0):
         raise ValueError(f"cell_main has {len(cell_main)} values for {max(nu - 1, 0) * max(nv - 1, 0)} cells")
     if metric is None and nu >= 2 and nv >= 2:
         # the compiled path checks the rest of its conditions (strictly increasing grid values, finite
         # points) and answers None where they fail
-        pts = np.concatenate(polys) if len(polys) > 1 else polys[0]
+        pts = packed[0] if packed is not None else np.concatenate(polys) if len(polys) > 1 else polys[0]
         e = _EMPTY2 if extra is None or not len(extra) else np.unique(
             np.asarray(extra, dtype=np.float64).reshape(-1, 2), axis=0)
         if cell_main is None and split is not None:
             cell_main = _split_all(us, vs, polys, pts, e, split)
-        out = _triangulate_compiled(us, vs, pts, polys, e, cell_main, tie_main)
+        out = _triangulate_compiled(us, vs, pts, polys if packed is None else packed[1], e, cell_main, tie_main)
         if out is not None:
             return out
     if cell_main is not None and split is None:
@@ -950,7 +956,7 @@ def _triangulate_compiled(us, vs, pts, polys, e, cell_main, tie_main):
     """`_triangulate_domain_numpy` in two compiled passes around Triangle (strictly increasing us, vs,
     finite points, no metric); None when the graph for Triangle needs `clean_pslg`'s rounds (the caller
     takes the numpy path then)."""
-    lens = np.array([len(p) for p in polys], dtype=np.int64)
+    lens = polys if isinstance(polys, np.ndarray) else np.array([len(p) for p in polys], dtype=np.int64)
     shear = 0.0 if tie_main is None else (-1e-3 if tie_main else 1e-3)
     has_main = cell_main is not None
     cm = np.ascontiguousarray(cell_main, dtype=np.bool_) if has_main else _EMPTY_BOOL
