@@ -952,6 +952,95 @@ def _split_all(us, vs, polys, pts, e, split) -> np.ndarray:
     return out
 
 
+def _triangle_functions():
+    """ctypes handles of Triangle's C `triangulate` and `trifree` (the symbols of `triangle.core`'s library)
+    and of libc's `memcpy`, with every argument an address (size_t); None where they cannot be had (the
+    wrapper `triangle.core.triang` is called then)."""
+    try:
+        import ctypes
+
+        import triangle.core as core
+
+        lib, libc = ctypes.CDLL(core.__file__), ctypes.CDLL(None)
+        size = ctypes.c_size_t
+
+        def fn(f, *args):
+            return ctypes.CFUNCTYPE(*args)(ctypes.cast(f, ctypes.c_void_p).value)
+
+        return (fn(lib.triangulate, None, size, size, size, size), fn(lib.trifree, None, size),
+                fn(libc.memcpy, size, size, size, size))
+    except (OSError, AttributeError, ImportError, TypeError):      # pragma: no cover (no such library)
+        return None
+
+
+_TRIANGLE_FNS = _triangle_functions()
+#: Triangle's options as `triangle.triangulate(..., "pQ")` passes them (a C string)
+_TRIANGLE_OPTS = np.frombuffer(b"Qz{pQ}\0", dtype=np.uint8).copy()
+# the words of Triangle's `struct triangulateio` (x86-64: 8-byte pointers, 4-byte ints, 168 bytes): the
+# pointers Triangle allocates in its output (freed here; the hole and region lists are the input's)
+_TRIO_OWNED = np.array([0, 1, 2, 4, 5, 6, 7, 10, 11, 17, 18, 19], dtype=np.int64)
+
+
+@njit(cache=True)
+def _triangle_kernel(q, lseg, opts, owned, tri_fn, free_fn, memcpy):
+    """Triangle's `triangulate(opts, in, out, NULL-filled vorout)` on the points q (n, 2) and segments lseg
+    (k, 2), as `triangle.core.triang({"pointlist": q, "segmentlist": lseg}, opts)` fills the structs (the
+    other fields zero): (points (n', 2), triangles (m, 3) int64), Triangle's output arrays freed.
+
+    Triangle ends an internal error by a longjmp to its wrapper's buffer: called only on the graphs that
+    `_domain_prepare_kernel` found clean (no crossings, no near-duplicate points, no point on a segment),
+    on which it always finishes (see `clean_pslg`)."""
+    n, k = q.shape[0], lseg.shape[0]
+    pts = np.ascontiguousarray(q)
+    seg = np.empty(2 * k, dtype=np.int32)
+    for i in range(k):
+        seg[2 * i], seg[2 * i + 1] = lseg[i, 0], lseg[i, 1]
+    inw = np.zeros(21, dtype=np.int64)
+    outw = np.zeros(21, dtype=np.int64)
+    vorw = np.zeros(21, dtype=np.int64)
+    in32 = inw.view(np.int32)
+    inw[0] = pts.ctypes.data            # pointlist
+    in32[6] = n                         # numberofpoints (byte 24)
+    inw[10] = seg.ctypes.data           # segmentlist (byte 80)
+    in32[24] = k                        # numberofsegments (byte 96)
+    tri_fn(opts.ctypes.data, inw.ctypes.data, outw.ctypes.data, vorw.ctypes.data)
+    out32 = outw.view(np.int32)
+    n_out, m, corners = out32[6], out32[16], out32[17]
+    out_v = np.empty((n_out, 2))
+    t32 = np.empty(m * corners, dtype=np.int32)
+    if n_out:
+        memcpy(out_v.ctypes.data, outw[0], n_out * 16)
+    if m:
+        memcpy(t32.ctypes.data, outw[4], m * corners * 4)
+    for w in owned:
+        if outw[w] != 0:
+            free_fn(outw[w])
+    out_t = np.empty((m, 3), dtype=np.int64)
+    for t in range(m):
+        for c in range(3):
+            out_t[t, c] = t32[t * corners + c]
+    return out_v, out_t
+
+
+@njit(cache=True)
+def _domain_kernel(pts, lens, us, vs, e, cm, has_main, shear, snap, bound, opts, owned, tri_fn, free_fn, memcpy):
+    """`_domain_prepare_kernel`, Triangle (`_triangle_kernel`) and `_domain_finish_kernel` in one call: (status,
+    uv, triangles, grid_node, quads, crossed cells, cells); status >= 2: the numpy path must do it (nothing
+    else meaningful). Holds the GIL: Triangle keeps state in globals."""
+    (status, uv, grid_node, grid_tris, quads, crossed, p1, y0, h, n_slab, start, edges, q, lseg, used, lo,
+     scale) = _domain_prepare_kernel(pts, lens, us, vs, e, cm, has_main, shear, snap, bound)
+    if status >= 2:
+        return status, uv, grid_tris, grid_node, quads, 0, crossed.size
+    if status == 1:
+        out_v, out_t = _triangle_kernel(q, lseg, opts, owned, tri_fn, free_fn, memcpy)
+    else:
+        out_v, out_t = np.empty((0, 2)), np.empty((0, 3), dtype=np.int64)
+    uv, tris, grid_node, quads, n_crossed = _domain_finish_kernel(
+        uv, grid_node, grid_tris, quads, out_v, out_t, used, lo, scale, shear, us, vs, crossed, pts, p1, y0, h,
+        n_slab, start, edges)
+    return status, uv, tris, grid_node, quads, n_crossed, crossed.size
+
+
 def _triangulate_compiled(us, vs, pts, polys, e, cell_main, tie_main):
     """`_triangulate_domain_numpy` in two compiled passes around Triangle (strictly increasing us, vs,
     finite points, no metric); None when the graph for Triangle needs `clean_pslg`'s rounds (the caller
@@ -960,6 +1049,13 @@ def _triangulate_compiled(us, vs, pts, polys, e, cell_main, tie_main):
     shear = 0.0 if tie_main is None else (-1e-3 if tie_main else 1e-3)
     has_main = cell_main is not None
     cm = np.ascontiguousarray(cell_main, dtype=np.bool_) if has_main else _EMPTY_BOOL
+    if _TRIANGLE_FNS is not None:
+        status, uv, tris, grid_node, quads, n_crossed, n_cells = _domain_kernel(
+            np.ascontiguousarray(pts), lens, us, vs, np.ascontiguousarray(e), cm, np.bool_(has_main), shear, SNAP,
+            _CCW_BOUND, _TRIANGLE_OPTS, _TRIO_OWNED, *_TRIANGLE_FNS)
+        if status >= 2:
+            return None
+        return DomainTriangulation(uv, tris, len(pts), grid_node, quads, int(n_crossed), int(n_cells))
     (status, uv, grid_node, grid_tris, quads, crossed, p1, y0, h, n_slab, start, edges, q, lseg, used, lo,
      scale) = _domain_prepare_kernel(np.ascontiguousarray(pts), lens, us, vs, np.ascontiguousarray(e), cm,
                                      np.bool_(has_main), shear, SNAP, _CCW_BOUND)
