@@ -570,3 +570,25 @@ def test_direct_triangle_call_equals_wrapper(shared_data, monkeypatch):
     for _ in range(3000):       # about 14 kB of Triangle's output each: 42 MB if kept
         grid_mod._triangle_kernel(q, ring, grid_mod._TRIANGLE_OPTS, grid_mod._TRIO_OWNED, *fns)
     assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 16_000     # KiB
+
+
+def test_slivers_first_round_exit():
+    """`collapse_boundary_slivers` stops after its first candidates only where no candidate's angle is
+    unsure (none can be thin): a single thin triangle at the trim is still collapsed (as the numpy
+    reference does), and without one the triangles come back unchanged, `kept` the identity."""
+    from trimsurf.model import NurbsSurface
+    from trimsurf.tessellate.slivers import _collapse_boundary_slivers_numpy, collapse_boundary_slivers
+
+    cp = np.array([[[0, 0, 0], [0, 1, 0]], [[1, 0, 0], [1, 1, 0]]], dtype=float)
+    s = NurbsSurface(1, 1, np.array([0, 0, 1, 1.0]), np.array([0, 0, 1, 1.0]), cp)
+    tris = np.array([[0, 1, 2], [0, 2, 4], [2, 3, 4], [2, 1, 5], [2, 5, 3]], dtype=np.int64)
+    is_trim = np.array([True, True, False, False, True, True])
+    for height, thin in ((0.02, True), (0.4, False)):
+        uv = np.array([[0, 0], [1, 0], [0.5, height], [0.5, 1.0], [0, 1], [1, 1]], dtype=float)
+        xyz = np.column_stack([uv, np.zeros(len(uv))])
+        t1, k1 = collapse_boundary_slivers(s, uv, xyz, tris, is_trim, tolerance=1.0, max_edge=np.inf)
+        t2, k2 = _collapse_boundary_slivers_numpy(s, uv, xyz, tris, is_trim, tolerance=1.0, max_edge=np.inf)
+        assert np.array_equal(t1, t2) and np.array_equal(k1, k2)
+        assert (len(t1) < len(tris)) == thin
+        if not thin:
+            assert np.array_equal(k1, np.arange(len(tris))) and t1 is not tris

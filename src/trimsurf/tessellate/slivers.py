@@ -333,6 +333,10 @@ def collapse_boundary_slivers(surface, uv: np.ndarray, xyz: np.ndarray, triangle
                                                            np.bool_(sgn is None))
         if sgn is None:
             sgn = sg
+            if not len(unsure):
+                # the first round: every candidate's angle was settled "not thin" (inf), so no triangle is
+                # thin: what `_sliver_pick_kernel` and `_sliver_result_kernel` would return (T is a copy)
+                return T, np.arange(len(T), dtype=np.int64)
         if not len(idx):
             break
         if len(unsure):
