@@ -513,9 +513,9 @@ def test_face_loops_and_cell_splits_equal_numpy(shared_data, monkeypatch):
 
 
 def test_direct_triangle_call_equals_wrapper(shared_data, monkeypatch):
-    """`_domain_kernel` (Triangle's C `triangulate` called from the compiled pass) gives every triangulation of
-    t20's and the screw's faces (the extra-point rounds too) equal to the prepare kernel, the wrapper
-    `triangle.core.triang` and the finish kernel; on crossing segments Triangle's new vertices come back as
+    """`_triangle_kernel` (Triangle's C `triangulate` called from compiled code) between the prepare and the
+    finish kernel gives every triangulation of t20's and the screw's faces (the extra-point rounds too)
+    equal to the wrapper `triangle.core.triang` there; on crossing segments Triangle's new vertices come back as
     the wrapper's; many calls do not grow the process (Triangle's output arrays are freed)."""
     import trimsurf.tessellate.face as face_mod
     from trimsurf.io import read_shell

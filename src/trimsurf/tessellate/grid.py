@@ -989,7 +989,8 @@ def _triangle_kernel(q, lseg, opts, owned, tri_fn, free_fn, memcpy):
 
     Triangle ends an internal error by a longjmp to its wrapper's buffer: called only on the graphs that
     `_domain_prepare_kernel` found clean (no crossings, no near-duplicate points, no point on a segment),
-    on which it always finishes (see `clean_pslg`)."""
+    on which it always finishes (see `clean_pslg`). Holds the GIL (Triangle keeps state in globals), as
+    the wrapper does."""
     n, k = q.shape[0], lseg.shape[0]
     pts = np.ascontiguousarray(q)
     seg = np.empty(2 * k, dtype=np.int32)
@@ -1022,25 +1023,6 @@ def _triangle_kernel(q, lseg, opts, owned, tri_fn, free_fn, memcpy):
     return out_v, out_t
 
 
-@njit(cache=True)
-def _domain_kernel(pts, lens, us, vs, e, cm, has_main, shear, snap, bound, opts, owned, tri_fn, free_fn, memcpy):
-    """`_domain_prepare_kernel`, Triangle (`_triangle_kernel`) and `_domain_finish_kernel` in one call: (status,
-    uv, triangles, grid_node, quads, crossed cells, cells); status >= 2: the numpy path must do it (nothing
-    else meaningful). Holds the GIL: Triangle keeps state in globals."""
-    (status, uv, grid_node, grid_tris, quads, crossed, p1, y0, h, n_slab, start, edges, q, lseg, used, lo,
-     scale) = _domain_prepare_kernel(pts, lens, us, vs, e, cm, has_main, shear, snap, bound)
-    if status >= 2:
-        return status, uv, grid_tris, grid_node, quads, 0, crossed.size
-    if status == 1:
-        out_v, out_t = _triangle_kernel(q, lseg, opts, owned, tri_fn, free_fn, memcpy)
-    else:
-        out_v, out_t = np.empty((0, 2)), np.empty((0, 3), dtype=np.int64)
-    uv, tris, grid_node, quads, n_crossed = _domain_finish_kernel(
-        uv, grid_node, grid_tris, quads, out_v, out_t, used, lo, scale, shear, us, vs, crossed, pts, p1, y0, h,
-        n_slab, start, edges)
-    return status, uv, tris, grid_node, quads, n_crossed, crossed.size
-
-
 def _triangulate_compiled(us, vs, pts, polys, e, cell_main, tie_main):
     """`_triangulate_domain_numpy` in two compiled passes around Triangle (strictly increasing us, vs,
     finite points, no metric); None when the graph for Triangle needs `clean_pslg`'s rounds (the caller
@@ -1049,13 +1031,6 @@ def _triangulate_compiled(us, vs, pts, polys, e, cell_main, tie_main):
     shear = 0.0 if tie_main is None else (-1e-3 if tie_main else 1e-3)
     has_main = cell_main is not None
     cm = np.ascontiguousarray(cell_main, dtype=np.bool_) if has_main else _EMPTY_BOOL
-    if _TRIANGLE_FNS is not None:
-        status, uv, tris, grid_node, quads, n_crossed, n_cells = _domain_kernel(
-            np.ascontiguousarray(pts), lens, us, vs, np.ascontiguousarray(e), cm, np.bool_(has_main), shear, SNAP,
-            _CCW_BOUND, _TRIANGLE_OPTS, _TRIO_OWNED, *_TRIANGLE_FNS)
-        if status >= 2:
-            return None
-        return DomainTriangulation(uv, tris, len(pts), grid_node, quads, int(n_crossed), int(n_cells))
     (status, uv, grid_node, grid_tris, quads, crossed, p1, y0, h, n_slab, start, edges, q, lseg, used, lo,
      scale) = _domain_prepare_kernel(np.ascontiguousarray(pts), lens, us, vs, np.ascontiguousarray(e), cm,
                                      np.bool_(has_main), shear, SNAP, _CCW_BOUND)
@@ -1064,8 +1039,11 @@ def _triangulate_compiled(us, vs, pts, polys, e, cell_main, tie_main):
     if status == 1:
         # `tr.triangulate({"vertices": q, "segments": lseg}, "pQ")` without its renaming of the dicts' keys:
         # the same call of Triangle (its options string too)
-        res, _ = _triang({"pointlist": q, "segmentlist": lseg}, "Qz{pQ}")
-        out_v, out_t = res["pointlist"], res["trianglelist"]
+        if _TRIANGLE_FNS is not None:       # Triangle's C function (no dicts, no copies of its output)
+            out_v, out_t = _triangle_kernel(q, lseg, _TRIANGLE_OPTS, _TRIO_OWNED, *_TRIANGLE_FNS)
+        else:
+            res, _ = _triang({"pointlist": q, "segmentlist": lseg}, "Qz{pQ}")
+            out_v, out_t = res["pointlist"], res["trianglelist"]
     else:
         out_v, out_t = _EMPTY2, _EMPTY_TRI
     uv, tris, grid_node, quads, n_crossed = _domain_finish_kernel(
