@@ -416,6 +416,7 @@ def test_face_loops_and_cell_splits_equal_numpy(shared_data, monkeypatch):
     also with the chunks' ids partly missing and the cell fits scaled around the switching thresholds; a
     loop that is not certainly simple takes the loop-by-loop path (the same result)."""
     import trimsurf.tessellate.face as face_mod
+    from trimsurf.errors import TrimLoopError
     from trimsurf.io import read_shell
     from trimsurf.tessellate import tessellate_shell
 
@@ -485,6 +486,9 @@ def test_face_loops_and_cell_splits_equal_numpy(shared_data, monkeypatch):
     got = real(face, square, None)
     assert got[4] is not None and len(got[0]) == 1
     same(got, face_mod._face_loops_numpy(face, square, None))
+    assert real(face, [], None)[0] == []        # no loop
+    with pytest.raises(TrimLoopError):
+        face_mod.mesh_face_from_chunks(face, np.array([0.0, 1.0]), np.array([0.0, 1.0]), [], tolerance=1.0)
     n_cmp = 0
     for fits, t, prefer in cm_calls:
         for scale in (1.0, 0.5 * t / max(float(fits.max()), 1e-300), t / max(float(fits.max()), 1e-300)):

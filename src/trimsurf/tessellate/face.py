@@ -1248,6 +1248,8 @@ def _face_loops(face: TrimmedFace, loop_chunks: list, tolerance) -> tuple:
             fw.append(pc.t0 < pc.t1)
             counts.append(len(uv))
         loop_start.append(len(uvs))
+    if not uvs:         # no loop
+        return _face_loops_numpy(face, loop_chunks, tolerance)
     n = sum(counts)
     if n_ids == len(idl):
         ids = np.concatenate(idl)
@@ -1256,7 +1258,8 @@ def _face_loops(face: TrimmedFace, loop_chunks: list, tolerance) -> tuple:
     else:
         ids = np.concatenate([np.full(c, -1, dtype=np.int64) if i is None else i for i, c in zip(idl, counts)])
     status, pts, x, vid, lens = face_loops_kernel(
-        np.concatenate(uvs), np.concatenate(xs), np.ascontiguousarray(ids, dtype=np.int64), np.array(counts, dtype=np.int64), np.array(fw, dtype=np.bool_),
+        np.concatenate(uvs), np.concatenate(xs), np.ascontiguousarray(ids, dtype=np.int64),
+        np.array(counts, dtype=np.int64), np.array(fw, dtype=np.bool_),
         np.array(loop_start, dtype=np.int64), _CCW_BOUND)
     if status == 2:
         return _face_loops_numpy(face, loop_chunks, tolerance)
