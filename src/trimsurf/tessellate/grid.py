@@ -961,6 +961,8 @@ def _triangle_functions():
 
         import triangle.core as core
 
+        if ctypes.sizeof(ctypes.c_void_p) != 8 or ctypes.sizeof(ctypes.c_int) != 4:
+            return None     # the struct layout `_triangle_kernel` writes is the 64-bit one
         lib, libc = ctypes.CDLL(core.__file__), ctypes.CDLL(None)
         size = ctypes.c_size_t
 
