@@ -33,8 +33,7 @@ STAGES = [  # (module, attribute, label)
     ("trimsurf.tessellate.face", "triangulate_domain", "triangulate"),
     ("trimsurf.tessellate.grid", "clean_pslg", "clean_pslg"),
     ("triangle", "triangulate", "Triangle"),
-    ("trimsurf.tessellate.grid", "_triang", "Triangle"),       # the wrapper's core (where ctypes cannot be had)
-    ("trimsurf.tessellate.grid", "_triangle_kernel", "Triangle"),  # Triangle's C function (session 26)
+    ("trimsurf.tessellate.grid", "_triang", "Triangle"),       # the wrapper's core
     ("trimsurf.tessellate.face", "collapse_boundary_slivers", "slivers"),
     ("trimsurf.tessellate.seams", "reduce_seams", "seams"),
     ("trimsurf.tessellate.stitch", "stitch_mesh", "stitch"),

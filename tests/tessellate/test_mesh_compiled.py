@@ -516,66 +516,6 @@ def test_face_loops_and_cell_splits_equal_numpy(shared_data, monkeypatch):
         assert np.array_equal(real_cm(f, None, None), face_mod._split_from_fits(f, None, None))
 
 
-def test_direct_triangle_call_equals_wrapper(shared_data, monkeypatch):
-    """`_triangle_kernel` (Triangle's C `triangulate` called from compiled code) between the prepare and the
-    finish kernel gives every triangulation of t20's and the screw's faces (the extra-point rounds too)
-    equal to the wrapper `triangle.core.triang` there; on crossing segments Triangle's new vertices come back as
-    the wrapper's; many calls do not grow the process (Triangle's output arrays are freed)."""
-    import trimsurf.tessellate.face as face_mod
-    from trimsurf.io import read_shell
-    from trimsurf.tessellate import tessellate_shell
-
-    assert grid_mod._TRIANGLE_FNS is not None
-    calls = []
-    real = face_mod.triangulate_domain
-
-    def rec(*a, **k):
-        calls.append((a, k))
-        return real(*a, **k)
-
-    monkeypatch.setattr(face_mod, "triangulate_domain", rec)
-    for name in ("gmsh__t20_data.step", "occt__screw.step"):
-        shell = read_shell(shared_data / "cad" / name)
-        d = shell.diagonal()
-        for mode in ("tol", "paper"):
-            tessellate_shell(shell, tolerance=1e-3 * d, max_edge=d if mode == "tol" else 3e-2 * d, measure=False)
-    fns = grid_mod._TRIANGLE_FNS
-    n_tri = [0]
-    wrapper = grid_mod._triang
-
-    def counting(*a):
-        n_tri[0] += 1
-        return wrapper(*a)
-
-    for a, k in calls:
-        direct = real(*a, **k)
-        monkeypatch.setattr(grid_mod, "_TRIANGLE_FNS", None)
-        monkeypatch.setattr(grid_mod, "_triang", counting)
-        ref = real(*a, **k)
-        monkeypatch.setattr(grid_mod, "_TRIANGLE_FNS", fns)
-        assert _same(direct, ref)
-    assert len(calls) > 50 and n_tri[0] > 50, (len(calls), n_tri)
-    # crossing segments: Triangle adds their crossing points (new vertices come back as the wrapper's)
-    rng = np.random.default_rng(11)
-    a = np.sort(rng.uniform(0, 2 * np.pi, 300))
-    q = np.column_stack([np.cos(a), np.sin(a)]) * (1.0 + 0.3 * np.sin(7 * a))[:, None]     # a star, simple
-    ring = np.column_stack([np.arange(300), np.roll(np.arange(300), -1)]).astype(np.int64)
-    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
-    diagonals = np.array([[0, 1], [1, 2], [2, 3], [3, 0], [0, 2], [1, 3]], dtype=np.int64)
-    for pts, seg in ((square, diagonals), (q, ring)):
-        v, t = grid_mod._triangle_kernel(pts, seg, grid_mod._TRIANGLE_OPTS, grid_mod._TRIO_OWNED, *fns)
-        res, _ = wrapper({"pointlist": pts, "segmentlist": seg}, "Qz{pQ}")
-        assert np.array_equal(v, res["pointlist"]) and np.array_equal(t, res["trianglelist"])
-    assert len(grid_mod._triangle_kernel(square, diagonals, grid_mod._TRIANGLE_OPTS, grid_mod._TRIO_OWNED,
-                                         *fns)[0]) == 5
-    import resource
-
-    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    for _ in range(3000):       # about 14 kB of Triangle's output each: 42 MB if kept
-        grid_mod._triangle_kernel(q, ring, grid_mod._TRIANGLE_OPTS, grid_mod._TRIO_OWNED, *fns)
-    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 16_000     # KiB
-
-
 def test_slivers_first_round_exit():
     """`collapse_boundary_slivers` stops after its first candidates only where no candidate's angle is
     unsure (none can be thin): a single thin triangle at the trim is still collapsed (as the numpy

@@ -42,7 +42,7 @@ KERNELS = {
                                           "line_net_kernel", "inside_grid_kernel", "cache_cells_kernel",
                                           "cell_deviation_kernel", "refine_round_kernel"),
     "trimsurf.tessellate._chunk_kernels": ("discretize_chunks_kernel", "pcurve_ends_kernel"),
-    "trimsurf.tessellate.grid": ("_domain_prepare_kernel", "_domain_finish_kernel", "_triangle_kernel"),
+    "trimsurf.tessellate.grid": ("_domain_prepare_kernel", "_domain_finish_kernel"),
     "trimsurf.tessellate._mesh_kernels": ("lift_kernel", "face_loops_kernel", "cell_main_kernel"),
     "trimsurf.tessellate.slivers": ("_sliver_candidates_kernel", "_sliver_pick_kernel", "_sliver_result_kernel",
                                     "_corner_cosines"),

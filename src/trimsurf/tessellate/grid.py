@@ -952,79 +952,6 @@ def _split_all(us, vs, polys, pts, e, split) -> np.ndarray:
     return out
 
 
-def _triangle_functions():
-    """ctypes handles of Triangle's C `triangulate` and `trifree` (the symbols of `triangle.core`'s library)
-    and of libc's `memcpy`, with every argument an address (size_t); None where they cannot be had (the
-    wrapper `triangle.core.triang` is called then)."""
-    try:
-        import ctypes
-
-        import triangle.core as core
-
-        if ctypes.sizeof(ctypes.c_void_p) != 8 or ctypes.sizeof(ctypes.c_int) != 4:
-            return None     # the struct layout `_triangle_kernel` writes is the 64-bit one
-        lib, libc = ctypes.CDLL(core.__file__), ctypes.CDLL(None)
-        size = ctypes.c_size_t
-
-        def fn(f, *args):
-            return ctypes.CFUNCTYPE(*args)(ctypes.cast(f, ctypes.c_void_p).value)
-
-        return (fn(lib.triangulate, None, size, size, size, size), fn(lib.trifree, None, size),
-                fn(libc.memcpy, size, size, size, size))
-    except (OSError, AttributeError, ImportError, TypeError):      # pragma: no cover (no such library)
-        return None
-
-
-_TRIANGLE_FNS = _triangle_functions()
-#: Triangle's options as `triangle.triangulate(..., "pQ")` passes them (a C string)
-_TRIANGLE_OPTS = np.frombuffer(b"Qz{pQ}\0", dtype=np.uint8).copy()
-# the words of Triangle's `struct triangulateio` (x86-64: 8-byte pointers, 4-byte ints, 168 bytes): the
-# pointers Triangle allocates in its output (freed here; the hole and region lists are the input's)
-_TRIO_OWNED = np.array([0, 1, 2, 4, 5, 6, 7, 10, 11, 17, 18, 19], dtype=np.int64)
-
-
-@njit(cache=True)
-def _triangle_kernel(q, lseg, opts, owned, tri_fn, free_fn, memcpy):
-    """Triangle's `triangulate(opts, in, out, NULL-filled vorout)` on the points q (n, 2) and segments lseg
-    (k, 2), as `triangle.core.triang({"pointlist": q, "segmentlist": lseg}, opts)` fills the structs (the
-    other fields zero): (points (n', 2), triangles (m, 3) int64), Triangle's output arrays freed.
-
-    Triangle ends an internal error by a longjmp to its wrapper's buffer: called only on the graphs that
-    `_domain_prepare_kernel` found clean (no crossings, no near-duplicate points, no point on a segment),
-    on which it always finishes (see `clean_pslg`). Holds the GIL (Triangle keeps state in globals), as
-    the wrapper does."""
-    n, k = q.shape[0], lseg.shape[0]
-    pts = np.ascontiguousarray(q)
-    seg = np.empty(2 * k, dtype=np.int32)
-    for i in range(k):
-        seg[2 * i], seg[2 * i + 1] = lseg[i, 0], lseg[i, 1]
-    inw = np.zeros(21, dtype=np.int64)
-    outw = np.zeros(21, dtype=np.int64)
-    vorw = np.zeros(21, dtype=np.int64)
-    in32 = inw.view(np.int32)
-    inw[0] = pts.ctypes.data            # pointlist
-    in32[6] = n                         # numberofpoints (byte 24)
-    inw[10] = seg.ctypes.data           # segmentlist (byte 80)
-    in32[24] = k                        # numberofsegments (byte 96)
-    tri_fn(opts.ctypes.data, inw.ctypes.data, outw.ctypes.data, vorw.ctypes.data)
-    out32 = outw.view(np.int32)
-    n_out, m, corners = out32[6], out32[16], out32[17]
-    out_v = np.empty((n_out, 2))
-    t32 = np.empty(m * corners, dtype=np.int32)
-    if n_out:
-        memcpy(out_v.ctypes.data, outw[0], n_out * 16)
-    if m:
-        memcpy(t32.ctypes.data, outw[4], m * corners * 4)
-    for w in owned:
-        if outw[w] != 0:
-            free_fn(outw[w])
-    out_t = np.empty((m, 3), dtype=np.int64)
-    for t in range(m):
-        for c in range(3):
-            out_t[t, c] = t32[t * corners + c]
-    return out_v, out_t
-
-
 def _triangulate_compiled(us, vs, pts, polys, e, cell_main, tie_main):
     """`_triangulate_domain_numpy` in two compiled passes around Triangle (strictly increasing us, vs,
     finite points, no metric); None when the graph for Triangle needs `clean_pslg`'s rounds (the caller
@@ -1041,11 +968,10 @@ def _triangulate_compiled(us, vs, pts, polys, e, cell_main, tie_main):
     if status == 1:
         # `tr.triangulate({"vertices": q, "segments": lseg}, "pQ")` without its renaming of the dicts' keys:
         # the same call of Triangle (its options string too)
-        if _TRIANGLE_FNS is not None:       # Triangle's C function (no dicts, no copies of its output)
-            out_v, out_t = _triangle_kernel(q, lseg, _TRIANGLE_OPTS, _TRIO_OWNED, *_TRIANGLE_FNS)
-        else:
-            res, _ = _triang({"pointlist": q, "segmentlist": lseg}, "Qz{pQ}")
-            out_v, out_t = res["pointlist"], res["trianglelist"]
+        # (the wrapper, not Triangle's C function from compiled code: Triangle ends an internal error by a
+        # longjmp to the buffer the wrapper sets, so only the wrapper turns one into an exception)
+        res, _ = _triang({"pointlist": q, "segmentlist": lseg}, "Qz{pQ}")
+        out_v, out_t = res["pointlist"], res["trianglelist"]
     else:
         out_v, out_t = _EMPTY2, _EMPTY_TRI
     uv, tris, grid_node, quads, n_crossed = _domain_finish_kernel(
