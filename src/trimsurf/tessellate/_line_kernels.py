@@ -1652,3 +1652,218 @@ def loop_polylines_kernel(si, sf, ck, cpw, n_a, n_b, out_a, out_b):
                 else:
                     out_b[j * (n - 1) + k, 0] = row[0]
                     out_b[j * (n - 1) + k, 1] = row[1]
+
+
+# the interval ids of `face._CellCache`: open addressing (linear probing) over (x0, x1) pairs, the table at
+# most half full; keys (cap, 2) the pairs, ent (cap, 2) (id, hash), id -1 an empty slot
+_H1 = 0x5851F42D4C957F2D
+_H2 = 0x27D4EB2F165667C5
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _pair_hash(ba, bb):
+    """A hash (int64) of two floats' bit patterns."""
+    h = ba * _H1 + bb * _H2
+    return h ^ (h >> 29)
+
+
+@njit(cache=True, nogil=True)
+def _interval_ids(keys, ent, cnt, x, out):
+    """out[k] = the id of the interval (x[k], x[k + 1]) (==, as a dict of float pairs: -0.0 is 0.0), new
+    intervals get ids cnt, cnt + 1, ... in order. Returns (keys, ent, cnt) after (the table grown when
+    needed: new arrays)."""
+    m = x.shape[0] - 1
+    cap = ent.shape[0]
+    if 2 * (cnt + m) > cap:
+        ncap = cap if cap >= 64 else 64
+        while 2 * (cnt + m) > ncap:
+            ncap *= 2
+        nk = np.empty((ncap, 2))
+        ne = np.full((ncap, 2), -1, dtype=np.int64)
+        for s in range(cap):
+            if ent[s, 0] >= 0:
+                t = ent[s, 1] & (ncap - 1)
+                while ne[t, 0] >= 0:
+                    t = (t + 1) & (ncap - 1)
+                nk[t, 0], nk[t, 1] = keys[s, 0], keys[s, 1]
+                ne[t, 0], ne[t, 1] = ent[s, 0], ent[s, 1]
+        keys, ent, cap = nk, ne, ncap
+    xb = x.view(np.int64)
+    for k in range(m):
+        a, b = x[k], x[k + 1]
+        h = _pair_hash(xb[k] if a != 0.0 else 0, xb[k + 1] if b != 0.0 else 0)
+        t = h & (cap - 1)
+        while True:
+            if ent[t, 0] < 0:
+                keys[t, 0], keys[t, 1] = a, b
+                ent[t, 0], ent[t, 1] = cnt, h
+                out[k] = cnt
+                cnt += 1
+                break
+            if keys[t, 0] == a and keys[t, 1] == b:
+                out[k] = ent[t, 0]
+                break
+            t = (t + 1) & (cap - 1)
+    return keys, ent, cnt
+
+
+@njit(cache=True, nogil=True)
+def _grown(a, n, cap, fill):
+    """a copy of a with cap rows (the first n copied, the rest `fill`)."""
+    shape = (cap,) + a.shape[1:]
+    out = np.full(shape, fill)
+    out[:n] = a[:n]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def grid_cells_kernel(hk_u, he_u, hk_v, he_v, nid, table, pu, pv, ku, kv, pw, rational, us, vs, bary, uv, p, d,
+                      devs, bounds, n0):
+    """`face._CellCache._cells` in one call: the grid's interval ids (`_interval_ids`, nid = the counts per
+    direction, updated), the (u id, v id) -> row table grown to them, then `cache_cells_kernel` (the
+    buffers uv, p, d, devs, bounds grown first when the new cells do not fit: capacity max(needed, 2 x,
+    64) rows, devs and bounds NaN). Returns (hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, rows, n):
+    the cache's arrays after (new ones where grown), the grid's rows, the rows in use."""
+    iu = np.empty(us.shape[0] - 1, dtype=np.int64)
+    iv = np.empty(vs.shape[0] - 1, dtype=np.int64)
+    hk_u, he_u, cu = _interval_ids(hk_u, he_u, nid[0], us, iu)
+    hk_v, he_v, cv = _interval_ids(hk_v, he_v, nid[1], vs, iv)
+    nid[0], nid[1] = cu, cv
+    tu, tv = table.shape
+    if tu < cu or tv < cv:
+        nt = np.full((cu if cu > 2 * tu else 2 * tu, cv if cv > 2 * tv else 2 * tv), -1, dtype=np.int64)
+        nt[:tu, :tv] = table
+        table = nt
+    if n0 == 0 and uv.shape[0] < iu.shape[0] * iv.shape[0]:     # every cell is new
+        cap = iu.shape[0] * iv.shape[0]
+        uv, p, d = _grown(uv, 0, cap, 0.0), _grown(p, 0, cap, 0.0), _grown(d, 0, cap, 0.0)
+        devs, bounds = _grown(devs, 0, cap, np.nan), _grown(bounds, 0, cap, np.nan)
+    rows, n = cache_cells_kernel(table, iu, iv, pu, pv, ku, kv, pw, rational, us, vs, bary, uv, p, d, n0)
+    if n < 0:
+        need = n0 - n
+        cap = uv.shape[0]
+        cap = max(need, 2 * cap, 64)
+        uv, p, d = _grown(uv, n0, cap, 0.0), _grown(p, n0, cap, 0.0), _grown(d, n0, cap, 0.0)
+        devs, bounds = _grown(devs, n0, cap, np.nan), _grown(bounds, n0, cap, np.nan)
+        rows, n = cache_cells_kernel(table, iu, iv, pu, pv, ku, kv, pw, rational, us, vs, bary, uv, p, d, n0)
+    return hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, rows, n
+
+
+@njit(cache=True, nogil=True)
+def _with_mids(x, split):
+    """unique_values(np.concatenate((x, (0.5 * (x[:-1] + x[1:]))[split]))) of an increasing x, or an empty
+    array when a midpoint is not within its interval (overflow, NaN: the caller falls back)."""
+    m = x.shape[0]
+    out = np.empty(m + split.shape[0])
+    k = 0
+    for i in range(m):
+        if k == 0 or x[i] != out[k - 1]:
+            out[k] = x[i]
+            k += 1
+        if i < m - 1 and split[i]:
+            c = 0.5 * (x[i] + x[i + 1])
+            if not (x[i] <= c and c <= x[i + 1]):
+                return np.empty(0)
+            if c != out[k - 1]:
+                out[k] = c
+                k += 1
+    return out[:k].copy()
+
+
+@njit(cache=True, nogil=True)
+def _max0(a):
+    """float(a.max(initial=0.0)) (NaN if one is NaN)."""
+    mx = 0.0
+    for v in a.ravel():
+        if np.isnan(v):
+            return np.nan
+        if v > mx:
+            mx = v
+    return mx
+
+
+@njit(cache=True, nogil=True)
+def refine_cells_kernel(hk_u, he_u, hk_v, he_v, nid, table, pu, pv, ku, kv, pw, rational, bary, lin, uv, p, d, devs,
+                        bounds, n0, us, vs, pa, pb, has_polys, tolerance, max_edge, aspect, min_across, local_fix,
+                        max_cells, max_rounds):
+    """`face.refine_cells` in one call, every round as `face._refine_cells_rounds` does it (the same kernels
+    in the same order on the same numbers): the cells (`grid_cells_kernel`), their numbers
+    (`cell_deviation_kernel`, screened), the trim band of the cell centres in the polygon edges pa -> pb
+    (`inside_grid_kernel`), the decisions (`refine_round_kernel` op 0, `cell_surface_kernel` op 2,
+    op 1) and the mid-lines (`_with_mids`).
+
+    Returns (hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, n, us, vs, status, rounds, dev0, diag0,
+    rows): the cache's arrays after; the grid; status 0: the grid is the last one checked, rows its
+    cells' rows; 1: max_rounds rounds refined it (not checked since); 2: the grid has more than max_cells
+    cells; 3: a midpoint fell outside its interval (nothing decided: the caller runs the rounds itself);
+    rounds: the rounds that added lines; dev0, diag0: the first grid's largest (masked) deviation and
+    diagonal, as `np.max(..., initial=0.0)` (`_worst_cell_ratio`)."""
+    two = np.full(1, 2, dtype=np.int64)[0]      # run-time values (no compiled version per literal)
+    one = two - 1
+    zero = two - two
+    no = one < zero
+    n = n0
+    dev0 = 0.0
+    diag0 = 0.0
+    rows = np.empty(0, dtype=np.int64)
+    no_b = np.empty(0, dtype=np.bool_)
+    no_f = np.empty(0)
+    no_uv = np.empty((0, 5, 2))
+    no_p = np.empty((0, 5, 3))
+    no_d = np.empty((0, 2))
+    for x in (us, vs):      # an increasing grid (unique_values keeps it as it is)
+        for i in range(x.shape[0] - 1):
+            if not x[i] < x[i + 1]:
+                return hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, n, us, vs, 3, zero, dev0, diag0, rows
+    for round_ in range(max_rounds):
+        hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, rows, n = grid_cells_kernel(
+            hk_u, he_u, hk_v, he_v, nid, table, pu, pv, ku, kv, pw, rational, us, vs, bary, uv, p, d, devs, bounds, n)
+        nu, nv = us.shape[0] - 1, vs.shape[0] - 1
+        k = nu * nv
+        main = np.empty(k, dtype=np.bool_)
+        dev = np.empty((nu, nv))
+        diag = np.empty((nu, nv))
+        diag_max = np.empty((nu, nv))
+        side_u = np.empty((nu, nv))
+        side_v = np.empty((nu, nv))
+        cell_deviation_kernel(pu, pv, ku, kv, pw, rational, d, p, uv, devs, bounds, rows, tolerance, no, bary, main,
+                              dev.reshape(k), diag.reshape(k), diag_max.reshape(k), side_u.reshape(k),
+                              side_v.reshape(k), lin)
+        near = np.zeros((nu, nv), dtype=np.bool_)
+        interior = np.zeros((nu, nv), dtype=np.bool_)
+        if has_polys:
+            ci = np.empty(nu)
+            cj = np.empty(nv)
+            for i in range(nu):
+                ci[i] = 0.5 * (us[i] + us[i + 1])
+            for j in range(nv):
+                cj[j] = 0.5 * (vs[j] + vs[j + 1])
+            inside_grid_kernel(ci, cj, pa, pb, near, interior)
+        split_u = np.empty(nu, dtype=np.bool_)
+        split_v = np.empty(nv, dtype=np.bool_)
+        long = np.empty((nu, nv), dtype=np.bool_)
+        go, bi, bj = refine_round_kernel(zero, dev, diag, diag_max, side_u, side_v, near, interior, has_polys,
+                                         tolerance, max_edge, aspect, min_across, local_fix, long, rows, rows, no_b,
+                                         no_b, split_u, split_v)
+        if round_ == 0:
+            dev0 = _max0(dev)
+            diag0 = _max0(diag)
+        if not go:
+            return hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, n, us, vs, 0, round_, dev0, diag0, rows
+        cu = np.empty(bi.shape[0], dtype=np.bool_)
+        cv = np.empty(bi.shape[0], dtype=np.bool_)
+        if bi.shape[0]:
+            cell_surface_kernel(two, pu, pv, ku, kv, pw, rational, us, vs, bi, bj, no_b, bary, no_uv, no_p, 0.0,
+                                no_f, cu, cv, no_d)
+        if not refine_round_kernel(one, dev, diag, diag_max, side_u, side_v, near, interior, has_polys, tolerance,
+                                   max_edge, aspect, min_across, local_fix, long, bi, bj, cu, cv, split_u,
+                                   split_v)[0]:
+            return hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, n, us, vs, 0, round_, dev0, diag0, rows
+        nus = _with_mids(us, split_u)
+        nvs = _with_mids(vs, split_v)
+        if nus.shape[0] == 0 or nvs.shape[0] == 0:
+            return hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, n, us, vs, 3, round_, dev0, diag0, rows
+        us, vs = nus, nvs
+        if (us.shape[0] - 1) * (vs.shape[0] - 1) > max_cells:
+            return hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, n, us, vs, 2, round_ + 1, dev0, diag0, rows
+    return hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, n, us, vs, 1, max_rounds, dev0, diag0, rows

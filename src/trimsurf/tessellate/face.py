@@ -12,10 +12,9 @@ from ..geom.nurbs import _homogeneous, read_only
 from ..geom.predicates import PolygonIndex
 from ..model import TriMesh, TrimmedFace
 from .domain import MAX_VALUES, _clipped_values, _too_many, adaptive_values, unique_values
-from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CI, cache_cells_kernel, cell_deviation_kernel,
-                            cell_surface_kernel, equidistributed_kernel,
-                            inside_grid_kernel, inside_grids_kernel, line_net_kernel, loop_polylines_kernel,
-                            refine_round_kernel)
+from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CI, cell_deviation_kernel, cell_surface_kernel,
+                            equidistributed_kernel, grid_cells_kernel, inside_grid_kernel, inside_grids_kernel,
+                            line_net_kernel, loop_polylines_kernel, refine_cells_kernel, refine_round_kernel)
 from .grid import triangulate_domain
 from .repair import remove_polygon_loops, repair_face
 from .slivers import collapse_boundary_slivers
@@ -719,7 +718,7 @@ def _worst_cell_ratio(face: TrimmedFace, us, vs, tolerance: float, polys, cache=
     if known is not None and known[0] is us and known[1] is vs and known[2] == tolerance and (
             (polys is None) == (known[5] is None)
             and (polys is None or cache.polygon_index(polys) is known[5])):
-        dev, diag = known[3], known[4]      # refine_cells' first round checked this grid (the same numbers)
+        dev_max, diag_max = known[3], known[4]      # refine_cells' first round checked this grid (the same numbers)
     else:
         # deviations within the tolerance may be bounds: only r > 1 (set by the cells over it) counts
         dev, diag, diag_max = _cell_deviation(face.surface, us, vs, tolerance, cache, exact=False)[:3]
@@ -727,14 +726,57 @@ def _worst_cell_ratio(face: TrimmedFace, us, vs, tolerance: float, polys, cache=
             near, interior = _near_trim(us, vs, polys if cache is None else cache.polygon_index(polys))
             dev = np.where(near, dev, 0.0)
             diag = np.where(near & ~interior, diag_max, np.where(near, diag, 0.0))
-    return float(dev.max(initial=0.0)) / tolerance, float(diag.max(initial=0.0)) / max_edge
+        dev_max, diag_max = float(dev.max(initial=0.0)), float(diag.max(initial=0.0))
+    return dev_max / tolerance, diag_max / max_edge
+
+
+_ROUNDS = 6     # refine_cells' rounds
 
 
 def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance: float,
                  max_edge: float, aspect: float | None = ASPECT, cache=None) -> tuple[np.ndarray, np.ndarray]:
     """Mid-lines through the grid cells (near the trim) whose split leaves the tolerance, whose
     diagonal is longer than max_edge or whose sides differ by more than `aspect` (None: no limit);
-    returns the refined (us, vs)."""
+    returns the refined (us, vs).
+
+    All rounds in one compiled call (`refine_cells_kernel`): the decisions and numbers of
+    `_refine_cells_rounds`, the reference, which runs the rounds from Python (and runs instead where the
+    kernel declines: a grid not increasing)."""
+    us_in, vs_in = us, vs
+    us = np.ascontiguousarray(us, dtype=np.float64)
+    vs = np.ascontiguousarray(vs, dtype=np.float64)
+    if cache is None:
+        cache = _CellCache(face.surface)
+    polys = cache.loop_index(face) if face.loops else None
+    asp = float(aspect) if aspect else 0.0
+    pa, pb = (polys.a, polys.b) if polys is not None else (_NO_D, _NO_D)
+    out = refine_cells_kernel(*cache._state(), *cache._surf, _BARY, cache._lin, *cache._buffers(), cache.n, us, vs,
+                              pa, pb, polys is not None, float(tolerance), float(max_edge), asp, MIN_ACROSS,
+                              float(LOCAL_FIX), MAX_CELLS, _ROUNDS)
+    cache._take(out[:11])
+    gu, gv, status, rounds, dev0, diag0, rows = out[11:]
+    if status == 3:
+        return _refine_cells_rounds(face, us_in, vs_in, tolerance=tolerance, max_edge=max_edge, aspect=aspect,
+                                    cache=cache)
+    cache.checked = (us, vs, tolerance, dev0, diag0, polys)
+    if status == 2:
+        raise _too_many_cells(face, gu, gv, tolerance, max_edge)
+    if rounds == 0:
+        gu, gv = us, vs
+    if status == 0:
+        cache.remember(gu, gv, rows)
+    return gu, gv
+
+
+def _too_many_cells(face, us, vs, tolerance, max_edge) -> InputError:
+    return InputError(f"{face.name or 'face'}: refining the grid would make {len(us) - 1} x {len(vs) - 1} "
+                      f"cells (more than {MAX_CELLS}): tolerance {tolerance:.3g} or max edge "
+                      f"{max_edge:.3g} is too small for this face")
+
+
+def _refine_cells_rounds(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance: float,
+                         max_edge: float, aspect: float | None = ASPECT, cache=None) -> tuple[np.ndarray, np.ndarray]:
+    """`refine_cells` round by round from Python (the reference of `refine_cells_kernel`)."""
     s = face.surface
     us = np.ascontiguousarray(us, dtype=np.float64)
     vs = np.ascontiguousarray(vs, dtype=np.float64)
@@ -746,7 +788,7 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
     # the twist of the cells: split along the better diagonal, refine rows/columns where it fails;
     # the same for a diagonal longer than max_edge (split across its longer side)
     asp = float(aspect) if aspect else 0.0
-    for round_ in range(6):
+    for round_ in range(_ROUNDS):
         # deviations within the tolerance may be bounds within it: only the cells over it use the values
         dev, diag, diag_max, side_u, side_v = _cell_deviation(s, us, vs, tolerance, cache, exact=False)
         if polys is not None:
@@ -772,7 +814,7 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
                 float(max_edge), asp, MIN_ACROSS, LOCAL_FIX, long)
         go, bi, bj = refine_round_kernel(0, *args, _NO_I, _NO_I, _NO_B, _NO_B, split_u, split_v)
         if round_ == 0:      # for _worst_cell_ratio of the same grid
-            cache.checked = (us, vs, tolerance, dev, diag, polys)
+            cache.checked = (us, vs, tolerance, float(dev.max(initial=0.0)), float(diag.max(initial=0.0)), polys)
         if not go:
             break
         cu, cv = np.empty(len(bi), dtype=np.bool_), np.empty(len(bi), dtype=np.bool_)
@@ -784,9 +826,7 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
         us = unique_values(np.concatenate((us, (0.5 * (us[:-1] + us[1:]))[split_u])))
         vs = unique_values(np.concatenate((vs, (0.5 * (vs[:-1] + vs[1:]))[split_v])))
         if (len(us) - 1) * (len(vs) - 1) > MAX_CELLS:
-            raise InputError(f"{face.name or 'face'}: refining the grid would make {len(us) - 1} x {len(vs) - 1} "
-                             f"cells (more than {MAX_CELLS}): tolerance {tolerance:.3g} or max edge "
-                             f"{max_edge:.3g} is too small for this face")
+            raise _too_many_cells(face, us, vs, tolerance, max_edge)
     return us, vs
 
 
@@ -928,7 +968,11 @@ class _CellCache:
         self.surface = surface
         self._surf = (surface.degree_u, surface.degree_v, read_only(surface.knots_u), read_only(surface.knots_v),
                       _homogeneous(surface.control_points, surface.weights), surface.weights is not None)
-        self.ids = ({}, {})                 # per direction: (x0, x1) interval -> id
+        # per direction the interval ids (`_line_kernels._interval_ids`: (x0, x1) -> id, a hash table of keys
+        # (cap, 2) and entries (cap, 2) = (id, hash)), the ids given so far
+        self._hk = [np.empty((0, 2)), np.empty((0, 2))]
+        self._he = [np.empty((0, 2), dtype=np.int64), np.empty((0, 2), dtype=np.int64)]
+        self._nid = np.zeros(2, dtype=np.int64)
         self._table = np.full((0, 0), -1, dtype=np.int64)     # (u id, v id) -> row (-1: not yet)
         self.n = 0                          # rows in use of the buffers below (capacity doubles)
         self._uv = np.empty((0, 5, 2))
@@ -941,6 +985,7 @@ class _CellCache:
         self._index = None                  # (polygons, their PolygonIndex)
         #: refine_cells' first grid: (us, vs, tolerance, deviation, diagonal (masked by the trim), index)
         self.checked = None
+        self._known = []                    # (us, vs, rows) of the grids refine_cells returned checked
 
     @staticmethod
     def _bilinear(surface) -> np.ndarray:
@@ -1001,47 +1046,39 @@ class _CellCache:
     dev = property(lambda self: self._dev[:self.n])
     bound = property(lambda self: self._bound[:self.n])
 
-    def _reserve(self, n):
-        cap = len(self._p)
-        if n <= cap:
-            return
-        cap = max(n, 2 * cap, 64)
-        for name, shape, fill in (("_uv", (5, 2), None), ("_p", (5, 3), None), ("_d", (2,), None),
-                                  ("_dev", (2,), np.nan), ("_bound", (2,), np.nan)):
-            old = getattr(self, name)
-            new = np.empty((cap,) + shape) if fill is None else np.full((cap,) + shape, fill)
-            new[:self.n] = old[:self.n]
-            setattr(self, name, new)
+    def _state(self) -> tuple:
+        """The interval ids and the table, as the compiled kernels take them."""
+        return self._hk[0], self._he[0], self._hk[1], self._he[1], self._nid, self._table
 
-    def _interval_ids(self, axis, x):
-        ids = self.ids[axis]
-        return np.array([ids.setdefault((a, b), len(ids)) for a, b in zip(x[:-1].tolist(), x[1:].tolist())],
-                        dtype=np.int64)
+    def _buffers(self) -> tuple:
+        return self._uv, self._p, self._d, self._dev, self._bound
+
+    def _take(self, out):
+        """The cache's arrays (hk_u, he_u, hk_v, he_v, table, uv, p, d, dev, bound, n) a kernel returned."""
+        (self._hk[0], self._he[0], self._hk[1], self._he[1], self._table, self._uv, self._p, self._d, self._dev,
+         self._bound, self.n) = out
+        self.n = int(self.n)
+
+    def remember(self, us, vs, rows):
+        """The rows of the grid (us, vs) (these array objects), for `fits` (the last two grids)."""
+        self._known = [(us, vs, rows)] + self._known[:1]
 
     def _cells(self, us, vs):
         """Rows of the grid's cells (computing the new ones' points and midpoint distances), in
         `_cell_split`'s order (ki, kj = meshgrid(..., indexing="ij"), raveled)."""
-        iu, iv = self._interval_ids(0, us), self._interval_ids(1, vs)
-        t = self._table
-        if t.shape[0] < len(self.ids[0]) or t.shape[1] < len(self.ids[1]):
-            t = np.full((max(len(self.ids[0]), 2 * t.shape[0]), max(len(self.ids[1]), 2 * t.shape[1])), -1,
-                        dtype=np.int64)
-            t[:self._table.shape[0], :self._table.shape[1]] = self._table
-            self._table = t
         us = np.ascontiguousarray(us, dtype=np.float64)
         vs = np.ascontiguousarray(vs, dtype=np.float64)
-        if self.n == 0:     # every cell is new
-            self._reserve(len(iu) * len(iv))
-        # the rows, the new cells' points and distances (`cell_surface_kernel` op 0) in one compiled call
-        rows, n = cache_cells_kernel(t, iu, iv, *self._surf, us, vs, _BARY, self._uv, self._p, self._d, self.n)
-        if n < 0:       # the buffers first
-            self._reserve(self.n - n)
-            rows, n = cache_cells_kernel(t, iu, iv, *self._surf, us, vs, _BARY, self._uv, self._p, self._d, self.n)
-        self.n = n
-        return rows
+        # the interval ids, the rows, the new cells' points and distances (`cell_surface_kernel` op 0) in one
+        # compiled call
+        out = grid_cells_kernel(*self._state(), *self._surf, us, vs, _BARY, *self._buffers(), self.n)
+        self._take(out[:10] + out[11:])
+        return out[10]
 
     def fits(self, us, vs) -> np.ndarray:
         """`_diagonal_fits(surface, us, vs)` from the cache (the same numbers; the new cells computed)."""
+        for ku, kv, rows in self._known:        # a grid refine_cells returned: its rows are known
+            if ku is us and kv is vs:
+                return self._d[rows]
         rows = self._cells(us, vs)      # first: new cells may move the buffers
         return self._d[rows]
 
