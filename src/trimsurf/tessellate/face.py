@@ -743,8 +743,7 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
     `_refine_cells_rounds`, the reference, which runs the rounds from Python (and runs instead where the
     kernel declines: a grid not increasing)."""
     us_in, vs_in = us, vs
-    us = np.ascontiguousarray(us, dtype=np.float64)
-    vs = np.ascontiguousarray(vs, dtype=np.float64)
+    us, vs = _float64_c(us), _float64_c(vs)
     if cache is None:
         cache = _CellCache(face.surface)
     polys = cache.loop_index(face) if face.loops else None
@@ -766,6 +765,15 @@ def refine_cells(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, tolerance
     if status == 0:
         cache.remember(gu, gv, rows)
     return gu, gv
+
+
+def _float64_c(x) -> np.ndarray:
+    """np.ascontiguousarray(x, dtype=np.float64), x itself where it is one already (also an array a compiled
+    kernel returned, whose float64 dtype is another instance, which ascontiguousarray copies): refine_cells'
+    first grid is then the placement's arrays, the grid `_worst_cell_ratio` asks for."""
+    if type(x) is np.ndarray and x.dtype == np.float64 and x.flags.c_contiguous:
+        return x
+    return np.ascontiguousarray(x, dtype=np.float64)
 
 
 def _too_many_cells(face, us, vs, tolerance, max_edge) -> InputError:
