@@ -130,3 +130,23 @@ def test_mid_lines_are_unique_values_of_the_midpoints():
         assert np.array_equal(_with_mids(x, split), ref)
     for x in ([1e308, 1.7e308], [0.0, np.nan]):      # no midpoint inside (overflow, NaN): declined
         assert len(_with_mids(np.array(x), np.array([True]))) == 0
+
+
+def test_bilinear_bound_is_the_numpy_one(shared_data):
+    # every face of two files with planes (the bound's case) and twisted / offset / scaled bilinear patches
+    from trimsurf.model import NurbsSurface
+
+    surfaces = [f.surface for name in ("trimesh__featuretype.STEP", "occt__screw.step")
+                for f in read_shell(shared_data / "cad" / name).faces]
+    rng = np.random.default_rng(8)
+    for k in range(200):
+        cp = rng.normal(size=(2, 2, 3)) * 10.0 ** rng.integers(-6, 6) + rng.normal(size=3) * 10.0 ** rng.integers(-3, 8)
+        a, b = sorted(rng.normal(size=2) * 10.0 ** rng.integers(-3, 4))
+        knots = np.array([a, a, b, b])
+        surfaces.append(NurbsSurface(1, 1, knots, knots[::-1] * -1.0, cp))
+    planes = 0
+    for s in surfaces:
+        got, ref = F._CellCache._bilinear(s), F._CellCache._bilinear_numpy(s)
+        assert np.array_equal(got, ref), (got, ref)
+        planes += got[0] >= 0
+    assert planes > 200
