@@ -33,14 +33,14 @@ MODULES = ("trimsurf.tessellate", "trimsurf.tessellate.measure", "trimsurf.quali
 #: `deviation_samples` (curved faces whose triangles' start bound exceeds the tolerance) and
 #: `_segments_apart_kernel` (trim loops not certainly simple) are left to their call, the screw calls none;
 #: s25-edges: `pcurve_ends_kernel`, the segment ends of `repair.quick_repairs`; s25-seams: the seam reduction's
-#: selection and its surface points of all faces in one call)
+#: selection and its surface points of all faces in one call; s26-refine: refine_cells' rounds in one call,
+#: `refine_cells_kernel`, in place of the cell kernels it calls, which the command no longer calls itself)
 KERNELS = {
     "trimsurf.geom._nurbs_kernels": ("curve_points_kernel", "surface_derivatives_kernel", "project_newton_kernel"),
     "trimsurf.geom._seed_kernels": ("seed_grid_kernel",),
     "trimsurf.geom.predicates": ("_slab_index", "_points_in_polygons_kernel"),
     "trimsurf.tessellate._line_kernels": ("loop_polylines_kernel", "inside_grids_kernel", "equidistributed_kernel",
-                                          "line_net_kernel", "inside_grid_kernel", "cache_cells_kernel",
-                                          "cell_deviation_kernel", "refine_round_kernel"),
+                                          "line_net_kernel", "refine_cells_kernel"),
     "trimsurf.tessellate._chunk_kernels": ("discretize_chunks_kernel", "pcurve_ends_kernel"),
     "trimsurf.tessellate.grid": ("_domain_prepare_kernel", "_domain_finish_kernel"),
     "trimsurf.tessellate._mesh_kernels": ("lift_kernel", "face_loops_kernel", "cell_main_kernel"),

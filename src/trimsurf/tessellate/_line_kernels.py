@@ -1708,12 +1708,20 @@ def _interval_ids(keys, ent, cnt, x, out):
 
 
 @njit(cache=True, nogil=True)
-def _grown(a, n, cap, fill):
-    """a copy of a with cap rows (the first n copied, the rest `fill`)."""
-    shape = (cap,) + a.shape[1:]
-    out = np.full(shape, fill)
-    out[:n] = a[:n]
-    return out
+def _grow_rows(uv, p, d, devs, bounds, n, cap):
+    """The cell buffers with cap rows, the first n copied (devs, bounds NaN after them)."""
+    nuv = np.empty((cap, 5, 2))
+    np_ = np.empty((cap, 5, 3))
+    nd = np.empty((cap, 2))
+    ndev = np.full((cap, 2), np.nan)
+    nb = np.full((cap, 2), np.nan)
+    for r in range(n):
+        for k in range(5):
+            nuv[r, k, 0], nuv[r, k, 1] = uv[r, k, 0], uv[r, k, 1]
+            np_[r, k, 0], np_[r, k, 1], np_[r, k, 2] = p[r, k, 0], p[r, k, 1], p[r, k, 2]
+        for h in range(2):
+            nd[r, h], ndev[r, h], nb[r, h] = d[r, h], devs[r, h], bounds[r, h]
+    return nuv, np_, nd, ndev, nb
 
 
 @njit(cache=True, nogil=True)
@@ -1732,20 +1740,18 @@ def grid_cells_kernel(hk_u, he_u, hk_v, he_v, nid, table, pu, pv, ku, kv, pw, ra
     tu, tv = table.shape
     if tu < cu or tv < cv:
         nt = np.full((cu if cu > 2 * tu else 2 * tu, cv if cv > 2 * tv else 2 * tv), -1, dtype=np.int64)
-        nt[:tu, :tv] = table
+        for i in range(tu):
+            for j in range(tv):
+                nt[i, j] = table[i, j]
         table = nt
-    if n0 == 0 and uv.shape[0] < iu.shape[0] * iv.shape[0]:     # every cell is new
-        cap = iu.shape[0] * iv.shape[0]
-        uv, p, d = _grown(uv, 0, cap, 0.0), _grown(p, 0, cap, 0.0), _grown(d, 0, cap, 0.0)
-        devs, bounds = _grown(devs, 0, cap, np.nan), _grown(bounds, 0, cap, np.nan)
+    new = 0
+    for a in range(iu.shape[0]):        # (the count cache_cells_kernel finds: the buffers grown first)
+        for b in range(iv.shape[0]):
+            if table[iu[a], iv[b]] < 0:
+                new += 1
+    if n0 + new > uv.shape[0]:
+        uv, p, d, devs, bounds = _grow_rows(uv, p, d, devs, bounds, n0, max(n0 + new, 2 * uv.shape[0], 64))
     rows, n = cache_cells_kernel(table, iu, iv, pu, pv, ku, kv, pw, rational, us, vs, bary, uv, p, d, n0)
-    if n < 0:
-        need = n0 - n
-        cap = uv.shape[0]
-        cap = max(need, 2 * cap, 64)
-        uv, p, d = _grown(uv, n0, cap, 0.0), _grown(p, n0, cap, 0.0), _grown(d, n0, cap, 0.0)
-        devs, bounds = _grown(devs, n0, cap, np.nan), _grown(bounds, n0, cap, np.nan)
-        rows, n = cache_cells_kernel(table, iu, iv, pu, pv, ku, kv, pw, rational, us, vs, bary, uv, p, d, n0)
     return hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, rows, n
 
 
@@ -1795,7 +1801,7 @@ def refine_cells_kernel(hk_u, he_u, hk_v, he_v, nid, table, pu, pv, ku, kv, pw, 
     Returns (hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, n, us, vs, status, rounds, dev0, diag0,
     rows): the cache's arrays after; the grid; status 0: the grid is the last one checked, rows its
     cells' rows; 1: max_rounds rounds refined it (not checked since); 2: the grid has more than max_cells
-    cells; 3: a midpoint fell outside its interval (nothing decided: the caller runs the rounds itself);
+    cells; 3: a grid not increasing, or a midpoint outside its interval (the caller runs the rounds itself);
     rounds: the rounds that added lines; dev0, diag0: the first grid's largest (masked) deviation and
     diagonal, as `np.max(..., initial=0.0)` (`_worst_cell_ratio`)."""
     two = np.full(1, 2, dtype=np.int64)[0]      # run-time values (no compiled version per literal)
@@ -1811,11 +1817,13 @@ def refine_cells_kernel(hk_u, he_u, hk_v, he_v, nid, table, pu, pv, ku, kv, pw, 
     no_uv = np.empty((0, 5, 2))
     no_p = np.empty((0, 5, 3))
     no_d = np.empty((0, 2))
+    status = 1
+    rounds = max_rounds
     for x in (us, vs):      # an increasing grid (unique_values keeps it as it is)
         for i in range(x.shape[0] - 1):
             if not x[i] < x[i + 1]:
-                return hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, n, us, vs, 3, zero, dev0, diag0, rows
-    for round_ in range(max_rounds):
+                status = 3
+    for round_ in range(max_rounds if status == 1 else 0):
         hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, rows, n = grid_cells_kernel(
             hk_u, he_u, hk_v, he_v, nid, table, pu, pv, ku, kv, pw, rational, us, vs, bary, uv, p, d, devs, bounds, n)
         nu, nv = us.shape[0] - 1, vs.shape[0] - 1
@@ -1848,22 +1856,25 @@ def refine_cells_kernel(hk_u, he_u, hk_v, he_v, nid, table, pu, pv, ku, kv, pw, 
         if round_ == 0:
             dev0 = _max0(dev)
             diag0 = _max0(diag)
+        if go:
+            cu = np.empty(bi.shape[0], dtype=np.bool_)
+            cv = np.empty(bi.shape[0], dtype=np.bool_)
+            if bi.shape[0]:
+                cell_surface_kernel(two, pu, pv, ku, kv, pw, rational, us, vs, bi, bj, no_b, bary, no_uv, no_p, 0.0,
+                                    no_f, cu, cv, no_d)
+            go = refine_round_kernel(one, dev, diag, diag_max, side_u, side_v, near, interior, has_polys, tolerance,
+                                     max_edge, aspect, min_across, local_fix, long, bi, bj, cu, cv, split_u,
+                                     split_v)[0]
         if not go:
-            return hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, n, us, vs, 0, round_, dev0, diag0, rows
-        cu = np.empty(bi.shape[0], dtype=np.bool_)
-        cv = np.empty(bi.shape[0], dtype=np.bool_)
-        if bi.shape[0]:
-            cell_surface_kernel(two, pu, pv, ku, kv, pw, rational, us, vs, bi, bj, no_b, bary, no_uv, no_p, 0.0,
-                                no_f, cu, cv, no_d)
-        if not refine_round_kernel(one, dev, diag, diag_max, side_u, side_v, near, interior, has_polys, tolerance,
-                                   max_edge, aspect, min_across, local_fix, long, bi, bj, cu, cv, split_u,
-                                   split_v)[0]:
-            return hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, n, us, vs, 0, round_, dev0, diag0, rows
+            status, rounds = 0, round_
+            break
         nus = _with_mids(us, split_u)
         nvs = _with_mids(vs, split_v)
         if nus.shape[0] == 0 or nvs.shape[0] == 0:
-            return hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, n, us, vs, 3, round_, dev0, diag0, rows
+            status, rounds = 3, round_
+            break
         us, vs = nus, nvs
         if (us.shape[0] - 1) * (vs.shape[0] - 1) > max_cells:
-            return hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, n, us, vs, 2, round_ + 1, dev0, diag0, rows
-    return hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, n, us, vs, 1, max_rounds, dev0, diag0, rows
+            status, rounds = 2, round_ + 1
+            break
+    return hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, n, us, vs, status, rounds, dev0, diag0, rows
