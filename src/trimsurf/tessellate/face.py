@@ -794,8 +794,7 @@ def _refine_cells_rounds(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, *, t
                          max_edge: float, aspect: float | None = ASPECT, cache=None) -> tuple[np.ndarray, np.ndarray]:
     """`refine_cells` round by round from Python (the reference of `refine_cells_kernel`)."""
     s = face.surface
-    us = np.ascontiguousarray(us, dtype=np.float64)
-    vs = np.ascontiguousarray(vs, dtype=np.float64)
+    us, vs = _float64_c(us), _float64_c(vs)
     if cache is None:   # the rounds share most cells: each cell's surface work once (the same numbers)
         cache = _CellCache(s)
     polys = None
@@ -1000,7 +999,8 @@ class _CellCache:
         self._lin = self._bilinear(surface)
         self._loops = None                  # (face, PolygonIndex of its `_loop_polys`)
         self._index = None                  # (polygons, their PolygonIndex)
-        #: refine_cells' first grid: (us, vs, tolerance, deviation, diagonal (masked by the trim), index)
+        #: refine_cells' first grid: (us, vs, tolerance, the largest deviation and diagonal (masked by the trim,
+        #: as np.max(..., initial=0.0)), index)
         self.checked = None
         self._known = []                    # (us, vs, rows) of the grids refine_cells returned checked
 
