@@ -1707,7 +1707,7 @@ def _interval_ids(keys, ent, cnt, x, out):
     return keys, ent, cnt
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _grow_rows(uv, p, d, devs, bounds, n, cap):
     """The cell buffers with cap rows, the first n copied (devs, bounds NaN after them)."""
     nuv = np.empty((cap, 5, 2))
@@ -1776,7 +1776,7 @@ def _with_mids(x, split):
     return out[:k].copy()
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _max0(a):
     """float(a.max(initial=0.0)) (NaN if one is NaN)."""
     mx = 0.0
