@@ -187,3 +187,100 @@ def test_dev_and_against_is_the_two_separate_evaluations():
     want = _against_normal_reference(faces, face_of, uv3, tn)
     assert 0 < want.sum() < m
     assert np.array_equal(against, want)
+
+
+def _near_perpendicular_case(seed=21, m=6000):
+    """Faces (flat, warped, rational; both senses) and triangles whose normals are the surface normal at a
+    sample point turned by exactly 90 degrees (+- a few ulps: the sign of the dot product is decided by
+    the rounding, so by the order of its operations), at other angles, degenerate, with corners shared
+    by several triangles at equal and at slightly different (u, v) (a periodic seam), and +-0.0 parameters."""
+    rng = np.random.default_rng(seed)
+    rat = NurbsSurface(2, 1, [0, 0, 0, 1, 1, 1], [0, 0, 1, 1],
+                       np.array([[[1, 0, 0], [1, 0, 2]], [[1, 1, 0], [1, 1, 2]], [[0, 1, 0], [0, 1, 2]]], dtype=float),
+                       np.array([[1, 1], [0.7071, 0.7071], [1, 1]]))
+    sym = NurbsSurface(1, 1, [-1, -1, 1, 1], [-1, -1, 1, 1],
+                       np.array([[[-1, -1, 0.3], [-1, 1, -0.2]], [[1, -1, 0.1], [1, 1, 0.4]]], dtype=float))
+    faces = [TrimmedFace(_flat_surface(rng, 1, 1, 2, 2), same_sense=True),
+             TrimmedFace(_flat_surface(rng, 3, 3, 4, 4, warp=0.4), same_sense=False),
+             TrimmedFace(rat, same_sense=True), TrimmedFace(sym, same_sense=False),
+             TrimmedFace(_flat_surface(rng, 2, 2, 3, 3, warp=1.0), same_sense=True)]
+    nv = 400
+    face_of = rng.integers(0, len(faces), m)
+    corners = rng.integers(0, nv, (m, 3))
+    vert_uv = rng.uniform(0, 1, (nv, 2))
+    uv3 = np.empty((m, 3, 2))
+    for f, face in enumerate(faces):
+        (u0, u1), (v0, v1) = face.surface.domain
+        r = face_of == f
+        uv3[r] = vert_uv[corners[r]] * [u1 - u0, v1 - v0] + [u0, v0]
+    zero = (face_of == 3) & (rng.random(m) < 0.2)              # +-0.0 parameters on the symmetric face
+    uv3[zero, 0, :] = rng.choice([0.0, -0.0], (int(zero.sum()), 2))
+    moved = rng.random((m, 3)) < 0.05
+    uv3[moved] += 1e-3
+    b = rng.integers(0, 4, m)                   # the sample point whose normal the triangle's is turned from
+    bary = np.array([[1 / 3, 1 / 3, 1 / 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    pts = np.einsum("bj,rjk->rbk", bary, uv3)[np.arange(m), b]
+    n = np.array([faces[f].oriented_normals(pts[k][None])[0] for k, f in enumerate(face_of)])
+    side = np.cross(n, rng.normal(size=(m, 3)))
+    tn = side * 10.0 ** rng.integers(-4, 4, (m, 1))             # perpendicular (to rounding)
+    other = rng.random(m) < 0.3
+    tn[other] = n[other] * rng.choice([-1.0, 1.0], (int(other.sum()), 1)) + 0.3 * rng.normal(size=(int(other.sum()), 3))
+    tn[:7] = 0.0
+    return faces, face_of, uv3, tn, corners
+
+
+def test_against_kernel_is_the_numpy_path_bit_for_bit():
+    """The compiled flip test (`_against_kernel`, which `_against_normal` runs on NURBS faces) flags exactly
+    the triangles of the numpy passes it replaces and of the faces' public normals, with and without
+    the per-vertex corner evaluation, on grazing triangles whose verdict is the rounding's."""
+    from trimsurf.tessellate.seams import _against_normal_numpy
+
+    faces, face_of, uv3, tn, corners = _near_perpendicular_case()
+    want = _against_normal_reference(faces, face_of, uv3, tn)
+    assert 0.1 * len(want) < want.sum() < 0.9 * len(want)
+    # the rounding decides many: the dot products summed in another order flag other triangles
+    bary = np.array([[1 / 3, 1 / 3, 1 / 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    pts = np.einsum("bj,rjk->rbk", bary, uv3)
+    ns = np.stack([faces[f].oriented_normals(pts[k]) for k, f in enumerate(face_of)])
+    with np.errstate(invalid="ignore"):
+        dot = (ns[..., 0] * tn[:, None, 0] + ns[..., 1] * tn[:, None, 1]) + ns[..., 2] * tn[:, None, 2]
+        other = np.any(np.isfinite(dot) & (np.linalg.norm(ns, axis=2) > 0.5) & ~(dot > 0), axis=1)
+    assert np.count_nonzero(other != want) > 20
+    assert np.array_equal(_against_normal_numpy(faces, face_of, uv3, tn, corners=corners), want)
+    assert np.array_equal(_against_normal(faces, face_of, uv3, tn, corners=corners), want)
+    assert np.array_equal(_against_normal(faces, face_of, uv3, tn), want)
+    # a non-centroid sample set (the stitch's): the same through both paths
+    cen = np.array([[1 / 3, 1 / 3, 1 / 3]])
+    assert np.array_equal(_against_normal(faces, face_of, uv3, tn, bary=cen),
+                          _against_normal_numpy(faces, face_of, uv3, tn, bary=cen))
+
+
+def test_against_kernel_is_taken_and_falls_back_on_bad_parameters():
+    """The kernel answers for NURBS faces with finite parameters; a non-finite sample point of a triangle
+    not surely along sends the whole call to the numpy path (the faces' own methods), as before."""
+    from trimsurf.tessellate import seams as seams_mod
+
+    faces, face_of, uv3, tn, corners = _near_perpendicular_case(seed=4, m=300)
+    axis, flat = seams_mod._face_cones(faces)
+    args = (face_of.astype(np.int64), uv3, tn, corners.astype(np.int64), np.bool_(True), seams_mod._ORIENT_BARY,
+            *seams_mod._packed(faces)[0], seams_mod._same_sense(faces), axis, flat)
+    res, ok = seams_mod._against_kernel(*args)
+    assert ok and np.array_equal(res, _against_normal_reference(faces, face_of, uv3, tn))
+    bad = uv3.copy()
+    k = int(np.flatnonzero(face_of == 1)[0])            # a warped face: never surely along
+    bad[k, 1, 0] = np.nan
+    res, ok = seams_mod._against_kernel(*((args[0], bad) + args[2:]))
+    assert not ok
+    from trimsurf.errors import GeometryError
+
+    with pytest.raises(GeometryError, match="NaN"):             # the public method's error, as before
+        seams_mod._against_normal_numpy(faces, face_of, bad, tn, corners=corners)
+    with pytest.raises(GeometryError, match="NaN"):
+        _against_normal(faces, face_of, bad, tn, corners=corners)
+    tn_ok = tn.copy()                   # a non-finite point of a triangle surely along is never evaluated
+    flat_rows = np.flatnonzero(face_of == 0)
+    tn_ok[flat_rows] = axis[0] * 2.0
+    bad2 = uv3.copy()
+    bad2[flat_rows[0], 0, 1] = np.inf
+    res, ok = seams_mod._against_kernel(*((args[0], bad2, tn_ok) + args[3:]))
+    assert ok and np.array_equal(res, seams_mod._against_normal_numpy(faces, face_of, bad2, tn_ok, corners=corners))

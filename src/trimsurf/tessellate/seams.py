@@ -271,13 +271,123 @@ def _multi_derivatives_kernel(deg, kofs, knots, pofs, pshape, pw_flat, rational,
             out[2, i, d] = res[2, d]
 
 
+@njit(cache=True, nogil=True)
+def _against_kernel(face_of, uv3, tn, corners, use_corners, bary, deg, kofs, knots, pofs, pshape, pw_flat, rational,
+                    dom, same_sense, axis, flat):
+    """`_against_normal(faces, face_of, uv3, tn, bary, corners)` in compiled passes, the same operations
+    per number: a triangle on a flat face within 87 degrees of its cone axis (`_surely_along`: norm as
+    sqrt((x^2 + y^2) + z^2), the dot products summed as numpy's einsum does, (x0 y0 + x2 y2) + x1 y1) is
+    not against; the others' sample points are summed in bary's column order from 0.0 (einsum), their
+    normals are `_multi_derivatives_kernel`'s S_u, S_v through `unit_normals` (np.cross's operations,
+    NaN where the length is not positive), negated on a reversed face. With `use_corners`, sample
+    b >= 1 of a triangle being the corner corners[r, b - 1] alone (bary row b a unit row), a vertex's
+    normal on one face at bit-equal parameters is evaluated once (a pure function of face and
+    parameters: the same numbers).
+
+    Returns (against (r,), ok): ok False when a sample point of a triangle not surely along is not finite
+    (the caller's numpy path then runs, as `_fast` sends it to the faces' own methods)."""
+    m = face_of.shape[0]
+    nb = bary.shape[0]
+    out = np.zeros(m, dtype=np.bool_)
+    # the triangles face by face (a counting sort, in order within a face)
+    nf = flat.shape[0]
+    fstart = np.zeros(nf + 1, dtype=np.int64)
+    for r in range(m):
+        fstart[face_of[r] + 1] += 1
+    for f in range(nf):
+        fstart[f + 1] += fstart[f]
+    order = np.empty(m, dtype=np.int64)
+    for r in range(m):
+        order[fstart[face_of[r]]] = r
+        fstart[face_of[r]] += 1
+    nvert = 0
+    if use_corners:
+        for r in range(m):
+            for c in range(3):
+                nvert = max(nvert, corners[r, c] + 1)
+    cache_f = np.full(nvert, -1, dtype=np.int64)
+    cache_b = np.zeros((nvert, 2), dtype=np.int64)
+    cache_s = np.zeros(nvert, dtype=np.int64)
+    # pass 1: the sample points to evaluate (face by face), each sample's slot among them
+    ef = np.empty(m * nb, dtype=np.int64)
+    eu = np.empty(m * nb)
+    ev = np.empty(m * nb)
+    slot = np.full((m, nb), -1, dtype=np.int64)
+    pts = np.empty((nb, 2))
+    bits = pts.view(np.int64)
+    n = 0
+    for r in order:
+        f = face_of[r]
+        if flat[f]:
+            t0, t1, t2 = tn[r, 0], tn[r, 1], tn[r, 2]
+            lt = np.sqrt((t0 * t0 + t1 * t1) + t2 * t2)
+            if lt > 0 and (t0 * axis[f, 0] + t2 * axis[f, 2]) + t1 * axis[f, 1] > 0.05 * lt:
+                continue
+        for b in range(nb):
+            for k in range(2):
+                y = 0.0
+                for j in range(3):
+                    y += bary[b, j] * uv3[r, j, k]
+                if not np.isfinite(y):
+                    return out, False
+                pts[b, k] = y
+        for b in range(nb):
+            if use_corners and b >= 1:
+                w = corners[r, b - 1]
+                if cache_f[w] == f and cache_b[w, 0] == bits[b, 0] and cache_b[w, 1] == bits[b, 1]:
+                    slot[r, b] = cache_s[w]
+                    continue
+                cache_f[w] = f
+                cache_b[w, 0] = bits[b, 0]
+                cache_b[w, 1] = bits[b, 1]
+                cache_s[w] = n
+            ef[n] = f
+            eu[n] = pts[b, 0]
+            ev[n] = pts[b, 1]
+            slot[r, b] = n
+            n += 1
+    # pass 2: S_u, S_v of every point in one call (`_derivatives01`'s kernel, grouped by face)
+    d = np.empty((3, n, 3))
+    _multi_derivatives_kernel(deg, kofs, knots, pofs, pshape, pw_flat, rational, dom, ef[:n], eu[:n], ev[:n],
+                              np.arange(n), d)
+    # pass 3: unit_normals (np.cross, np.linalg.norm, NaN where the length is not positive), oriented
+    nrm = np.empty((n, 3))
+    for i in range(n):
+        a0, a1, a2 = d[1, i, 0], d[1, i, 1], d[1, i, 2]
+        b0, b1, b2 = d[2, i, 0], d[2, i, 1], d[2, i, 2]
+        c0 = a1 * b2 - a2 * b1
+        c1 = a2 * b0 - a0 * b2
+        c2 = a0 * b1 - a1 * b0
+        ln = np.sqrt((c0 * c0 + c1 * c1) + c2 * c2)
+        if ln > 0:
+            c0, c1, c2 = c0 / ln, c1 / ln, c2 / ln
+        else:
+            c0 = c1 = c2 = np.nan
+        if not same_sense[ef[i]]:
+            c0, c1, c2 = -c0, -c1, -c2
+        nrm[i, 0], nrm[i, 1], nrm[i, 2] = c0, c1, c2
+    # pass 4: the dot products with the triangles' normals
+    for r in range(m):
+        if slot[r, 0] < 0:
+            continue
+        t0, t1, t2 = tn[r, 0], tn[r, 1], tn[r, 2]
+        for b in range(nb):
+            i = slot[r, b]
+            n0, n1, n2 = nrm[i, 0], nrm[i, 1], nrm[i, 2]
+            dot = (n0 * t0 + n2 * t2) + n1 * t1
+            if np.isfinite(dot) and np.sqrt((n0 * n0 + n1 * n1) + n2 * n2) > 0.5 and not dot > 0:
+                out[r] = True
+                break
+    return out, True
+
+
 _PACKED: dict = {}   # id(faces) -> (faces, its items, the packed kernel arguments of their surfaces)
 
 
 def _packed(faces):
     """(the `_kernel_args` of every face's NURBS surface packed into flat arrays for
-    `_multi_derivatives_kernel` (other faces: a dummy entry), (nf,) same_sense), built once per list
-    of faces."""
+    `_multi_derivatives_kernel` (other faces: a dummy entry), (nf,) same_sense, every surface a
+    NurbsSurface), built once per list of faces."""
     hit = _PACKED.get(id(faces))
     if hit is not None and hit[0] is faces and len(hit[1]) == len(faces) and all(
             x is y for x, y in zip(hit[1], faces)):
@@ -311,7 +421,8 @@ def _packed(faces):
     # (read-only, as `_kernel_args` hands them to the per-face kernel: the same compiled `_surface_point01`)
     args = (deg, kofs, read_only(np.concatenate(knots) if knots else np.zeros(0)), pofs, pshape,
             read_only(np.concatenate(pws) if pws else np.zeros(0)), rational, dom)
-    out = (args, np.array([True if f is None else bool(f.same_sense) for f in faces], dtype=bool))
+    out = (args, np.array([True if f is None else bool(f.same_sense) for f in faces], dtype=bool),
+           all(f is None or type(f.surface) is NurbsSurface for f in faces))
     if len(_PACKED) >= 2:       # (it keeps its faces alive: a batch of shells must not pile up)
         _PACKED.clear()
     _PACKED[id(faces)] = (faces, tuple(faces), out)
@@ -493,12 +604,38 @@ def _against_normal(faces, face_of, uv3, tri_normals, bary=_ORIENT_BARY, corners
     """
     if not len(face_of):
         return np.zeros(0, dtype=bool)
+    if _all_nurbs(faces):       # the same numbers in one compiled pass (unless a sample point is not finite)
+        axis, flat = _face_cones(faces)
+        use_corners = corners is not None and bary is _ORIENT_BARY
+        res, ok = _against_kernel(np.asarray(face_of, dtype=np.int64), np.ascontiguousarray(uv3, dtype=np.float64),
+                                  np.ascontiguousarray(tri_normals, dtype=np.float64),
+                                  np.ascontiguousarray(corners, dtype=np.int64) if use_corners else _NO_CORNERS,
+                                  np.bool_(use_corners), np.ascontiguousarray(bary, dtype=np.float64),
+                                  *_packed(faces)[0], _same_sense(faces), axis, flat)
+        if ok:
+            return res
+    return _against_normal_numpy(faces, face_of, uv3, tri_normals, bary, corners)
+
+
+_NO_CORNERS = np.zeros((0, 3), dtype=np.int64)
+
+
+def _all_nurbs(faces) -> bool:
+    """Every face's surface a NurbsSurface (a missing face counts): `_fast`'s surface condition."""
+    return _packed(faces)[2]
+
+
+def _against_normal_numpy(faces, face_of, uv3, tri_normals, bary=_ORIENT_BARY, corners=None):
+    """`_against_normal` in numpy passes (the reference of `_against_kernel`, and the path for
+    surfaces other than NURBS or sample points that are not finite)."""
+    if not len(face_of):
+        return np.zeros(0, dtype=bool)
     sure = _surely_along(faces, face_of, tri_normals)
     if sure.any():
         res = np.zeros(len(face_of), dtype=bool)
         rest = np.flatnonzero(~sure)
         if len(rest):
-            res[rest] = _against_normal(faces, face_of[rest], uv3[rest], tri_normals[rest], bary,
+            res[rest] = _against_normal_numpy(faces, face_of[rest], uv3[rest], tri_normals[rest], bary,
                                         None if corners is None else corners[rest])
         return res
     # the sample points and the tests of all triangles at once; the normals per face (its surface)
