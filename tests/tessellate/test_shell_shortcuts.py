@@ -284,3 +284,31 @@ def test_against_kernel_is_taken_and_falls_back_on_bad_parameters():
     bad2[flat_rows[0], 0, 1] = np.inf
     res, ok = seams_mod._against_kernel(*((args[0], bad2, tn_ok) + args[3:]))
     assert ok and np.array_equal(res, seams_mod._against_normal_numpy(faces, face_of, bad2, tn_ok, corners=corners))
+
+
+def test_dev_against_kernel_is_the_numpy_path_bit_for_bit():
+    """The compiled deviation and flip test of the collapses (`_dev_against_kernel`) gives the numpy
+    passes' deviations bit for bit (NaN where they have it) and their verdicts on grazing triangles; a
+    non-finite parameter sends the call to the numpy path."""
+    from trimsurf.tessellate import seams as seams_mod
+
+    faces, face_of, uv3, tn, _ = _near_perpendicular_case(seed=8, m=4000)
+    surfaces = [f.surface for f in faces]
+    rng = np.random.default_rng(1)
+    x3 = np.stack([surfaces[f].evaluate(np.clip(uv3[k], *np.transpose(surfaces[f].domain)))
+                   for k, f in enumerate(face_of)]) + rng.normal(0, 1e-3, (len(face_of), 3, 3))
+    x3[5, 1, 2] = np.nan                                        # a NaN deviation
+    dev, against = seams_mod._dev_and_against(surfaces, faces, face_of, uv3, x3, tn)
+    ref_dev, ref_against = seams_mod._dev_and_against_numpy(surfaces, faces, face_of, uv3, x3, tn)
+    assert np.isnan(dev[5]) and np.count_nonzero(np.isnan(dev)) == 1
+    assert np.array_equal(dev.view(np.int64), ref_dev.view(np.int64))
+    assert np.array_equal(against, ref_against)
+    assert np.array_equal(against, _against_normal_reference(faces, face_of, uv3, tn))
+    assert 0 < against.sum() < len(against)
+    axis, flat = seams_mod._face_cones(faces)
+    args = (face_of.astype(np.int64), uv3, x3, tn, seams_mod._BARY, seams_mod._ORIENT_BARY,
+            *seams_mod._packed(faces)[0], seams_mod._same_sense(faces), axis, flat)
+    assert seams_mod._dev_against_kernel(*args)[2]
+    bad = uv3.copy()
+    bad[0, 0, 0] = np.inf
+    assert not seams_mod._dev_against_kernel(*((args[0], bad) + args[2:]))[2]

@@ -381,6 +381,122 @@ def _against_kernel(face_of, uv3, tn, corners, use_corners, bary, deg, kofs, kno
     return out, True
 
 
+@njit(cache=True, nogil=True)
+def _dev_against_kernel(face_of, uv3, x3, tn, dbary, obary, deg, kofs, knots, pofs, pshape, pw_flat, rational, dom,
+                        same_sense, axis, flat):
+    """`_dev_and_against`'s batch in compiled passes, the same operations per number: per triangle the
+    deviation max_b |S(uv_b) - x_b| over the points of `dbary` (uv_b, x_b summed in column order from 0.0
+    as einsum does; the norm as sqrt((x^2 + y^2) + z^2); NaN propagates as np.max's), and the flip test
+    of `_against_kernel` at the points of `obary` (not evaluated on a triangle surely along). The
+    surface points are `_multi_derivatives_kernel`'s, as `_derivatives01` computes them.
+
+    Returns (dev (r,), against (r,), ok): ok False when a sample point is not finite (the caller's
+    numpy path then runs)."""
+    m = face_of.shape[0]
+    nd, nb = dbary.shape[0], obary.shape[0]
+    dev = np.empty(m)
+    out = np.zeros(m, dtype=np.bool_)
+    ref = np.empty((m, nd, 3))
+    n_all = m * (nd + nb)
+    ef = np.empty(n_all, dtype=np.int64)
+    eu = np.empty(n_all)
+    ev = np.empty(n_all)
+    sure = np.zeros(m, dtype=np.bool_)
+    n = 0
+    for r in range(m):          # the deviation's points of every triangle, first (their order is free)
+        f = face_of[r]
+        for b in range(nd):
+            for k in range(3):
+                y = 0.0
+                for j in range(3):
+                    y += dbary[b, j] * x3[r, j, k]
+                ref[r, b, k] = y
+            y0 = 0.0
+            y1 = 0.0
+            for j in range(3):
+                y0 += dbary[b, j] * uv3[r, j, 0]
+            for j in range(3):
+                y1 += dbary[b, j] * uv3[r, j, 1]
+            if not (np.isfinite(y0) and np.isfinite(y1)):
+                return dev, out, False
+            ef[n] = f
+            eu[n] = y0
+            ev[n] = y1
+            n += 1
+    for r in range(m):          # the flip test's of the triangles not surely along
+        f = face_of[r]
+        t0, t1, t2 = tn[r, 0], tn[r, 1], tn[r, 2]
+        if flat[f]:
+            lt = np.sqrt((t0 * t0 + t1 * t1) + t2 * t2)
+            if lt > 0 and (t0 * axis[f, 0] + t2 * axis[f, 2]) + t1 * axis[f, 1] > 0.05 * lt:
+                sure[r] = True
+        for b in range(nb):
+            y0 = 0.0
+            y1 = 0.0
+            for j in range(3):
+                y0 += obary[b, j] * uv3[r, j, 0]
+            for j in range(3):
+                y1 += obary[b, j] * uv3[r, j, 1]
+            if not (np.isfinite(y0) and np.isfinite(y1)):
+                return dev, out, False
+            if not sure[r]:
+                ef[n] = f
+                eu[n] = y0
+                ev[n] = y1
+                n += 1
+    # every point in one call, grouped by face (a counting sort)
+    nf = flat.shape[0]
+    fstart = np.zeros(nf + 1, dtype=np.int64)
+    for i in range(n):
+        fstart[ef[i] + 1] += 1
+    for f in range(nf):
+        fstart[f + 1] += fstart[f]
+    order = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        order[fstart[ef[i]]] = i
+        fstart[ef[i]] += 1
+    d = np.empty((3, n, 3))
+    _multi_derivatives_kernel(deg, kofs, knots, pofs, pshape, pw_flat, rational, dom, ef[:n], eu[:n], ev[:n],
+                              order, d)
+    i = 0
+    for r in range(m):
+        mx = 0.0
+        for b in range(nd):
+            e0 = d[0, i, 0] - ref[r, b, 0]
+            e1 = d[0, i, 1] - ref[r, b, 1]
+            e2 = d[0, i, 2] - ref[r, b, 2]
+            x = np.sqrt((e0 * e0 + e1 * e1) + e2 * e2)
+            if b == 0 or x > mx or x != x:
+                mx = x
+            if mx != mx:
+                i += nd - b
+                break
+            i += 1
+        dev[r] = mx
+    for r in range(m):
+        if sure[r]:
+            continue
+        t0, t1, t2 = tn[r, 0], tn[r, 1], tn[r, 2]
+        for b in range(nb):
+            a0, a1, a2 = d[1, i, 0], d[1, i, 1], d[1, i, 2]
+            b0, b1, b2 = d[2, i, 0], d[2, i, 1], d[2, i, 2]
+            i += 1
+            c0 = a1 * b2 - a2 * b1
+            c1 = a2 * b0 - a0 * b2
+            c2 = a0 * b1 - a1 * b0
+            ln = np.sqrt((c0 * c0 + c1 * c1) + c2 * c2)
+            if ln > 0:
+                c0, c1, c2 = c0 / ln, c1 / ln, c2 / ln
+            else:
+                c0 = c1 = c2 = np.nan
+            if not same_sense[face_of[r]]:
+                c0, c1, c2 = -c0, -c1, -c2
+            dot = (c0 * t0 + c2 * t2) + c1 * t1
+            if np.isfinite(dot) and np.sqrt((c0 * c0 + c1 * c1) + c2 * c2) > 0.5 and not dot > 0:
+                out[r] = True
+    return dev, out, True
+
+
 _PACKED: dict = {}   # id(faces) -> (faces, its items, the packed kernel arguments of their surfaces)
 
 
@@ -657,6 +773,22 @@ def _dev_and_against(surfaces, faces, face_of, uv3, x3, tri_normals):
     """(`_per_face_dev`, `_against_normal`) of the same triangles with one kernel call per face: the
     deviation's points (S only) and the flip test's (S_u, S_v; not on flat faces, `_surely_along`)
     in one batch of first derivatives (the kernel's S is the same with or without them)."""
+    if not len(face_of):
+        return np.empty(0), np.zeros(0, dtype=bool)
+    if _all_nurbs(faces) and all(faces[f].surface is surfaces[f] for f in np.unique(face_of).tolist()):
+        axis, flat = _face_cones(faces)
+        dev, against, ok = _dev_against_kernel(
+            np.asarray(face_of, dtype=np.int64), np.ascontiguousarray(uv3, dtype=np.float64),
+            np.ascontiguousarray(x3, dtype=np.float64), np.ascontiguousarray(tri_normals, dtype=np.float64),
+            _BARY, _ORIENT_BARY, *_packed(faces)[0], _same_sense(faces), axis, flat)
+        if ok:
+            return dev, against
+    return _dev_and_against_numpy(surfaces, faces, face_of, uv3, x3, tri_normals)
+
+
+def _dev_and_against_numpy(surfaces, faces, face_of, uv3, x3, tri_normals):
+    """`_dev_and_against` in numpy passes (the reference of `_dev_against_kernel`, and the path for other
+    surfaces or sample points that are not finite)."""
     if not len(face_of):
         return np.empty(0), np.zeros(0, dtype=bool)
     dpts = np.einsum("bj,rjk->rbk", _BARY, uv3)
