@@ -96,6 +96,9 @@ def test_seam_edges_equals_seam_graph_of_the_mesh():
         got = seams_mod._seam_edges(T, fid, n)
         assert got.dtype == ref.dtype and got.shape == ref.shape and np.array_equal(got, ref), trial
         total += len(ref)
+        rows = np.flatnonzero(rng.random(len(T)) < 0.7)         # a subset of the rows (`_State.seam`)
+        sub = seams_mod._seam_graph(TriMesh(V, T[rows], face_id=fid[rows]))
+        assert np.array_equal(seams_mod._seam_edges(T, fid, n, rows), sub), trial
     assert total > 1000
     assert seams_mod._seam_edges(np.zeros((0, 3), dtype=np.int64), np.zeros(0, dtype=np.int64), 5).shape == (0, 2)
 

@@ -170,23 +170,69 @@ def _seam_graph(mesh: TriMesh):
     return edges[seam]
 
 
-def _seam_edges(T: np.ndarray, fid: np.ndarray, nv: int) -> np.ndarray:
-    """`_seam_graph(TriMesh(V, T, face_id=fid))` for a mesh of `nv` vertices, without building the mesh
-    (no copy and check of V): the undirected edges (sorted, i < j, in key order) on exactly two
-    triangles of different faces."""
-    if not len(T):
+def _seam_edges(T: np.ndarray, fid: np.ndarray, nv: int, idx=None) -> np.ndarray:
+    """`_seam_graph(TriMesh(V, T[idx], face_id=fid[idx]))` for a mesh of `nv` vertices (idx None: all rows),
+    without building the mesh (no copy and check of V): the undirected edges (sorted, i < j, in
+    increasing (i, j) order) on exactly two triangles of different faces."""
+    if idx is None:
+        idx = np.arange(len(T))
+    if not len(idx):
         return np.zeros((0, 2), dtype=np.int64)
-    n = max(int(nv), 1)
-    a, b = T.ravel(), T[:, [1, 2, 0]].ravel()           # half-edge 3 t + c: corner c -> c + 1
-    key = np.minimum(a, b) * n + np.maximum(a, b)
-    order = np.argsort(key)             # (any order of equal keys: only their count and faces' min/max read)
-    sk = key[order]
-    start = np.flatnonzero(np.r_[True, sk[1:] != sk[:-1]])
-    cnt = np.diff(np.r_[start, len(sk)])
-    f = np.repeat(fid, 3)[order]
-    seam = (cnt == 2) & (np.minimum.reduceat(f, start) != np.maximum.reduceat(f, start))
-    k = sk[start[seam]]
-    return np.column_stack([k // n, k % n]).astype(np.int64)
+    return _seam_edges_kernel(np.ascontiguousarray(T, dtype=np.int64), np.asarray(idx, dtype=np.int64),
+                              np.asarray(fid, dtype=np.int64), np.int64(max(int(nv), 1)))
+
+
+@njit(cache=True, nogil=True)
+def _seam_edges_kernel(T, idx, fid, nv):
+    """The edges of `_seam_edges`: the half-edges of the rows idx bucketed by their lower vertex (a CSR),
+    each bucket's upper vertices in increasing order with their count and lowest and highest face."""
+    m = idx.shape[0]
+    start = np.zeros(nv + 1, dtype=np.int64)
+    for r in range(m):
+        t = idx[r]
+        for c in range(3):
+            a, b = T[t, c], T[t, (c + 1) % 3]
+            start[min(a, b) + 1] += 1
+    for v in range(nv):
+        start[v + 1] += start[v]
+    fill = start[:-1].copy()
+    hi = np.empty(3 * m, dtype=np.int64)
+    fc = np.empty(3 * m, dtype=np.int64)
+    for r in range(m):
+        t = idx[r]
+        for c in range(3):
+            a, b = T[t, c], T[t, (c + 1) % 3]
+            lo = min(a, b)
+            hi[fill[lo]] = max(a, b)
+            fc[fill[lo]] = fid[t]
+            fill[lo] += 1
+    out = np.empty((3 * m, 2), dtype=np.int64)
+    k = 0
+    for v in range(nv):
+        a, b = start[v], start[v + 1]
+        for i in range(a + 1, b):           # insertion sort of the (small) bucket by upper vertex
+            h, f = hi[i], fc[i]
+            j = i - 1
+            while j >= a and hi[j] > h:
+                hi[j + 1] = hi[j]
+                fc[j + 1] = fc[j]
+                j -= 1
+            hi[j + 1] = h
+            fc[j + 1] = f
+        i = a
+        while i < b:
+            j = i
+            f0 = f1 = fc[i]
+            while j < b and hi[j] == hi[i]:
+                f0 = min(f0, fc[j])
+                f1 = max(f1, fc[j])
+                j += 1
+            if j - i == 2 and f0 != f1:
+                out[k, 0] = v
+                out[k, 1] = hi[i]
+                k += 1
+            i = j
+    return out[:k].copy()
 
 
 def _by_face(face_of: np.ndarray):
@@ -913,8 +959,7 @@ class _State:
             self._multi = lo != hi
             # per triangle (kept up to date by `_set_rows`): two corners on more than one face
             self._stri = np.count_nonzero(self._multi[self.T], axis=1) >= 2
-        idx = np.flatnonzero(self.alive & self._stri)
-        return _seam_edges(self.T[idx], self.fid[idx], len(self.V))
+        return _seam_edges(self.T, self.fid, len(self.V), np.flatnonzero(self.alive & self._stri))
 
     def round(self, seam, cands, chord_tol, skip, uv_check: bool = True, interior: bool = False) -> int:
         """Try the directed collapses `cands` (v into u, in order) whose stars do not overlap; apply the good.
