@@ -396,3 +396,52 @@ def test_orient_meshes_equals_the_dict_votes():
         assert np.array_equal(got.triangles, want.triangles)
         n_flipped += len(want_f)
     assert n_flipped > 50
+
+
+def test_flip_edges_memo_is_the_recomputed_candidates(shared_data, monkeypatch):
+    """`_State.flip_edges` reusing its batch's candidates until the first swap gives the swaps, triangles,
+    (u, v) and bounds of computing each candidate again in the loop: on U_Joint's seams (diagonal swaps
+    done), with every flipped triangle listed twice (the second time after its swap, where a stale
+    candidate would swap again)."""
+    import copy
+
+    from trimsurf.io import read_shell
+    from trimsurf.tessellate import tessellate_shell
+
+    shell = read_shell(shared_data / "cad" / "gmsh__U_Joint_2.stp")
+    d = shell.diagonal()
+    seen = []
+    orig = seams_mod._State.flip_edges
+
+    def keep(self, bad):
+        if not seen:
+            seen.append((copy.deepcopy({k: v for k, v in vars(self).items() if k not in ("faces", "surfaces")}),
+                         self, np.array(bad)))
+        return orig(self, bad)
+    monkeypatch.setattr(seams_mod._State, "flip_edges", keep)
+    tessellate_shell(shell, tolerance=1e-3 * d, max_edge=d, measure=False)
+    monkeypatch.setattr(seams_mod._State, "flip_edges", orig)
+    saved, st, bad = seen[0]
+    out = []
+    for memo in (True, False):
+        monkeypatch.setattr(seams_mod, "_MEMO_SWAPS", memo)
+        for k, v in copy.deepcopy(saved).items():
+            setattr(st, k, v)
+        n = st.flip_edges(np.r_[bad, bad])
+        out.append((n, st.T.copy(), st.cuv.copy(), st.dev.copy()))
+    assert out[0][0] == out[1][0] >= 2
+    for a, b in zip(out[0][1:], out[1][1:]):
+        assert np.array_equal(a, b)
+
+
+def test_packed_surfaces_follow_an_edited_list():
+    """The packed surfaces and flat-face cones are rebuilt when an item of the same list object changes."""
+    from trimsurf.model import NurbsSurface, TrimmedFace
+
+    P = np.array([[[0, 0, 0], [0, 1, 0]], [[1, 0, 0], [1, 1, 0]]], dtype=float)
+    faces = [TrimmedFace(NurbsSurface(1, 1, [0, 0, 1, 1], [0, 0, 1, 1], P), same_sense=True)]
+    assert seams_mod._same_sense(faces).tolist() == [True]
+    assert seams_mod._face_cones(faces)[0][0].tolist() == [0.0, 0.0, 1.0]
+    faces[0] = TrimmedFace(NurbsSurface(1, 1, [0, 0, 1, 1], [0, 0, 1, 1], P), same_sense=False)
+    assert seams_mod._same_sense(faces).tolist() == [False]
+    assert seams_mod._face_cones(faces)[0][0].tolist() == [-0.0, -0.0, -1.0]

@@ -543,7 +543,7 @@ def _dev_against_kernel(face_of, uv3, x3, tn, dbary, obary, deg, kofs, knots, po
     return dev, out, True
 
 
-_PACKED: dict = {}   # id(faces) -> (faces, its items, the packed kernel arguments of their surfaces)
+_PACKED: dict = {}   # id(faces) -> (faces, its items' ids, the packed kernel arguments of their surfaces, its items)
 
 
 def _packed(faces):
@@ -551,9 +551,8 @@ def _packed(faces):
     `_multi_derivatives_kernel` (other faces: a dummy entry), (nf,) same_sense, every surface a
     NurbsSurface), built once per list of faces."""
     hit = _PACKED.get(id(faces))
-    if hit is not None and hit[0] is faces and len(hit[1]) == len(faces) and all(
-            x is y for x, y in zip(hit[1], faces)):
-        return hit[2]
+    if hit is not None and hit[0] is faces and hit[1] == tuple(map(id, faces)):    # (the entry keeps its items
+        return hit[2]                                                                #  alive: their ids are theirs)
     nf = len(faces)
     deg = np.ones((nf, 2), dtype=np.int64)
     kofs = np.zeros((nf, 3), dtype=np.int64)
@@ -587,7 +586,7 @@ def _packed(faces):
            all(f is None or type(f.surface) is NurbsSurface for f in faces))
     if len(_PACKED) >= 2:       # (it keeps its faces alive: a batch of shells must not pile up)
         _PACKED.clear()
-    _PACKED[id(faces)] = (faces, tuple(faces), out)
+    _PACKED[id(faces)] = (faces, tuple(map(id, faces)), out, tuple(faces))
     return out
 
 
@@ -721,16 +720,15 @@ def _planar_cone(surface):
     return out
 
 
-_CONES: dict = {}    # id(faces) -> (faces, its items, (nf, 3) oriented n0 per face, (nf,) flat)
+_CONES: dict = {}    # id(faces) -> (faces, its items' ids, (nf, 3) oriented n0 per face, (nf,) flat, its items)
 
 
 def _face_cones(faces):
     """Per face of `faces`: its oriented flat-cone axis (`_planar_cone`) and whether it has one, built
     once per list of faces (checked item by item)."""
     hit = _CONES.get(id(faces))
-    if hit is not None and hit[0] is faces and len(hit[1]) == len(faces) and all(
-            x is y for x, y in zip(hit[1], faces)):
-        return hit[2], hit[3]
+    if hit is not None and hit[0] is faces and hit[1] == tuple(map(id, faces)):    # (the entry keeps its items
+        return hit[2], hit[3]                                                                #  alive: their ids are theirs)
     axis = np.zeros((len(faces), 3))
     flat = np.zeros(len(faces), dtype=bool)
     for i, face in enumerate(faces):
@@ -740,7 +738,7 @@ def _face_cones(faces):
             flat[i] = True
     if len(_CONES) >= 2:        # (it keeps its faces alive: a batch of shells must not pile up)
         _CONES.clear()
-    _CONES[id(faces)] = (faces, tuple(faces), axis, flat)
+    _CONES[id(faces)] = (faces, tuple(map(id, faces)), axis, flat, tuple(faces))
     return axis, flat
 
 
@@ -878,6 +876,11 @@ def _uv_area_1(p0, p1, p2) -> float:
 
 def _sign(x: float) -> float:
     return 1.0 if x > 0 else (-1.0 if x < 0 else 0.0)
+
+
+#: `_State.flip_edges` takes the swap candidates computed for its batch while no swap is done (False: each
+#: one computed again in the loop, as before; the tests compare both)
+_MEMO_SWAPS = True
 
 
 class _HalfEdges:
@@ -1132,8 +1135,10 @@ class _State:
         # the 3D normal tests of every swap the first flipped triangles offer now, in one batch; a swap
         # whose triangles an earlier swap changed is tested on its own (`_against_normal` per triangle:
         # the same values in a batch, keyed by face, corners and corner (u, v))
-        first = [(k, cand) for k in np.asarray(bad).tolist() if alive[k]
-                 for cand in (candidate(k, c) for c in range(3)) if cand is not None]
+        # (the candidates as the mesh is before any swap: the loop below takes them while no swap is done,
+        # candidate() reading only what a swap changes: T, cuv and the half-edges)
+        memo = {(k, c): candidate(k, c) for k in np.asarray(bad).tolist() if alive[k] for c in range(3)}
+        first = [(k, cand) for (k, _), cand in memo.items() if cand is not None]
         known: dict = {}
         if first:
             f_b = np.repeat(fid[[k for k, _ in first]], 2)
@@ -1146,7 +1151,7 @@ class _State:
             if not alive[k]:
                 continue
             for c in range(3):
-                cand = candidate(k, c)
+                cand = memo[(k, c)] if n == 0 and _MEMO_SWAPS else candidate(k, c)
                 if cand is None:
                     continue
                 k2, t, t2, new, nuv, nn = cand
