@@ -187,3 +187,20 @@ def test_check_manifold_accepts_open_and_closed_manifolds():
 
     for mesh in (holed_sheet(), octahedron()):
         assert mesh.check_manifold() is None
+
+
+def test_compact_indices_is_np_unique_with_inverse():
+    """`compact_indices` (the shell's and seam reduction's vertex compaction) gives np.unique's used
+    indices and inverse, values and dtypes, on random triangle arrays (gaps, repeats, empty)."""
+    from trimsurf.model.mesh import compact_indices
+
+    rng = np.random.default_rng(4)
+    for trial in range(60):
+        n = int(rng.integers(1, 500))
+        m = int(rng.integers(0, 300)) if trial % 10 else 0
+        tri = rng.integers(0, n, (m, 3)).astype(np.int64)
+        used, inv = compact_indices(tri, n + int(rng.integers(0, 5)))
+        ref_used, ref_inv = np.unique(tri, return_inverse=True)
+        assert used.dtype == ref_used.dtype and np.array_equal(used, ref_used)
+        assert inv.dtype == ref_inv.dtype and np.array_equal(inv, ref_inv.ravel())
+        assert np.array_equal(used[inv].reshape(-1, 3), tri)

@@ -18,6 +18,21 @@ from ._arrays import as_float_array, as_index_array
 __all__ = ["TriMesh"]
 
 
+def compact_indices(tri: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(tri, return_inverse=True)`` for int64 indices in [0, n): the used indices in increasing
+    order and each entry's rank among them (flat, int64), by a mask and a running count (no sort).
+
+    >>> used, inv = compact_indices(np.array([[5, 2, 7], [2, 7, 9]]), 10)
+    >>> used.tolist(), inv.tolist()
+    ([2, 5, 7, 9], [1, 0, 2, 0, 2, 3])
+    """
+    flat = np.asarray(tri, dtype=np.int64).ravel()
+    mask = np.zeros(max(int(n), 0), dtype=bool)
+    mask[flat] = True
+    rank = np.cumsum(mask, dtype=np.int64) - 1
+    return np.flatnonzero(mask), rank[flat]
+
+
 @dataclass(frozen=True, eq=False)
 class TriMesh:
     """A triangle mesh.

@@ -28,6 +28,7 @@ from numba import njit
 from ..geom._nurbs_kernels import _point_scratch, _surface_point01, surface_derivatives_kernel
 from ..geom.nurbs import _clip, _homogeneous, read_only, unit_normals
 from ..model import NurbsSurface, TriMesh
+from ..model.mesh import compact_indices
 from ._collapse import vertex_triangles
 
 __all__ = ["reduce_seams"]
@@ -1296,7 +1297,7 @@ def reduce_seams(mesh: TriMesh, tolerance: float, *, tri_dev=None, max_edge: flo
                 break
             bad = st.flipped()
     T, fid, alive = st.T[st.alive], st.fid[st.alive], st.alive
-    used, inv = np.unique(T, return_inverse=True)
+    used, inv = compact_indices(T, len(V))             # (np.unique(T, return_inverse=True))
     out = TriMesh(V[used], inv.reshape(-1, 3), face_id=fid)
     if return_state:
         state = (out, total, alive, st.dev[alive], None if st.cuv is None else st.cuv[alive])

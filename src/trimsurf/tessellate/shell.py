@@ -9,6 +9,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..model import Shell, TriMesh
+from ..model.mesh import compact_indices
 from .face import (FaceMesh, _rectangle_face, check_parameters, face_domain_values, loose_chunks,
                    mesh_face_from_chunks, shell_domain_values)
 from .repair import quick_repairs, repair_face
@@ -639,7 +640,7 @@ def _assemble_conforming(face_meshes: dict, n_shared: int, with_dev: bool = True
     else:
         q = np.zeros((0, 2), dtype=np.int64)
     allv = np.concatenate([verts, xyz[own]])
-    used, inv = np.unique(tri, return_inverse=True)
+    used, inv = compact_indices(tri, len(allv))         # (np.unique(tri, return_inverse=True))
     return TriMesh(allv[used], inv.reshape(-1, 3), face_id=fid), q, dev, cuv
 
 

@@ -22,6 +22,7 @@ from scipy.sparse import csgraph
 from scipy.spatial import cKDTree
 
 from ..model import TriMesh
+from ..model.mesh import compact_indices
 
 __all__ = ["merge_face_meshes", "stitch_mesh"]
 
@@ -466,7 +467,7 @@ def stitch_mesh(mesh: TriMesh, eps: float, tri_dev=None, *, tolerance: float | N
         T = rep[label][T]
     ok = (T[:, 0] != T[:, 1]) & (T[:, 1] != T[:, 2]) & (T[:, 0] != T[:, 2])
     T, fid, dev, origin = T[ok], fid[ok], dev[ok], origin[ok]
-    used, inv = np.unique(T, return_inverse=True)
+    used, inv = compact_indices(T, len(V))             # (np.unique(T, return_inverse=True))
     if cuv is not None:
         return TriMesh(V[used], inv.reshape(-1, 3), face_id=fid), info, dev, origin, cuv[ok]
     if return_origin:
@@ -635,7 +636,7 @@ def _prune_folds(mesh: TriMesh, dev, cuv, q, faces, tolerance: float, flipped=No
     keep[bad] = False
     hole = mesh.vertices[np.unique(mesh.triangles[bad])]     # only the hole's vertices are stitched
     index = np.where(keep, np.cumsum(keep) - 1, -1)
-    used, inv = np.unique(mesh.triangles[keep], return_inverse=True)
+    used, inv = compact_indices(mesh.triangles[keep], mesh.n_vertices)     # (np.unique(.., return_inverse=True))
     m = TriMesh(mesh.vertices[used], inv.reshape(-1, 3), face_id=mesh.face_id[keep])
     d, c = dev[keep], cuv[keep]
     new = np.zeros(m.n_triangles, dtype=bool)
