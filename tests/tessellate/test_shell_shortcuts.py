@@ -306,8 +306,8 @@ def test_dev_against_kernel_is_the_numpy_path_bit_for_bit():
     assert np.array_equal(against, _against_normal_reference(faces, face_of, uv3, tn))
     assert 0 < against.sum() < len(against)
     axis, flat = seams_mod._face_cones(faces)
-    args = (face_of.astype(np.int64), uv3, x3, tn, seams_mod._BARY, seams_mod._ORIENT_BARY,
-            *seams_mod._packed(faces)[0], seams_mod._same_sense(faces), axis, flat)
+    args = (face_of.astype(np.int64), uv3, x3, tn, seams_mod._NO_CORNERS, np.bool_(False), seams_mod._BARY,
+            seams_mod._ORIENT_BARY, *seams_mod._packed(faces)[0], seams_mod._same_sense(faces), axis, flat)
     assert seams_mod._dev_against_kernel(*args)[2]
     bad = uv3.copy()
     bad[0, 0, 0] = np.inf

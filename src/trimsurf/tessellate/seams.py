@@ -319,138 +319,36 @@ def _multi_derivatives_kernel(deg, kofs, knots, pofs, pshape, pw_flat, rational,
 
 
 @njit(cache=True, nogil=True)
-def _against_kernel(face_of, uv3, tn, corners, use_corners, bary, deg, kofs, knots, pofs, pshape, pw_flat, rational,
-                    dom, same_sense, axis, flat):
-    """`_against_normal(faces, face_of, uv3, tn, bary, corners)` in compiled passes, the same operations
-    per number: a triangle on a flat face within 87 degrees of its cone axis (`_surely_along`: norm as
-    sqrt((x^2 + y^2) + z^2), the dot products summed as numpy's einsum does, (x0 y0 + x2 y2) + x1 y1) is
-    not against; the others' sample points are summed in bary's column order from 0.0 (einsum), their
-    normals are `_multi_derivatives_kernel`'s S_u, S_v through `unit_normals` (np.cross's operations,
-    NaN where the length is not positive), negated on a reversed face. With `use_corners`, sample
-    b >= 1 of a triangle being the corner corners[r, b - 1] alone (bary row b a unit row), a vertex's
-    normal on one face at bit-equal parameters is evaluated once (a pure function of face and
-    parameters: the same numbers).
+def _dev_against_kernel(face_of, uv3, x3, tn, corners, use_corners, dbary, obary, deg, kofs, knots, pofs, pshape,
+                        pw_flat, rational, dom, same_sense, axis, flat):
+    """`_dev_and_against` (and, with no rows in `dbary`, `_against_normal`) in compiled passes, the same
+    operations per number.
 
-    Returns (against (r,), ok): ok False when a sample point of a triangle not surely along is not finite
-    (the caller's numpy path then runs, as `_fast` sends it to the faces' own methods)."""
-    m = face_of.shape[0]
-    nb = bary.shape[0]
-    out = np.zeros(m, dtype=np.bool_)
-    # the triangles face by face (a counting sort, in order within a face)
-    nf = flat.shape[0]
-    fstart = np.zeros(nf + 1, dtype=np.int64)
-    for r in range(m):
-        fstart[face_of[r] + 1] += 1
-    for f in range(nf):
-        fstart[f + 1] += fstart[f]
-    order = np.empty(m, dtype=np.int64)
-    for r in range(m):
-        order[fstart[face_of[r]]] = r
-        fstart[face_of[r]] += 1
-    nvert = 0
-    if use_corners:
-        for r in range(m):
-            for c in range(3):
-                nvert = max(nvert, corners[r, c] + 1)
-    cache_f = np.full(nvert, -1, dtype=np.int64)
-    cache_b = np.zeros((nvert, 2), dtype=np.int64)
-    cache_s = np.zeros(nvert, dtype=np.int64)
-    # pass 1: the sample points to evaluate (face by face), each sample's slot among them
-    ef = np.empty(m * nb, dtype=np.int64)
-    eu = np.empty(m * nb)
-    ev = np.empty(m * nb)
-    slot = np.full((m, nb), -1, dtype=np.int64)
-    pts = np.empty((nb, 2))
-    bits = pts.view(np.int64)
-    n = 0
-    for r in order:
-        f = face_of[r]
-        if flat[f]:
-            t0, t1, t2 = tn[r, 0], tn[r, 1], tn[r, 2]
-            lt = np.sqrt((t0 * t0 + t1 * t1) + t2 * t2)
-            if lt > 0 and (t0 * axis[f, 0] + t2 * axis[f, 2]) + t1 * axis[f, 1] > 0.05 * lt:
-                continue
-        for b in range(nb):
-            for k in range(2):
-                y = 0.0
-                for j in range(3):
-                    y += bary[b, j] * uv3[r, j, k]
-                if not np.isfinite(y):
-                    return out, False
-                pts[b, k] = y
-        for b in range(nb):
-            if use_corners and b >= 1:
-                w = corners[r, b - 1]
-                if cache_f[w] == f and cache_b[w, 0] == bits[b, 0] and cache_b[w, 1] == bits[b, 1]:
-                    slot[r, b] = cache_s[w]
-                    continue
-                cache_f[w] = f
-                cache_b[w, 0] = bits[b, 0]
-                cache_b[w, 1] = bits[b, 1]
-                cache_s[w] = n
-            ef[n] = f
-            eu[n] = pts[b, 0]
-            ev[n] = pts[b, 1]
-            slot[r, b] = n
-            n += 1
-    # pass 2: S_u, S_v of every point in one call (`_derivatives01`'s kernel, grouped by face)
-    d = np.empty((3, n, 3))
-    _multi_derivatives_kernel(deg, kofs, knots, pofs, pshape, pw_flat, rational, dom, ef[:n], eu[:n], ev[:n],
-                              np.arange(n), d)
-    # pass 3: unit_normals (np.cross, np.linalg.norm, NaN where the length is not positive), oriented
-    nrm = np.empty((n, 3))
-    for i in range(n):
-        a0, a1, a2 = d[1, i, 0], d[1, i, 1], d[1, i, 2]
-        b0, b1, b2 = d[2, i, 0], d[2, i, 1], d[2, i, 2]
-        c0 = a1 * b2 - a2 * b1
-        c1 = a2 * b0 - a0 * b2
-        c2 = a0 * b1 - a1 * b0
-        ln = np.sqrt((c0 * c0 + c1 * c1) + c2 * c2)
-        if ln > 0:
-            c0, c1, c2 = c0 / ln, c1 / ln, c2 / ln
-        else:
-            c0 = c1 = c2 = np.nan
-        if not same_sense[ef[i]]:
-            c0, c1, c2 = -c0, -c1, -c2
-        nrm[i, 0], nrm[i, 1], nrm[i, 2] = c0, c1, c2
-    # pass 4: the dot products with the triangles' normals
-    for r in range(m):
-        if slot[r, 0] < 0:
-            continue
-        t0, t1, t2 = tn[r, 0], tn[r, 1], tn[r, 2]
-        for b in range(nb):
-            i = slot[r, b]
-            n0, n1, n2 = nrm[i, 0], nrm[i, 1], nrm[i, 2]
-            dot = (n0 * t0 + n2 * t2) + n1 * t1
-            if np.isfinite(dot) and np.sqrt((n0 * n0 + n1 * n1) + n2 * n2) > 0.5 and not dot > 0:
-                out[r] = True
-                break
-    return out, True
-
-
-@njit(cache=True, nogil=True)
-def _dev_against_kernel(face_of, uv3, x3, tn, dbary, obary, deg, kofs, knots, pofs, pshape, pw_flat, rational, dom,
-                        same_sense, axis, flat):
-    """`_dev_and_against`'s batch in compiled passes, the same operations per number: per triangle the
-    deviation max_b |S(uv_b) - x_b| over the points of `dbary` (uv_b, x_b summed in column order from 0.0
-    as einsum does; the norm as sqrt((x^2 + y^2) + z^2); NaN propagates as np.max's), and the flip test
-    of `_against_kernel` at the points of `obary` (not evaluated on a triangle surely along). The
-    surface points are `_multi_derivatives_kernel`'s, as `_derivatives01` computes them.
+    Deviation: per triangle max_b |S(uv_b) - x_b| over the points of `dbary` (uv_b, x_b summed in column
+    order from 0.0 as einsum does; the norm as sqrt((x^2 + y^2) + z^2); NaN propagates as np.max's).
+    Flip test at the points of `obary`: a triangle on a flat face within 87 degrees of its cone axis
+    (`_surely_along`: the dot products summed as numpy's einsum does, (x0 y0 + x2 y2) + x1 y1) is not
+    against; the others' normals are S_u x S_v through `unit_normals` (np.cross's operations, NaN where
+    the length is not positive), negated on a reversed face. With `use_corners`, sample b >= 1 being
+    the corner corners[r, b - 1] alone (obary row b a unit row), a vertex's normal on one face at
+    bit-equal parameters is evaluated once (a pure function of face and parameters: the same numbers).
+    Every surface point in one `_multi_derivatives_kernel` call, grouped by face (as `_derivatives01`
+    computes them; evaluating inside the bookkeeping loop ran 2x slower per point).
 
     Returns (dev (r,), against (r,), ok): ok False when a sample point is not finite (the caller's
-    numpy path then runs)."""
+    numpy path then runs, as `_fast` sends it to the faces' own methods): every deviation point, and
+    with `dbary` rows every flip point, else the flip points of the triangles not surely along."""
     m = face_of.shape[0]
     nd, nb = dbary.shape[0], obary.shape[0]
     dev = np.empty(m)
     out = np.zeros(m, dtype=np.bool_)
     ref = np.empty((m, nd, 3))
-    n_all = m * (nd + nb)
-    ef = np.empty(n_all, dtype=np.int64)
-    eu = np.empty(n_all)
-    ev = np.empty(n_all)
-    sure = np.zeros(m, dtype=np.bool_)
+    ef = np.empty(m * (nd + nb), dtype=np.int64)
+    eu = np.empty(m * (nd + nb))
+    ev = np.empty(m * (nd + nb))
+    slot = np.full((m, nb), -1, dtype=np.int64)
     n = 0
-    for r in range(m):          # the deviation's points of every triangle, first (their order is free)
+    for r in range(m):          # the deviation's points of every triangle
         f = face_of[r]
         for b in range(nd):
             for k in range(3):
@@ -470,41 +368,75 @@ def _dev_against_kernel(face_of, uv3, x3, tn, dbary, obary, deg, kofs, knots, po
             eu[n] = y0
             ev[n] = y1
             n += 1
-    for r in range(m):          # the flip test's of the triangles not surely along
-        f = face_of[r]
-        t0, t1, t2 = tn[r, 0], tn[r, 1], tn[r, 2]
-        if flat[f]:
-            lt = np.sqrt((t0 * t0 + t1 * t1) + t2 * t2)
-            if lt > 0 and (t0 * axis[f, 0] + t2 * axis[f, 2]) + t1 * axis[f, 1] > 0.05 * lt:
-                sure[r] = True
-        for b in range(nb):
-            y0 = 0.0
-            y1 = 0.0
-            for j in range(3):
-                y0 += obary[b, j] * uv3[r, j, 0]
-            for j in range(3):
-                y1 += obary[b, j] * uv3[r, j, 1]
-            if not (np.isfinite(y0) and np.isfinite(y1)):
-                return dev, out, False
-            if not sure[r]:
-                ef[n] = f
-                eu[n] = y0
-                ev[n] = y1
-                n += 1
-    # every point in one call, grouped by face (a counting sort)
+    nvert = 0
+    if use_corners:
+        for r in range(m):
+            for c in range(3):
+                nvert = max(nvert, corners[r, c] + 1)
+    cache_f = np.full(nvert, -1, dtype=np.int64)
+    cache_b = np.zeros((nvert, 2), dtype=np.int64)
+    cache_s = np.zeros(nvert, dtype=np.int64)
+    pts = np.empty((nb, 2))
+    bits = pts.view(np.int64)
+    # the flip test's points of the triangles not surely along, face by face (a counting sort: a
+    # vertex's corners on one face meet its cache entry)
     nf = flat.shape[0]
     fstart = np.zeros(nf + 1, dtype=np.int64)
+    for r in range(m):
+        fstart[face_of[r] + 1] += 1
+    for f in range(nf):
+        fstart[f + 1] += fstart[f]
+    order = np.empty(m, dtype=np.int64)
+    for r in range(m):
+        order[fstart[face_of[r]]] = r
+        fstart[face_of[r]] += 1
+    for r in order:
+        f = face_of[r]
+        sure = False
+        if flat[f]:
+            t0, t1, t2 = tn[r, 0], tn[r, 1], tn[r, 2]
+            lt = np.sqrt((t0 * t0 + t1 * t1) + t2 * t2)
+            sure = lt > 0 and (t0 * axis[f, 0] + t2 * axis[f, 2]) + t1 * axis[f, 1] > 0.05 * lt
+        if sure and nd == 0:
+            continue
+        for b in range(nb):
+            for k in range(2):
+                y = 0.0
+                for j in range(3):
+                    y += obary[b, j] * uv3[r, j, k]
+                if not np.isfinite(y):
+                    return dev, out, False
+                pts[b, k] = y
+        if sure:
+            continue
+        for b in range(nb):
+            if use_corners and b >= 1:
+                w = corners[r, b - 1]
+                if cache_f[w] == f and cache_b[w, 0] == bits[b, 0] and cache_b[w, 1] == bits[b, 1]:
+                    slot[r, b] = cache_s[w]
+                    continue
+                cache_f[w] = f
+                cache_b[w, 0] = bits[b, 0]
+                cache_b[w, 1] = bits[b, 1]
+                cache_s[w] = n
+            ef[n] = f
+            eu[n] = pts[b, 0]
+            ev[n] = pts[b, 1]
+            slot[r, b] = n
+            n += 1
+    # every point in one call, grouped by face (a counting sort)
+    fstart[:] = 0
     for i in range(n):
         fstart[ef[i] + 1] += 1
     for f in range(nf):
         fstart[f + 1] += fstart[f]
-    order = np.empty(n, dtype=np.int64)
+    eorder = np.empty(n, dtype=np.int64)
     for i in range(n):
-        order[fstart[ef[i]]] = i
+        eorder[fstart[ef[i]]] = i
         fstart[ef[i]] += 1
     d = np.empty((3, n, 3))
     _multi_derivatives_kernel(deg, kofs, knots, pofs, pshape, pw_flat, rational, dom, ef[:n], eu[:n], ev[:n],
-                              order, d)
+                              eorder, d)
     i = 0
     for r in range(m):
         mx = 0.0
@@ -521,13 +453,13 @@ def _dev_against_kernel(face_of, uv3, x3, tn, dbary, obary, deg, kofs, knots, po
             i += 1
         dev[r] = mx
     for r in range(m):
-        if sure[r]:
+        if slot[r, 0] < 0:
             continue
         t0, t1, t2 = tn[r, 0], tn[r, 1], tn[r, 2]
         for b in range(nb):
+            i = slot[r, b]
             a0, a1, a2 = d[1, i, 0], d[1, i, 1], d[1, i, 2]
             b0, b1, b2 = d[2, i, 0], d[2, i, 1], d[2, i, 2]
-            i += 1
             c0 = a1 * b2 - a2 * b1
             c1 = a2 * b0 - a0 * b2
             c2 = a0 * b1 - a1 * b0
@@ -541,7 +473,20 @@ def _dev_against_kernel(face_of, uv3, x3, tn, dbary, obary, deg, kofs, knots, po
             dot = (c0 * t0 + c2 * t2) + c1 * t1
             if np.isfinite(dot) and np.sqrt((c0 * c0 + c1 * c1) + c2 * c2) > 0.5 and not dot > 0:
                 out[r] = True
+                break
     return dev, out, True
+
+
+def _against_kernel(face_of, uv3, tn, corners, use_corners, bary, deg, kofs, knots, pofs, pshape, pw_flat, rational,
+                    dom, same_sense, axis, flat):
+    """`_dev_against_kernel`'s flip test alone (no deviation points): (against (r,), ok)."""
+    _, against, ok = _dev_against_kernel(face_of, uv3, _NO_X3, tn, corners, use_corners, _NO_BARY, bary, deg, kofs,
+                                         knots, pofs, pshape, pw_flat, rational, dom, same_sense, axis, flat)
+    return against, ok
+
+
+_NO_X3 = np.zeros((0, 3, 3))
+_NO_BARY = np.zeros((0, 3))
 
 
 _PACKED: dict = {}   # id(faces) -> (faces, its items' ids, the packed kernel arguments of their surfaces, its items)
@@ -825,7 +770,7 @@ def _dev_and_against(surfaces, faces, face_of, uv3, x3, tri_normals):
         dev, against, ok = _dev_against_kernel(
             np.asarray(face_of, dtype=np.int64), np.ascontiguousarray(uv3, dtype=np.float64),
             np.ascontiguousarray(x3, dtype=np.float64), np.ascontiguousarray(tri_normals, dtype=np.float64),
-            _BARY, _ORIENT_BARY, *_packed(faces)[0], _same_sense(faces), axis, flat)
+            _NO_CORNERS, np.bool_(False), _BARY, _ORIENT_BARY, *_packed(faces)[0], _same_sense(faces), axis, flat)
         if ok:
             return dev, against
     return _dev_and_against_numpy(surfaces, faces, face_of, uv3, x3, tri_normals)
