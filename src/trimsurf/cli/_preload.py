@@ -34,7 +34,9 @@ MODULES = ("trimsurf.tessellate", "trimsurf.tessellate.measure", "trimsurf.quali
 #: `_segments_apart_kernel` (trim loops not certainly simple) are left to their call, the screw calls none;
 #: s25-edges: `pcurve_ends_kernel`, the segment ends of `repair.quick_repairs`; s25-seams: the seam reduction's
 #: selection and its surface points of all faces in one call; s26-refine: refine_cells' rounds in one call,
-#: `refine_cells_kernel`, in place of the cell kernels it calls, which the command no longer calls itself)
+#: `refine_cells_kernel`, in place of the cell kernels it calls, which the command no longer calls itself;
+#: s26-seams: the seam reduction's flip and deviation tests (which call `_multi_derivatives_kernel` from compiled
+#: code: left to its Python callers, the numpy paths) and its seam edges)
 KERNELS = {
     "trimsurf.geom._nurbs_kernels": ("curve_points_kernel", "surface_derivatives_kernel", "project_newton_kernel"),
     "trimsurf.geom._seed_kernels": ("seed_grid_kernel",),
