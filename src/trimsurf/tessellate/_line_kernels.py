@@ -476,49 +476,17 @@ def _use_arrays(ci, ck, cpw, cku, ckv, cpw4, j):
     return kc, cw, ku, kv, pw
 
 
-@njit(cache=True, nogil=True, inline="always")
-def _span_i(degree, knots, n_ctrl, t):
-    """`_nurbs_kernels._span`, IR-inlined (a compiled call per point costs more than the search)."""
-    if t >= knots[n_ctrl]:
-        last = n_ctrl - 1
-        while last > degree and knots[last] >= knots[n_ctrl]:
-            last -= 1
-        return last
-    lo, hi = degree, n_ctrl
-    while hi - lo > 1:  # knots[lo] <= t < knots[hi]
-        mid = (lo + hi) // 2
-        if t < knots[mid]:
-            hi = mid
-        else:
-            lo = mid
-    return lo
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _basis0_i(span, t, p, knots, left, right, nb):
-    """nb[0..p] = the basis functions at t (A2.2, in place): the numbers of `_ders_basis` with nd = 0
-    (its ders[0] = ndu[:, p]; ndu[j, r] = right[r + 1] + left[j - r] and ndu[r, j - 1] are the sum and the
-    previous level's value used here, the same operations in the same order)."""
-    nb[0] = 1.0
-    for j in range(1, p + 1):
-        left[j] = t - knots[span + 1 - j]
-        right[j] = knots[span + j] - t
-        saved = 0.0
-        for r in range(j):
-            temp = nb[r] / (right[r + 1] + left[j - r])
-            nb[r] = saved + right[r + 1] * temp
-            saved = left[j - r] * temp
-        nb[j] = saved
-
-
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop):
     """`_ChunkLines.criteria` (`pcurve_surface_kernel` then `chord_criteria_kernel`) over the intervals
     [a_i, b_i]: a point at the previous interval's last parameter is taken from it; with `stop`,
     returns False at the first interval over max_len or max_dev.
 
-    The points as `_curve_point` and `_surface_point01` (nd = 0) compute them, their span searches and
-    bases IR-inlined here (`_span_i`, `_basis0_i`): no compiled call per point."""
+    The points as `_curve_point` and `_surface_point01` (nd = 0) compute them (the same operations in
+    the same order), their span searches (`_nurbs_kernels._span`) and bases (A2.2, `_ders_basis` with
+    nd = 0) written out here: no compiled call per point, and no IR-inlined helper either (each array
+    argument of one costs an atomic reference count pair per call). The work arrays are parts of one
+    scratch array; the chord maxima are taken of the squares, one square root each."""
     n_uses = ci.shape[0]
     mcp, mpu, mpv, mdw = 0, np.int64(0), np.int64(0), np.int64(0)
     for j in range(n_uses):
@@ -526,24 +494,24 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
         mpu = max(mpu, ci[j, 2])
         mpv = max(mpv, ci[j, 3])
         mdw = max(mdw, ci[j, 17])
-    left = np.empty(max(mcp, mpu, mpv) + 1)
-    right = np.empty(max(mcp, mpu, mpv) + 1)
-    nc = np.empty(mcp + 1)
-    nbu = np.empty(mpu + 1)
-    nbv = np.empty(mpv + 1)
-    tmp = np.empty((mpu + 1, mdw))
-    uv = np.empty(2)
-    res = np.empty(3)
-    t = _linspace01(m)
-    pts = np.empty((m, n_uses, 3))
+    nl = max(mcp, mpu, mpv) + 1
+    ol = 0                          # left
+    orr = ol + nl                   # right
+    onc = orr + nl                  # the curve's basis
+    onu = onc + mcp + 1             # the surface's bases
+    onv = onu + mpu + 1
+    otm = onv + mpv + 1             # tmp (pu + 1, dimw)
+    opt = otm + (mpu + 1) * mdw     # pts (m, n_uses, 3)
+    w = np.empty(opt + m * n_uses * 3)
+    step = 1.0 / (m - 1)            # `_linspace01`: t_k = k * step, t_(m-1) = 1
     prev_s = np.nan
     for i in range(a.shape[0]):
         d = b[i] - a[i]
         k0 = 0
-        if a[i] + d * t[0] == prev_s:
+        if a[i] + d * 0.0 == prev_s:
             for j in range(n_uses):
                 for q in range(3):
-                    pts[0, j, q] = pts[m - 1, j, q]
+                    w[opt + j * 3 + q] = w[opt + ((m - 1) * n_uses + j) * 3 + q]
             k0 = 1
         for j in range(n_uses):
             cp, crat, pu, pv, srat = ci[j, 0], ci[j, 1] != 0, ci[j, 2], ci[j, 3], ci[j, 4] != 0
@@ -557,76 +525,156 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
             nu_c, nv_c, dimw = pw.shape
             dim = dimw - 1 if srat else dimw
             for k in range(k0, m):
-                s = a[i] + d * t[k]
+                tk = 1.0 if k == m - 1 else k * step
+                s = a[i] + d * tk
                 tt = lo + s * (hi - lo)
                 tt = min(max(tt, t0), t1)
                 # _curve_point
-                sc = _span_i(cp, kc, ncw, tt)
-                _basis0_i(sc, tt, cp, kc, left, right, nc)
-                w = 1.0
+                # the span (`_nurbs_kernels._span`)
+                if tt >= kc[ncw]:
+                    sc = ncw - 1
+                    while sc > cp and kc[sc] >= kc[ncw]:
+                        sc -= 1
+                else:
+                    sc = cp
+                    hi_ = ncw
+                    while hi_ - sc > 1:
+                        mid_ = (sc + hi_) // 2
+                        if tt < kc[mid_]:
+                            hi_ = mid_
+                        else:
+                            sc = mid_
+                # the basis functions at the span (A2.2; `_ders_basis`' ndu[:, p] with nd = 0)
+                w[onc] = 1.0
+                for j_ in range(1, cp + 1):
+                    w[ol + j_] = tt - kc[sc + 1 - j_]
+                    w[orr + j_] = kc[sc + j_] - tt
+                    saved = 0.0
+                    for r_ in range(j_):
+                        temp = w[onc + r_] / (w[orr + r_ + 1] + w[ol + j_ - r_])
+                        w[onc + r_] = saved + w[orr + r_ + 1] * temp
+                        saved = w[ol + j_ - r_] * temp
+                    w[onc + j_] = saved
+                wc = 1.0
                 if crat:
-                    w = 0.0
+                    wc = 0.0
                     for r in range(cp + 1):
-                        w += nc[r] * cw[sc - cp + r, cdim]
+                        wc += w[onc + r] * cw[sc - cp + r, cdim]
+                uv0 = 0.0
+                uv1 = 0.0
                 for dd in range(cdim):
                     acc = 0.0
                     for r in range(cp + 1):
-                        acc += nc[r] * cw[sc - cp + r, dd]
-                    uv[dd] = acc / w if crat else acc
-                uu = min(max(uv[0], cf[j, 2]), cf[j, 3])
-                vv = min(max(uv[1], cf[j, 4]), cf[j, 5])
+                        acc += w[onc + r] * cw[sc - cp + r, dd]
+                    if dd == 0:
+                        uv0 = acc / wc if crat else acc
+                    else:
+                        uv1 = acc / wc if crat else acc
+                uu = min(max(uv0, cf[j, 2]), cf[j, 3])
+                vv = min(max(uv1, cf[j, 4]), cf[j, 5])
                 uu = min(max(uu, su0), su1)
                 vv = min(max(vv, sv0), sv1)
                 # _surface_point01, nd = 0
-                su = _span_i(pu, ku, nu_c, uu)
-                sv = _span_i(pv, kv, nv_c, vv)
-                _basis0_i(su, uu, pu, ku, left, right, nbu)
-                _basis0_i(sv, vv, pv, kv, left, right, nbv)
+                # the span (`_nurbs_kernels._span`)
+                if uu >= ku[nu_c]:
+                    su = nu_c - 1
+                    while su > pu and ku[su] >= ku[nu_c]:
+                        su -= 1
+                else:
+                    su = pu
+                    hi_ = nu_c
+                    while hi_ - su > 1:
+                        mid_ = (su + hi_) // 2
+                        if uu < ku[mid_]:
+                            hi_ = mid_
+                        else:
+                            su = mid_
+                # the span (`_nurbs_kernels._span`)
+                if vv >= kv[nv_c]:
+                    sv = nv_c - 1
+                    while sv > pv and kv[sv] >= kv[nv_c]:
+                        sv -= 1
+                else:
+                    sv = pv
+                    hi_ = nv_c
+                    while hi_ - sv > 1:
+                        mid_ = (sv + hi_) // 2
+                        if vv < kv[mid_]:
+                            hi_ = mid_
+                        else:
+                            sv = mid_
+                # the basis functions at the span (A2.2; `_ders_basis`' ndu[:, p] with nd = 0)
+                w[onu] = 1.0
+                for j_ in range(1, pu + 1):
+                    w[ol + j_] = uu - ku[su + 1 - j_]
+                    w[orr + j_] = ku[su + j_] - uu
+                    saved = 0.0
+                    for r_ in range(j_):
+                        temp = w[onu + r_] / (w[orr + r_ + 1] + w[ol + j_ - r_])
+                        w[onu + r_] = saved + w[orr + r_ + 1] * temp
+                        saved = w[ol + j_ - r_] * temp
+                    w[onu + j_] = saved
+                # the basis functions at the span (A2.2; `_ders_basis`' ndu[:, p] with nd = 0)
+                w[onv] = 1.0
+                for j_ in range(1, pv + 1):
+                    w[ol + j_] = vv - kv[sv + 1 - j_]
+                    w[orr + j_] = kv[sv + j_] - vv
+                    saved = 0.0
+                    for r_ in range(j_):
+                        temp = w[onv + r_] / (w[orr + r_ + 1] + w[ol + j_ - r_])
+                        w[onv + r_] = saved + w[orr + r_ + 1] * temp
+                        saved = w[ol + j_ - r_] * temp
+                    w[onv + j_] = saved
                 for r in range(pu + 1):
                     for dd in range(dimw):
-                        tmp[r, dd] = 0.0
+                        w[otm + r * mdw + dd] = 0.0
                     for s_ in range(pv + 1):
-                        bb = nbv[s_]
+                        bb = w[onv + s_]
                         if bb != 0.0:
                             row = su - pu + r
                             col = sv - pv + s_
                             for dd in range(dimw):
-                                tmp[r, dd] += bb * pw[row, col, dd]
+                                w[otm + r * mdw + dd] += bb * pw[row, col, dd]
                 w0 = 1.0
                 if srat:
                     w0 = 0.0
                     for r in range(pu + 1):
-                        w0 += nbu[r] * tmp[r, dim]
+                        w0 += w[onu + r] * w[otm + r * mdw + dim]
+                o = opt + (k * n_uses + j) * 3
                 for dd in range(dim):
                     acc = 0.0
                     for r in range(pu + 1):
-                        acc += nbu[r] * tmp[r, dd]
-                    res[dd] = acc / w0 if srat else acc
-                for q in range(3):
-                    pts[k, j, q] = res[q]
-        prev_s = a[i] + d * t[m - 1]
-        # as chord_criteria_kernel
-        lmax = 0.0
-        dmax = 0.0
+                        acc += w[onu + r] * w[otm + r * mdw + dd]
+                    w[o + dd] = acc / w0 if srat else acc
+        prev_s = a[i] + d * 1.0
+        # as chord_criteria_kernel, the maxima taken of the squares with one square root each: sqrt is
+        # correctly rounded and monotone, so sqrt(max x) = max sqrt(x) bit for bit (0 = sqrt(0) the start),
+        # and a NaN fails the comparison either way
+        lmax2 = 0.0
+        dmax2 = 0.0
         for l in range(n_uses):
-            a0, a1, a2 = pts[0, l, 0], pts[0, l, 1], pts[0, l, 2]
-            ab0, ab1, ab2 = pts[m - 1, l, 0] - a0, pts[m - 1, l, 1] - a1, pts[m - 1, l, 2] - a2
+            o0 = opt + l * 3
+            o1 = opt + ((m - 1) * n_uses + l) * 3
+            a0, a1, a2 = w[o0], w[o0 + 1], w[o0 + 2]
+            ab0, ab1, ab2 = w[o1] - a0, w[o1 + 1] - a1, w[o1 + 2] - a2
             den = ab0 * ab0 + ab1 * ab1 + ab2 * ab2
-            ln = np.sqrt(den)
-            if ln > lmax:
-                lmax = ln
+            if den > lmax2:
+                lmax2 = den
             dd = den if den > 0 else 1.0
             for k in range(1, m - 1):
-                q0, q1, q2 = pts[k, l, 0] - a0, pts[k, l, 1] - a1, pts[k, l, 2] - a2
+                ok_ = opt + (k * n_uses + l) * 3
+                q0, q1, q2 = w[ok_] - a0, w[ok_ + 1] - a1, w[ok_ + 2] - a2
                 tq = (q0 * ab0 + q1 * ab1 + q2 * ab2) / dd
                 if tq < 0.0:
                     tq = 0.0
                 elif tq > 1.0:
                     tq = 1.0
                 r0, r1, r2 = q0 - tq * ab0, q1 - tq * ab1, q2 - tq * ab2
-                dist = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
-                if dist > dmax:
-                    dmax = dist
+                d2 = r0 * r0 + r1 * r1 + r2 * r2
+                if d2 > dmax2:
+                    dmax2 = d2
+        lmax = np.sqrt(lmax2)
+        dmax = np.sqrt(dmax2)
         length[i] = lmax
         dev[i] = dmax
         if stop and not (lmax <= max_len and dmax <= max_dev):
