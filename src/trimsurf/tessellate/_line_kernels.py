@@ -515,14 +515,15 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
             k0 = 1
         for j in range(n_uses):
             cp, crat, pu, pv, srat = ci[j, 0], ci[j, 1] != 0, ci[j, 2], ci[j, 3], ci[j, 4] != 0
-            kc, cw, ku, kv, pw = _use_arrays(ci, ck, cpw, cku, ckv, cpw4, j)
+            # `_use_arrays`' views, indexed in the flat arrays (a view costs a reference count pair)
+            okc, ocw, ncw, cdimw = ci[j, 5], ci[j, 7], ci[j, 8], ci[j, 9]
+            oku, okv, opw = ci[j, 10], ci[j, 12], ci[j, 14]
+            nu_c, nv_c, dimw = ci[j, 15], ci[j, 16], ci[j, 17]
             lo, hi = cf[j, 0], cf[j, 1]
-            t0, t1 = kc[cp], kc[kc.shape[0] - cp - 1]
-            su0, su1 = ku[pu], ku[ku.shape[0] - pu - 1]
-            sv0, sv1 = kv[pv], kv[kv.shape[0] - pv - 1]
-            ncw, cdimw = cw.shape
+            t0, t1 = ck[okc + cp], ck[okc + ci[j, 6] - cp - 1]
+            su0, su1 = cku[oku + pu], cku[oku + ci[j, 11] - pu - 1]
+            sv0, sv1 = ckv[okv + pv], ckv[okv + ci[j, 13] - pv - 1]
             cdim = cdimw - 1 if crat else cdimw
-            nu_c, nv_c, dimw = pw.shape
             dim = dimw - 1 if srat else dimw
             for k in range(k0, m):
                 tk = 1.0 if k == m - 1 else k * step
@@ -531,24 +532,24 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
                 tt = min(max(tt, t0), t1)
                 # _curve_point
                 # the span (`_nurbs_kernels._span`)
-                if tt >= kc[ncw]:
+                if tt >= ck[okc + ncw]:
                     sc = ncw - 1
-                    while sc > cp and kc[sc] >= kc[ncw]:
+                    while sc > cp and ck[okc + sc] >= ck[okc + ncw]:
                         sc -= 1
                 else:
                     sc = cp
                     hi_ = ncw
                     while hi_ - sc > 1:
                         mid_ = (sc + hi_) // 2
-                        if tt < kc[mid_]:
+                        if tt < ck[okc + mid_]:
                             hi_ = mid_
                         else:
                             sc = mid_
                 # the basis functions at the span (A2.2; `_ders_basis`' ndu[:, p] with nd = 0)
                 w[onc] = 1.0
                 for j_ in range(1, cp + 1):
-                    w[ol + j_] = tt - kc[sc + 1 - j_]
-                    w[orr + j_] = kc[sc + j_] - tt
+                    w[ol + j_] = tt - ck[okc + sc + 1 - j_]
+                    w[orr + j_] = ck[okc + sc + j_] - tt
                     saved = 0.0
                     for r_ in range(j_):
                         temp = w[onc + r_] / (w[orr + r_ + 1] + w[ol + j_ - r_])
@@ -559,13 +560,13 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
                 if crat:
                     wc = 0.0
                     for r in range(cp + 1):
-                        wc += w[onc + r] * cw[sc - cp + r, cdim]
+                        wc += w[onc + r] * cpw[ocw + (sc - cp + r) * cdimw + cdim]
                 uv0 = 0.0
                 uv1 = 0.0
                 for dd in range(cdim):
                     acc = 0.0
                     for r in range(cp + 1):
-                        acc += w[onc + r] * cw[sc - cp + r, dd]
+                        acc += w[onc + r] * cpw[ocw + (sc - cp + r) * cdimw + dd]
                     if dd == 0:
                         uv0 = acc / wc if crat else acc
                     else:
@@ -576,38 +577,38 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
                 vv = min(max(vv, sv0), sv1)
                 # _surface_point01, nd = 0
                 # the span (`_nurbs_kernels._span`)
-                if uu >= ku[nu_c]:
+                if uu >= cku[oku + nu_c]:
                     su = nu_c - 1
-                    while su > pu and ku[su] >= ku[nu_c]:
+                    while su > pu and cku[oku + su] >= cku[oku + nu_c]:
                         su -= 1
                 else:
                     su = pu
                     hi_ = nu_c
                     while hi_ - su > 1:
                         mid_ = (su + hi_) // 2
-                        if uu < ku[mid_]:
+                        if uu < cku[oku + mid_]:
                             hi_ = mid_
                         else:
                             su = mid_
                 # the span (`_nurbs_kernels._span`)
-                if vv >= kv[nv_c]:
+                if vv >= ckv[okv + nv_c]:
                     sv = nv_c - 1
-                    while sv > pv and kv[sv] >= kv[nv_c]:
+                    while sv > pv and ckv[okv + sv] >= ckv[okv + nv_c]:
                         sv -= 1
                 else:
                     sv = pv
                     hi_ = nv_c
                     while hi_ - sv > 1:
                         mid_ = (sv + hi_) // 2
-                        if vv < kv[mid_]:
+                        if vv < ckv[okv + mid_]:
                             hi_ = mid_
                         else:
                             sv = mid_
                 # the basis functions at the span (A2.2; `_ders_basis`' ndu[:, p] with nd = 0)
                 w[onu] = 1.0
                 for j_ in range(1, pu + 1):
-                    w[ol + j_] = uu - ku[su + 1 - j_]
-                    w[orr + j_] = ku[su + j_] - uu
+                    w[ol + j_] = uu - cku[oku + su + 1 - j_]
+                    w[orr + j_] = cku[oku + su + j_] - uu
                     saved = 0.0
                     for r_ in range(j_):
                         temp = w[onu + r_] / (w[orr + r_ + 1] + w[ol + j_ - r_])
@@ -617,8 +618,8 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
                 # the basis functions at the span (A2.2; `_ders_basis`' ndu[:, p] with nd = 0)
                 w[onv] = 1.0
                 for j_ in range(1, pv + 1):
-                    w[ol + j_] = vv - kv[sv + 1 - j_]
-                    w[orr + j_] = kv[sv + j_] - vv
+                    w[ol + j_] = vv - ckv[okv + sv + 1 - j_]
+                    w[orr + j_] = ckv[okv + sv + j_] - vv
                     saved = 0.0
                     for r_ in range(j_):
                         temp = w[onv + r_] / (w[orr + r_ + 1] + w[ol + j_ - r_])
@@ -634,7 +635,7 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
                             row = su - pu + r
                             col = sv - pv + s_
                             for dd in range(dimw):
-                                w[otm + r * mdw + dd] += bb * pw[row, col, dd]
+                                w[otm + r * mdw + dd] += bb * cpw4[opw + ((row) * nv_c + col) * dimw + dd]
                 w0 = 1.0
                 if srat:
                     w0 = 0.0
