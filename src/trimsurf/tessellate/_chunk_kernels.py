@@ -90,7 +90,8 @@ def _select(s, uvs, flags, keep):
 
 @njit(cache=True, nogil=True, inline="always")
 def _crit(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, max_len, max_dev, stop):
-    """`interval_criteria` of the chunk family over [a_i, b_i] (one call site of `_chunk_criteria`)."""
+    """`interval_criteria` of the chunk family over [a_i, b_i] (one call site of `_chunk_criteria`, which
+    indexes the flat arrays and writes its span searches and bases out: no reference counting per point)."""
     length = np.empty(a.shape[0])
     dev = np.empty(a.shape[0])
     ok = _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop)
