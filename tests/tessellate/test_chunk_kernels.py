@@ -152,3 +152,51 @@ def test_straight_shortcut_refuses_curves(shared_data, monkeypatch):
         assert len(ref.s) > 2
         tested += 1
     assert tested >= 5
+
+
+def _criteria_caller():
+    """`_line_kernels._chunk_criteria` (no Python wrapper) called from a compiled function."""
+    from numba import njit
+
+    from trimsurf.tessellate._line_kernels import _chunk_criteria
+
+    @njit
+    def call(fam, a, b, m):
+        length, dev = np.empty(a.shape[0]), np.empty(a.shape[0])
+        _chunk_criteria(fam[10], fam[11], fam[12], fam[13], fam[14], fam[15], fam[16], a, b, m, length, dev,
+                        np.inf, np.inf, False)
+        return length, dev
+
+    return call
+
+
+@pytest.mark.parametrize("model", ["trimesh__featuretype.STEP", "gmsh__t20_data.step"])
+def test_chunk_criteria_equal_numpy_criteria(shared_data, model):
+    # the compiled criteria (span searches and bases written out, flat-array indexing, maxima of squares, the
+    # point at the previous interval's end reused) against `_ChunkLines.criteria` (points by `ChunkUse.xyz`,
+    # `chord_criteria_kernel`): the same lengths and deviations bit for bit, over every chunk's uses (rational
+    # arcs on cylinders and planes, shared by two faces) on consecutive intervals (the reuse) and on
+    # intervals out of order (none), with 5 and 9 points per interval
+    from trimsurf.tessellate.trims import _ChunkLines
+
+    shell = read_shell(shared_data / "cad" / model)
+    d = shell.diagonal()
+    chunks, _ = _chunks(shell, 1e-3 * d, d)
+    call = _criteria_caller()
+    rng = np.random.default_rng(5)
+    n_rat = n_two = 0
+    for uses in chunks:
+        fam = _ChunkLines(uses)
+        f = fam.family()
+        n_rat += bool(f[10][:, 1].any() or f[10][:, 4].any())     # a rational p-curve or surface
+        n_two += len(uses) == 2
+        x = np.unique(np.r_[0.0, rng.random(12), 1.0, 0.5 * rng.random(3)])
+        a, b = rng.random(6), rng.random(6)
+        for m in (5, 9):
+            got = call(f, x[:-1].copy(), x[1:].copy(), np.int64(m))
+            ref = fam.criteria(x, m - 2, None)
+            assert got[0].tobytes() == ref[0].tobytes() and got[1].tobytes() == ref[1].tobytes()
+            got = call(f, a, b, np.int64(m))
+            ref = [np.concatenate(r) for r in zip(*(fam.criteria(np.r_[a[i], b[i]], m - 2, None) for i in range(6)))]
+            assert got[0].tobytes() == ref[0].tobytes() and got[1].tobytes() == ref[1].tobytes()
+    assert n_rat >= 10 and n_two >= 10
