@@ -312,3 +312,16 @@ def test_dev_against_kernel_is_the_numpy_path_bit_for_bit():
     bad = uv3.copy()
     bad[0, 0, 0] = np.inf
     assert not seams_mod._dev_against_kernel(*((args[0], bad) + args[2:]))[2]
+
+
+def test_grouped_order_is_a_stable_argsort():
+    """`seams._grouped_order` (the counting sort of the flip and deviation kernel) groups like numpy's stable
+    argsort, also with empty groups and a prefix n shorter than the keys."""
+    from trimsurf.tessellate.seams import _grouped_order
+
+    rng = np.random.default_rng(5)
+    for n_keys, size in ((1, 10), (7, 500), (40, 30)):
+        key = rng.integers(0, n_keys, size)
+        for n in (size, size // 2, 0):
+            got = _grouped_order(key, n, n_keys)
+            assert np.array_equal(got, np.argsort(key[:n], kind="stable"))

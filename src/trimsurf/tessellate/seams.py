@@ -319,6 +319,22 @@ def _multi_derivatives_kernel(deg, kofs, knots, pofs, pshape, pw_flat, rational,
 
 
 @njit(cache=True, nogil=True)
+def _grouped_order(key, n, n_keys):
+    """The indices 0..n-1 grouped by key[i] in [0, n_keys), in increasing order within a group (a counting
+    sort: numpy's stable argsort of key[:n])."""
+    start = np.zeros(n_keys + 1, dtype=np.int64)
+    for i in range(n):
+        start[key[i] + 1] += 1
+    for k in range(n_keys):
+        start[k + 1] += start[k]
+    order = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        order[start[key[i]]] = i
+        start[key[i]] += 1
+    return order
+
+
+@njit(cache=True, nogil=True)
 def _dev_against_kernel(face_of, uv3, x3, tn, corners, use_corners, dbary, obary, deg, kofs, knots, pofs, pshape,
                         pw_flat, rational, dom, same_sense, axis, flat):
     """`_dev_and_against` (and, with no rows in `dbary`, `_against_normal`) in compiled passes, the same
@@ -381,15 +397,7 @@ def _dev_against_kernel(face_of, uv3, x3, tn, corners, use_corners, dbary, obary
     # the flip test's points of the triangles not surely along, face by face (a counting sort: a
     # vertex's corners on one face meet its cache entry)
     nf = flat.shape[0]
-    fstart = np.zeros(nf + 1, dtype=np.int64)
-    for r in range(m):
-        fstart[face_of[r] + 1] += 1
-    for f in range(nf):
-        fstart[f + 1] += fstart[f]
-    order = np.empty(m, dtype=np.int64)
-    for r in range(m):
-        order[fstart[face_of[r]]] = r
-        fstart[face_of[r]] += 1
+    order = _grouped_order(face_of, m, nf)
     for r in order:
         f = face_of[r]
         sure = False
@@ -425,15 +433,7 @@ def _dev_against_kernel(face_of, uv3, x3, tn, corners, use_corners, dbary, obary
             slot[r, b] = n
             n += 1
     # every point in one call, grouped by face (a counting sort)
-    fstart[:] = 0
-    for i in range(n):
-        fstart[ef[i] + 1] += 1
-    for f in range(nf):
-        fstart[f + 1] += fstart[f]
-    eorder = np.empty(n, dtype=np.int64)
-    for i in range(n):
-        eorder[fstart[ef[i]]] = i
-        fstart[ef[i]] += 1
+    eorder = _grouped_order(ef, n, nf)
     d = np.empty((3, n, 3))
     _multi_derivatives_kernel(deg, kofs, knots, pofs, pshape, pw_flat, rational, dom, ef[:n], eu[:n], ev[:n],
                               eorder, d)
