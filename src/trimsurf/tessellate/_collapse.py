@@ -9,7 +9,7 @@ from .._numba_load import install as _install_lazy_bitcode
 
 _install_lazy_bitcode()     # before this module's kernels load (trimsurf._numba_load)
 
-__all__ = ["collapse_sets", "vertex_triangles"]
+__all__ = ["collapse_sets", "common_neighbours", "take_collapse", "vertex_triangles"]
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
@@ -32,6 +32,43 @@ def vertex_triangles(T, idx, nv):
             vtri[fill[w]] = t
             fill[w] += 1
     return start, vtri
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def common_neighbours(T, start, vtri, v, u, q, in_nu, counted):
+    """How many vertices other than v and u are neighbours of both (the link condition of the collapse
+    v -> u: a manifold collapse has as many as triangles go), over the CSR `vertex_triangles`; in_nu and
+    counted (nv,) are scratch marks, stamped with the candidate's number q (never stamped before)."""
+    for r in range(start[u], start[u + 1]):
+        t = vtri[r]
+        for c in range(3):
+            in_nu[T[t, c]] = q
+    n_common = 0
+    for r in range(start[v], start[v + 1]):
+        t = vtri[r]
+        for c in range(3):
+            x = T[t, c]
+            if x != v and x != u and in_nu[x] == q and counted[x] != q:
+                counted[x] = q
+                n_common += 1
+    return n_common
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def take_collapse(T, start, vtri, v, u, locked, moved, n_moved, gone, n_gone):
+    """Take the collapse v -> u: v's triangles that hold u appended to gone, the others to moved (in CSR
+    order), v's star locked; returns the new (n_moved, n_gone)."""
+    for r in range(start[v], start[v + 1]):
+        t = vtri[r]
+        if T[t, 0] == u or T[t, 1] == u or T[t, 2] == u:
+            gone[n_gone] = t
+            n_gone += 1
+        else:
+            moved[n_moved] = t
+            n_moved += 1
+        for c in range(3):
+            locked[T[t, c]] = True
+    return n_moved, n_gone
 
 
 def collapse_sets(Tl: list, vtri, vstart, v: int, u: int):

@@ -29,7 +29,7 @@ from ..geom._nurbs_kernels import _point_scratch, _surface_point01, surface_deri
 from ..geom.nurbs import _clip, _homogeneous, read_only, unit_normals
 from ..model import NurbsSurface, TriMesh
 from ..model.mesh import compact_indices
-from ._collapse import vertex_triangles
+from ._collapse import common_neighbours, take_collapse, vertex_triangles
 
 __all__ = ["reduce_seams"]
 
@@ -80,7 +80,7 @@ def _seam_select_kernel(T, idx, fid, nv, cv, cu, interior):
     qs = np.empty(n, dtype=np.int64)
     skipped = np.empty(n, dtype=np.int64)
     moved = np.empty(3 * m, dtype=np.int64)
-    gone = np.empty((n, 2), dtype=np.int64)
+    gone = np.empty(2 * n, dtype=np.int64)
     ms = np.zeros(n + 1, dtype=np.int64)
     n_sel = n_moved = n_skip = 0
     for q in range(n):
@@ -123,38 +123,17 @@ def _seam_select_kernel(T, idx, fid, nv, cv, cu, interior):
         else:
             good = good and nf == 2
         if good:
-            for r in range(start[u], start[u + 1]):
-                t = vtri[r]
-                for c in range(3):
-                    in_nu[T[t, c]] = q
-            n_common = 0
-            for r in range(start[v], start[v + 1]):
-                t = vtri[r]
-                for c in range(3):
-                    x = T[t, c]
-                    if x != v and x != u and in_nu[x] == q and counted[x] != q:
-                        counted[x] = q
-                        n_common += 1
-            good = n_common == 2
+            good = common_neighbours(T, start, vtri, v, u, q, in_nu, counted) == 2
         if not good:
             skipped[n_skip] = q
             n_skip += 1
             continue
         qs[n_sel] = q
-        k = 0
-        for r in range(start[v], start[v + 1]):
-            t = vtri[r]
-            if T[t, 0] == u or T[t, 1] == u or T[t, 2] == u:
-                gone[n_sel, k] = t
-                k += 1
-            else:
-                moved[n_moved] = t
-                n_moved += 1
-            for c in range(3):
-                locked[T[t, c]] = True
+        # exactly two of v's triangles hold u: the taken collapse's pair is gone[2 n_sel:2 n_sel + 2]
+        n_moved, n_gone = take_collapse(T, start, vtri, v, u, locked, moved, n_moved, gone, 2 * n_sel)
         n_sel += 1
         ms[n_sel] = n_moved
-    return qs[:n_sel], moved[:n_moved], ms[:n_sel + 1], gone[:n_sel], skipped[:n_skip]
+    return qs[:n_sel], moved[:n_moved], ms[:n_sel + 1], gone[:2 * n_sel].reshape((n_sel, 2)), skipped[:n_skip]
 
 
 def _seam_graph(mesh: TriMesh):

@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit
 
 from .._numba_load import install as _install_lazy_bitcode
-from ._collapse import vertex_triangles
+from ._collapse import common_neighbours, take_collapse, vertex_triangles
 
 _install_lazy_bitcode()     # before this module's kernels load (trimsurf._numba_load)
 
@@ -126,31 +126,10 @@ def _select_collapses_kernel(T, idx, nv, inner, trim):
                 n_g += 1
         if n_g == 0 or n_g > 2 or not free:
             continue
-        for r in range(start[u], start[u + 1]):
-            t = vtri[r]
-            for c in range(3):
-                in_nu[T[t, c]] = q
-        n_common = 0
-        for r in range(start[v], start[v + 1]):
-            t = vtri[r]
-            for c in range(3):
-                x = T[t, c]
-                if x != v and x != u and in_nu[x] == q and counted[x] != q:
-                    counted[x] = q
-                    n_common += 1
-        if n_common != n_g:
+        if common_neighbours(T, start, vtri, v, u, q, in_nu, counted) != n_g:
             continue
         qs[n_sel] = q
-        for r in range(start[v], start[v + 1]):
-            t = vtri[r]
-            if T[t, 0] == u or T[t, 1] == u or T[t, 2] == u:
-                gone[n_gone] = t
-                n_gone += 1
-            else:
-                moved[n_moved] = t
-                n_moved += 1
-            for c in range(3):
-                locked[T[t, c]] = True
+        n_moved, n_gone = take_collapse(T, start, vtri, v, u, locked, moved, n_moved, gone, n_gone)
         locked[u] = True
         n_sel += 1
         ms[n_sel] = n_moved
