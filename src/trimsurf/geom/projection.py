@@ -212,16 +212,45 @@ class _Seeds(NamedTuple):
 
     axes: list              # 1-D sample parameters per direction
     params: np.ndarray      # (ns, d) sample parameters, C order over the grid
-    ders: tuple             # derivative arrays at the samples (point first)
+    ders: tuple             # derivative arrays at the samples (point first); see `lazy`
     radius: np.ndarray      # (ns,) largest distance from a sample to its grid neighbours
     tree: cKDTree
+    lazy: tuple | None = None   # (evaluate, done (ns,) bool): `ders` rows filled on first use (`_seed_state`)
 
 
-def _build_seeds(axes: list, evaluate, diag: float, *, check_poles: bool = True) -> _Seeds:
+def _seed_state(seeds: _Seeds, idx: np.ndarray) -> tuple:
+    """The derivative arrays (point first) at the seed samples `idx`, as a Newton start state.
+
+    With ``seeds.lazy`` the seeds' derivatives are evaluated only for the samples that start a run, on
+    first use, by the same ``evaluate`` the whole grid was evaluated with before (point by point: the
+    same numbers for a sample whichever batch it is evaluated in)."""
+    if seeds.lazy is not None:
+        evaluate, done = seeds.lazy
+        miss = idx[~done[idx]]
+        if miss.size:
+            miss = np.unique(miss)
+            for store, val in zip(seeds.ders, evaluate(seeds.params[miss])):
+                store[miss] = val
+            done[miss] = True
+    return tuple(d[idx] for d in seeds.ders)
+
+
+def _build_seeds(axes: list, evaluate, diag: float, *, check_poles: bool = True, points=None) -> _Seeds:
+    """The seed samples on the grid `axes`. ``evaluate(params)`` gives the derivative arrays (point
+    first); with ``points = (fn, row_shapes)``, ``fn(params)`` the same points as ``evaluate(params)[0]``
+    bit for bit and `row_shapes` the shapes of one sample's rows of ``evaluate``'s arrays, only the points
+    are computed here and the derivatives on first use (`_seed_state`)."""
     shape = tuple(a.shape[0] for a in axes)
     params = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(axes))
-    ders = evaluate(params)
-    pts = ders[0].reshape(*shape, -1)
+    if points is None:
+        ders, lazy = evaluate(params), None
+    else:
+        fn, row_shapes = points
+        xyz = fn(params)
+        # the start states' arrays (the point too: the tree and radii use `xyz`, not these rows)
+        ders = tuple(np.empty((len(params),) + tuple(r)) for r in row_shapes)
+        lazy = (evaluate, np.zeros(len(params), dtype=bool))
+    pts = (ders[0] if points is None else xyz).reshape(*shape, -1)
     if len(axes) == 2 and pts.shape[2] == 3:
         # the neighbour radii and the boundary lines' spread in one compiled pass (the same numbers as the
         # numpy expressions below)
@@ -247,14 +276,14 @@ def _build_seeds(axes: list, evaluate, diag: float, *, check_poles: bool = True)
                     moved = True
             axes[axis] = ax
         if moved:
-            return _build_seeds(axes, evaluate, diag, check_poles=False)
+            return _build_seeds(axes, evaluate, diag, check_poles=False, points=points)
     if radius is None:
         radius = np.zeros(shape)
         pad = np.pad(pts, [(1, 1)] * len(axes) + [(0, 0)], mode="edge")
         for off in np.ndindex(*([3] * len(axes))):
             window = pad[tuple(slice(o, o + n) for o, n in zip(off, shape))]
             np.maximum(radius, np.linalg.norm(window - pts, axis=-1), out=radius)
-    return _Seeds(axes, params, ders, radius.ravel(), cKDTree(ders[0]))
+    return _Seeds(axes, params, ders, radius.ravel(), cKDTree(pts.reshape(len(params), -1)), lazy)
 
 
 def _retry_seeds(seeds: _Seeds, nearest: np.ndarray, seed_dist: np.ndarray, foot_params: np.ndarray,
@@ -433,14 +462,14 @@ def _solve(pts, seeds: _Seeds, evaluate, newton, retry: bool, tol: float, breaks
     seed_dist, first, sd_all, near_all = _nearest_seeds(seeds.tree, pts, k)
     used = first.copy()
     if start is None:
-        result = newton(pts, seeds.params[first], tuple(d[first] for d in seeds.ders))
+        result = newton(pts, seeds.params[first], _seed_state(seeds, first))
     else:
         result = newton(pts, start, None) if first_run is None else first_run
         redo = np.flatnonzero(~result.converged | (result.distance > seed_dist))
         used[:] = -1
         if redo.size:
             f = first[redo]
-            sub = newton(pts[redo], seeds.params[f], tuple(d[f] for d in seeds.ders))
+            sub = newton(pts[redo], seeds.params[f], _seed_state(seeds, f))
             result = _merge(result, sub, redo, replace=True)
             used[redo] = f
     if not retry:
@@ -463,7 +492,7 @@ def _solve(pts, seeds: _Seeds, evaluate, newton, retry: bool, tol: float, breaks
     sd, near = sd_all[ask], near_all[ask]
     idx, s = _retry_seeds(seeds, near, sd, result.params[ask], result.distance[ask], tol, used[ask])
     if idx.size:
-        sub = newton(pts[ask[idx]], seeds.params[s], tuple(d[s] for d in seeds.ders))
+        sub = newton(pts[ask[idx]], seeds.params[s], _seed_state(seeds, s))
         result = _merge(result, sub, ask[idx])
     return result
 
@@ -895,7 +924,18 @@ def project_to_surface(points, degree_u: int, degree_v: int, knots_u, knots_v, c
 
     seeds = _SEED_CACHE.pop(key, None)
     if seeds is None:
-        seeds = _build_seeds(axes, evaluate, tol / tol_rel)
+        points = None
+        if compiled:
+            def seed_points(uv):
+                # the points alone (`surface_derivatives_kernel` with nd = 0: the same operations as
+                # `_eval_d2`'s point, so the same numbers); the derivatives of the samples that start a run
+                # are evaluated on first use (most samples never do: U_Joint 17K of 54K)
+                out = np.zeros((1, 1, len(uv), 3))
+                surface_derivatives_kernel(*surf, np.ascontiguousarray(np.clip(uv[:, 0], lo[0], hi[0])),
+                                           np.ascontiguousarray(np.clip(uv[:, 1], lo[1], hi[1])), 0, out)
+                return out[0, 0]
+            points = (seed_points, ((3,), (2, 3), (2, 2, 3)))
+        seeds = _build_seeds(axes, evaluate, tol / tol_rel, points=points)
         if len(_SEED_CACHE) >= _SEED_CACHE_SIZE:
             _SEED_CACHE.pop(next(iter(_SEED_CACHE)))
     _SEED_CACHE[key] = seeds                # most recently used last

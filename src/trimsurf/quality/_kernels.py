@@ -154,10 +154,23 @@ def grid_closest_kernel(q, a, b, c, lo_box, hi_box, origin, h, dims, start, item
         # shells before r0 lie wholly outside the grid
         r0 = max(0, -ci, ci - (nx - 1), -cj, cj - (ny - 1), -ck, ck - (nz - 1))
         r_all = max(ci, nx - 1 - ci, cj, ny - 1 - cj, ck, nz - 1 - ck)
+        # the cube of shells 0..r-1 ends at these planes: every triangle not yet tried lies beyond one of
+        # them (less a rounding allowance of the plane coordinates)
+        slack = 1e-12 * (abs(q[n, 0]) + abs(q[n, 1]) + abs(q[n, 2]) + abs(origin[0]) + abs(origin[1])
+                         + abs(origin[2]) + (abs(ci) + abs(cj) + abs(ck) + 3 * r_all + 3) * h)
         r = r0
         while True:
-            if r > 0 and best_d[n] <= (r - 1) * h:
-                break
+            if r > 0:
+                if best_d[n] <= (r - 1) * h:
+                    break
+                # the exact distance to the cube's faces: often larger than (r - 1) h (the query's own
+                # offset in its cell), so the search stops a shell earlier; a triangle beyond is at least
+                # that far, and only a strictly nearer one would replace the best
+                wall = min(q[n, 0] - (origin[0] + (ci - r + 1) * h), origin[0] + (ci + r) * h - q[n, 0],
+                           q[n, 1] - (origin[1] + (cj - r + 1) * h), origin[1] + (cj + r) * h - q[n, 1],
+                           q[n, 2] - (origin[2] + (ck - r + 1) * h), origin[2] + (ck + r) * h - q[n, 2])
+                if best_d[n] <= wall - slack:
+                    break
             i0, i1 = max(ci - r, 0), min(ci + r, nx - 1)
             j0, j1 = max(cj - r, 0), min(cj + r, ny - 1)
             k0, k1 = max(ck - r, 0), min(ck + r, nz - 1)
