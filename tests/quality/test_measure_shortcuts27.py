@@ -1,0 +1,144 @@
+"""Session 27's cheaper measurement steps against the paths they replace, bit for bit.
+
+- `geom.projection`: the compiled path's seed grids evaluate the points alone and each sample's
+  derivatives on its first start (`_seed_state`) instead of every sample's second derivatives up front;
+- `quality._kernels.grid_closest_kernel`: the shell search stops once the best distance is within the
+  exact distance to the searched cube's faces (was: (r - 1) x the cell side);
+- `quality.deviation._groups`: the refinement's (k, k_prev, k_first) groups without ``np.unique(axis=0)``.
+"""
+
+import numpy as np
+import pytest
+
+import trimsurf.geom.projection as P
+from trimsurf.geom import project_to_surface, surface_points
+from trimsurf.quality._kernels import hint_closest_kernel
+from trimsurf.quality.closest_point import _closest, _TriangleLocator
+from trimsurf.quality.deviation import _groups
+
+
+def _eager(monkeypatch):
+    """`_build_seeds` as before: every sample's derivatives evaluated with the grid."""
+    orig = P._build_seeds
+
+    def build(axes, evaluate, diag, *, check_poles=True, points=None):
+        return orig(axes, evaluate, diag, check_poles=check_poles)
+    monkeypatch.setattr(P, "_build_seeds", build)
+
+
+def _project_both(monkeypatch, surf, pts, **kw):
+    P._SEED_CACHE.clear()
+    lazy = project_to_surface(pts, *surf, compiled=True, **kw)
+    lazy2 = project_to_surface(pts[::-1].copy(), *surf, compiled=True, **kw)     # the cached, half-filled seeds
+    P._SEED_CACHE.clear()
+    with monkeypatch.context() as m:
+        _eager(m)
+        eager = project_to_surface(pts, *surf, compiled=True, **kw)
+        eager2 = project_to_surface(pts[::-1].copy(), *surf, compiled=True, **kw)
+    P._SEED_CACHE.clear()
+    for a, b in ((lazy, eager), (lazy2, eager2)):
+        for name in ("uv", "foot", "distance", "converged", "on_boundary"):
+            assert np.array_equal(getattr(a, name), getattr(b, name)), name
+        assert a.iterations == b.iterations
+
+
+def _shell_faces(shared_data, name):
+    from trimsurf.io import read_shell
+    shell = read_shell(shared_data / "cad" / name)
+    return shell
+
+
+@pytest.mark.parametrize("name", ["occt__screw.step", "gmsh__t20_data.step"])
+def test_lazy_seed_derivatives_give_the_eager_projection(shared_data, monkeypatch, name):
+    # every face of two real shells: points near the face, far, and on it, with and without warm starts and
+    # the settled-run threshold; the seed points the tree is built on are `_eval_d2`'s points bit for bit
+    shell = _shell_faces(shared_data, name)
+    diag = shell.diagonal()
+    rng = np.random.default_rng(3)
+    for face in shell.faces:
+        s = face.surface
+        surf = (s.degree_u, s.degree_v, s.knots_u, s.knots_v, s.control_points, s.weights)
+        (u0, u1), (v0, v1) = s.domain
+        uv = np.c_[rng.uniform(u0, u1, 60), rng.uniform(v0, v1, 60)]
+        on = s.evaluate(uv)
+        pts = np.concatenate([on, on + rng.normal(scale=3e-3 * diag, size=on.shape),
+                              on + rng.normal(scale=0.2 * diag, size=on.shape)])
+        _project_both(monkeypatch, surf, pts)
+        uv0 = np.r_[uv, uv, uv] + rng.normal(scale=0.05, size=(180, 2)) * [u1 - u0, v1 - v0]
+        _project_both(monkeypatch, surf, pts, uv0=uv0, skip_below=np.full(len(pts), 1e-3 * diag))
+
+
+def test_lazy_seed_points_are_the_state_points(shared_data):
+    # the tree and the radii use the points-only evaluation; a start reads `_eval_d2`'s state: the same numbers
+    shell = _shell_faces(shared_data, "occt__screw.step")
+    for face in shell.faces:
+        s = face.surface
+        P._SEED_CACHE.clear()
+        project_to_surface(s.evaluate(np.array([[np.mean(s.domain[0]), np.mean(s.domain[1])]])), s.degree_u,
+                           s.degree_v, s.knots_u, s.knots_v, s.control_points, s.weights, compiled=True)
+        seeds = [v for v in P._SEED_CACHE.values() if isinstance(v, P._Seeds)]
+        assert len(seeds) == 1 and seeds[0].lazy is not None
+        sd = seeds[0]
+        full = sd.lazy[0](sd.params)
+        assert np.array_equal(sd.tree.data, full[0])
+        st = P._seed_state(sd, np.arange(len(sd.params)))
+        for a, b in zip(st, full):
+            assert np.array_equal(a, b)
+    P._SEED_CACHE.clear()
+
+
+@pytest.mark.parametrize("pu, pv, seed", [(1, 1, 102), (2, 3, 5), (3, 3, 7)])
+def test_lazy_seeds_on_random_bsplines_with_creases(monkeypatch, pu, pv, seed):
+    from ..geom.test_projection import random_bspline
+    surf, uv = random_bspline(pu, pv, seed)
+    rng = np.random.default_rng(seed)
+    pts = surface_points(*surf, uv)
+    pts = np.concatenate([pts, pts + rng.normal(scale=0.05, size=pts.shape), rng.uniform(-1, 5, (300, 3))])
+    _project_both(monkeypatch, surf, pts)
+
+
+def _brute(q, loc):
+    """The exact minimum over every triangle of `_tri_closest`'s distance (the kernel's own numbers)."""
+    m = len(loc.a)
+    best = np.full(len(q), np.inf)
+    d, t, p, w = np.empty(len(q)), np.empty(len(q), dtype=np.int64), np.empty((len(q), 3)), np.empty((len(q), 3))
+    for k in range(m):
+        hint_closest_kernel(q, loc.a, loc.b, loc.c, np.full(len(q), k, dtype=np.int64), d, t, p, w)
+        np.minimum(best, d, out=best)
+    return best
+
+
+def test_mesh_search_stops_at_the_cube_wall_exactly():
+    # queries at 0.05-3 cell sides from a random triangle soup, and on a fine grid near cell walls: the search's
+    # distance is the exact minimum over all triangles, bit for bit (a stop before a nearer triangle's shell
+    # would leave a larger value)
+    rng = np.random.default_rng(11)
+    v = rng.uniform(0, 1, (500, 3))
+    t = rng.integers(0, 500, (1500, 3))
+    t = t[(t[:, 0] != t[:, 1]) & (t[:, 1] != t[:, 2]) & (t[:, 0] != t[:, 2])][:250]
+    loc = _TriangleLocator(v, t)
+    h = loc.grid[3]
+    c = v[t].mean(axis=1)
+    dirs = rng.normal(size=(6000, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    q = c[rng.integers(0, len(t), 6000)] + dirs * rng.uniform(0.05, 3.0, (6000, 1)) * h
+    origin = loc.grid[2]
+    cells = np.floor((q - origin) / h)
+    q = np.concatenate([q, origin + (cells + rng.choice([1e-9, 0.5, 1 - 1e-9], size=q.shape)) * h])
+    got = _closest(q, loc)
+    ref = _brute(q, loc)
+    assert np.array_equal(got.distance, ref)
+    assert np.array_equal(_closest(q, loc, hint=rng.integers(0, len(t), len(q))).distance, ref)
+
+
+def test_groups_are_numpys_unique_rows():
+    rng = np.random.default_rng(2)
+    for _ in range(500):
+        n = int(rng.integers(1, 200))
+        k = rng.integers(3, 33, n)
+        kp = np.where(rng.random(n) < 0.3, 0, rng.integers(0, 33, n))
+        k1 = rng.integers(0, 4, n)
+        ref = np.unique(np.column_stack([k, kp, k1]), axis=0)
+        got = _groups(k, kp, k1)
+        assert got.dtype == ref.dtype and got.tolist() == ref.tolist()
+    assert _groups(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64)).shape == (0, 3)
