@@ -142,3 +142,35 @@ def test_groups_are_numpys_unique_rows():
         got = _groups(k, kp, k1)
         assert got.dtype == ref.dtype and got.tolist() == ref.tolist()
     assert _groups(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64)).shape == (0, 3)
+
+
+@pytest.mark.parametrize("name", ["occt__screw.step", "trimesh__featuretype.STEP", "gmsh__wing_fuselage.step"])
+def test_second_forms_from_one_compiled_evaluation(shared_data, name):
+    # `_curvature_bound` takes the forms at the vertices' feet and the centres from one compiled evaluation
+    # (`_second_forms_two`): the numbers of two `_second_forms` calls, NaN where they are NaN (each group with
+    # its own median for the singular test: poles of the fuselage's nose included)
+    from trimsurf.quality.deviation import _second_forms, _second_forms_two
+    shell = _shell_faces(shared_data, name)
+    rng = np.random.default_rng(5)
+    for face in shell.faces:
+        s = face.surface
+        (u0, u1), (v0, v1) = s.domain
+        a = np.c_[rng.uniform(u0, u1, 80), rng.uniform(v0, v1, 80)]
+        a[:4] = [[u0, v0], [u1, v1], [u0, v1], [u1, v0]]                  # domain corners (poles)
+        b = np.c_[rng.uniform(u0, u1, 30), rng.choice([v0, v1, 0.5 * (v0 + v1)], 30)]
+        for ua, ub in ((a, b), (a, b[:0]), (a[:0], b), (a[:1], b)):
+            for (w, k), uv in zip(_second_forms_two(s, ua, ub), (ua, ub)):
+                if not len(uv):                     # (`_second_forms` is never asked for no points)
+                    assert w.shape == (0, 3, 3) and k.shape == (0,)
+                    continue
+                w_ref, k_ref = _second_forms(s, uv)
+                assert np.array_equal(w, w_ref, equal_nan=True) and np.array_equal(k, k_ref, equal_nan=True)
+
+
+def test_enclosing_radius_cross_is_numpys():
+    from trimsurf.quality.deviation import _cross
+    rng = np.random.default_rng(6)
+    for scale in (1e-9, 1.0, 1e7):
+        p = rng.normal(size=(20000, 3, 3)) * scale
+        a, b = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+        assert np.array_equal(_cross(a, b), np.cross(a, b))

@@ -579,7 +579,14 @@ def _second_forms(surface, uv) -> tuple[np.ndarray, np.ndarray]:
     where the surface is singular."""
     uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
     d = surface.derivatives(uv, 2)
-    su, sv, suu, suv, svv = d[1, 0], d[0, 1], d[2, 0], d[1, 1], d[0, 2]
+    w, kmax, det = _forms(d[1, 0], d[0, 1], d[2, 0], d[1, 1], d[0, 2])
+    _drop_singular(w, kmax, det)
+    return w, kmax
+
+
+def _forms(su, sv, suu, suv, svv) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """`_second_forms`'s W, kmax and det = |Su x Sv|^2 from the derivatives ((n, 3) C-contiguous each), row by
+    row (each row's numbers do not depend on the others), before `_drop_singular`."""
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         n = _cross(su, sv)
         n = n / np.linalg.norm(n, axis=1, keepdims=True)
@@ -594,14 +601,44 @@ def _second_forms(surface, uv) -> tuple[np.ndarray, np.ndarray]:
         jp = gi @ np.stack([su, sv], 1)
         ii = np.stack([np.stack([l_, m_], -1), np.stack([m_, n_], -1)], -2)
         w = np.swapaxes(jp, 1, 2) @ ii @ jp
-    # near a pole (Su x Sv -> 0, e.g. v = 1e-17 on a fuselage nose: curvature 1e14) the forms are
-    # rounding noise: no value where |Su x Sv|^2 is below 1e-8 of its median over the points given
+    return w, kmax, det
+
+
+def _drop_singular(w: np.ndarray, kmax: np.ndarray, det: np.ndarray) -> None:
+    """NaN in `w` and `kmax` (in place) where the forms are rounding noise: near a pole (Su x Sv -> 0, e.g.
+    v = 1e-17 on a fuselage nose: curvature 1e14) no value where |Su x Sv|^2 is below 1e-8 of its median over
+    the points given."""
     fin = np.isfinite(det) & (det > 0)
     ref = float(np.median(det[fin])) if fin.any() else 0.0
-    bad = ~np.isfinite(kmax) | ~np.all(np.isfinite(w.reshape(len(uv), -1)), axis=1) | ~(det > 1e-8 * ref)
+    bad = ~np.isfinite(kmax) | ~np.all(np.isfinite(w.reshape(len(w), -1)), axis=1) | ~(det > 1e-8 * ref)
     kmax[bad] = np.nan
     w[bad] = np.nan
-    return w, kmax
+
+
+def _second_forms_two(surface, uv_a: np.ndarray, uv_b: np.ndarray):
+    """``_second_forms(surface, uv_a)`` and ``_second_forms(surface, uv_b)`` (each with its own median in
+    `_drop_singular`) from one evaluation of the derivatives for both, in the projection's compiled
+    evaluator (`geom.projection._surface_eval_compiled`: `surface_derivatives`' numbers, bit for bit;
+    tests/geom/test_projection.py)."""
+    from ..geom.nurbs import _homogeneous, read_only
+    from ..geom.projection import _surface_eval_compiled
+
+    na = len(uv_a)
+    uv = np.concatenate([uv_a, uv_b]).astype(np.float64, copy=False)
+    surf = (int(surface.degree_u), int(surface.degree_v), read_only(surface.knots_u), read_only(surface.knots_v),
+            _homogeneous(surface.control_points, surface.weights), surface.weights is not None)
+    _, d1, d2 = _surface_eval_compiled(surf, uv)
+    # C-contiguous (n, 3) rows as `surface.derivatives` gives them (numpy's reductions may take another
+    # path on strided rows)
+    parts = [np.ascontiguousarray(a) for a in (d1[:, 0], d1[:, 1], d2[:, 0, 0], d2[:, 0, 1], d2[:, 1, 1])]
+    w, kmax, det = _forms(*parts)
+    out = []
+    for sl in (slice(0, na), slice(na, len(uv))):
+        wa, ka = w[sl], kmax[sl]
+        if len(ka):
+            _drop_singular(wa, ka, det[sl])
+        out.append((wa, ka))
+    return out
 
 
 def max_curvature(surface, uv) -> np.ndarray:
@@ -701,7 +738,7 @@ def _enclosing_radius(p: np.ndarray) -> np.ndarray:
     b = np.linalg.norm(p[:, 2] - p[:, 0], axis=1)
     c = np.linalg.norm(p[:, 0] - p[:, 1], axis=1)
     s = np.sort(np.column_stack([a, b, c]), axis=1)
-    area2 = np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    area2 = np.linalg.norm(_cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
     with np.errstate(divide="ignore", invalid="ignore"):
         r = a * b * c / (2.0 * area2)
     obtuse = s[:, 2] ** 2 >= s[:, 0] ** 2 + s[:, 1] ** 2
@@ -757,13 +794,13 @@ def _curvature_bound(st: _FaceState, tri_uv_ok: np.ndarray, rows: np.ndarray | N
     nv = len(st.vert_uv)
     wv = np.full((nv, 3, 3), np.nan)
     kv = np.full(nv, np.nan)
-    if used.any():
-        wv[used], kv[used] = _second_forms(s, st.vert_uv[used])
     m = len(t)
     wc = np.full((m, 3, 3), np.nan)
     kc = np.full(m, np.nan)
-    if tri_uv_ok.any():
-        wc[tri_uv_ok], kc[tri_uv_ok] = _second_forms(s, st.vert_uv[t[tri_uv_ok]].mean(axis=1))
+    # the forms at the vertices' feet and at the triangles' (u, v) centres, from one evaluation
+    (wa, ka), (wb, kb) = _second_forms_two(s, st.vert_uv[used], st.vert_uv[t[tri_uv_ok]].mean(axis=1))
+    wv[used], kv[used] = wa, ka
+    wc[tri_uv_ok], kc[tri_uv_ok] = wb, kb
     p = st.mesh.vertices[t]
     e = np.stack([p[:, 1] - p[:, 0], p[:, 2] - p[:, 1], p[:, 0] - p[:, 2]], axis=1)      # (m, 3 edges, 3)
     q = np.zeros((m, 3))
