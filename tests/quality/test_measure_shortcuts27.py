@@ -174,3 +174,32 @@ def test_enclosing_radius_cross_is_numpys():
         p = rng.normal(size=(20000, 3, 3)) * scale
         a, b = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
         assert np.array_equal(_cross(a, b), np.cross(a, b))
+
+
+def test_compiled_retry_seeds_are_the_numpy_ones(monkeypatch):
+    # `_retry_seeds` of a surface's seed grid in `retry_seeds_kernel`: the same points and seeds as the numpy
+    # expressions on random grids, feet (NaN, on grid lines, outside the axes), distances at the limit, with
+    # and without the seed each point started from
+    rng = np.random.default_rng(8)
+    for trial in range(60):
+        nu, nv = int(rng.integers(2, 30)), int(rng.integers(2, 30))
+        axes = [np.sort(rng.uniform(0, 1, nu)), np.sort(rng.uniform(-1, 1, nv))]
+        radius = rng.uniform(0, 0.3, nu * nv)
+        n, k = 400, min(8, nu * nv)
+        nearest = rng.integers(0, nu * nv, (n, k))
+        seed_dist = rng.uniform(0, 1, (n, k))
+        foot = np.c_[rng.uniform(-0.2, 1.2, n), rng.uniform(-1.2, 1.2, n)]
+        foot[:40, 0] = axes[0][rng.integers(0, nu, 40)]          # exactly on grid lines
+        foot[40:50] = np.nan
+        dist = rng.uniform(0, 1.2, n)
+        dist[50:80] = seed_dist[50:80, 0] - radius[nearest[50:80, 0]] + 1e-3   # limits met exactly
+        tol = 1e-3
+        used = np.where(rng.random(n) < 0.5, nearest[:, 0], -1)
+        seeds = P._Seeds(axes, None, None, radius, None)
+        for u in (used, None):
+            monkeypatch.setattr(P, "_COMPILED_RETRY", False)
+            ref = P._retry_seeds(seeds, nearest, seed_dist, foot, dist, tol, u)
+            monkeypatch.setattr(P, "_COMPILED_RETRY", True)
+            got = P._retry_seeds(seeds, nearest, seed_dist, foot, dist, tol, u)
+            assert np.array_equal(got[0], ref[0]) and np.array_equal(got[1], ref[1])
+            assert trial or len(ref[0]) > 20

@@ -65,3 +65,50 @@ def seed_grid_kernel(pts, radius, spread):
             elif v > best:
                 best = v
         spread[line] = best
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _cell(vals, x):
+    """``clip(searchsorted(vals, x, side="right") - 1, 0, len - 1)`` (NaN sorts last, as in numpy)."""
+    n = vals.shape[0]
+    if np.isnan(x):
+        pos = n
+    else:
+        lo, hi = 0, n               # first index with vals[index] > x
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if vals[mid] <= x:
+                lo = mid + 1
+            else:
+                hi = mid
+        pos = lo
+    return min(max(pos - 1, 0), n - 1)
+
+
+@njit(cache=True, nogil=True)
+def retry_seeds_kernel(axis_u, axis_v, radius, nearest, seed_dist, foot_params, distance, tol, used, has_used,
+                       points, seed):
+    """`projection._retry_seeds` for a 2-D seed grid (C order over (axis_u, axis_v)), point by point, the
+    same tests: seed nearest[i, c] qualifies when its grid index lies more than two cells below or three
+    above the foot's cell in some direction, it is not ``used[i]`` (with `has_used`), and
+    ``seed_dist[i, c] - radius[seed] < distance[i] - tol``; points[:count] = the points with one, seed[:count]
+    the first qualifying seed of each (in column order). Returns count."""
+    nv = axis_v.shape[0]
+    count = 0
+    for i in range(nearest.shape[0]):
+        cu = _cell(axis_u, foot_params[i, 0])
+        cv = _cell(axis_v, foot_params[i, 1])
+        lim = distance[i] - tol
+        for c in range(nearest.shape[1]):
+            s = nearest[i, c]
+            gu = s // nv
+            gv = s - gu * nv
+            far = (gu < cu - 2) or (gu > cu + 3) or (gv < cv - 2) or (gv > cv + 3)
+            if has_used and s == used[i]:
+                far = False
+            if far and seed_dist[i, c] - radius[s] < lim:
+                points[count] = i
+                seed[count] = s
+                count += 1
+                break
+    return count

@@ -45,7 +45,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import GeometryError
 from ._nurbs_kernels import project_newton_kernel, surface_derivatives_kernel
-from ._seed_kernels import seed_grid_kernel
+from ._seed_kernels import retry_seeds_kernel, seed_grid_kernel
 from .nurbs import _homogeneous, curve_derivatives, read_only, surface_derivatives
 
 __all__ = ["Projection", "CurveProjection", "project_to_surface", "project_to_curve"]
@@ -57,6 +57,7 @@ _FLOOR = 1e-9          # smallest curvature of the Newton model, relative to |Su
 _N_CANDIDATES = 8      # nearest seeds examined for a second start in another basin
 _DEGENERATE = 1e-12    # a grid line of the seeds shorter than this x diagonal is a collapsed (pole) edge
 _SMOOTH_RAD = 1e-8     # a crease whose two sides meet at a smaller angle is smooth (no restart across it)
+_COMPILED_RETRY = True  # `_retry_seeds` of surfaces in `_seed_kernels.retry_seeds_kernel` (False: the numpy expressions)
 _NOISE = 1e-3          # a trial point may lie farther by this fraction of tol (rounding in S - P hides smaller changes)
 
 
@@ -228,7 +229,9 @@ def _seed_state(seeds: _Seeds, idx: np.ndarray) -> tuple:
         evaluate, done = seeds.lazy
         miss = idx[~done[idx]]
         if miss.size:
-            miss = np.unique(miss)
+            mark = np.zeros(len(done), dtype=bool)
+            mark[miss] = True
+            miss = np.flatnonzero(mark)
             for store, val in zip(seeds.ders, evaluate(seeds.params[miss])):
                 store[miss] = val
             done[miss] = True
@@ -298,6 +301,13 @@ def _retry_seeds(seeds: _Seeds, nearest: np.ndarray, seed_dist: np.ndarray, foot
     `_crease_starts`; across a smooth one the basin goes on); so does the sample
     ``used[i]`` the point already started from (-1: none).
     """
+    if len(seeds.axes) == 2 and _COMPILED_RETRY:
+        points = np.empty(nearest.shape[0], dtype=np.int64)
+        seed = np.empty(nearest.shape[0], dtype=np.int64)
+        has_used = used is not None
+        count = retry_seeds_kernel(seeds.axes[0], seeds.axes[1], seeds.radius, nearest, seed_dist, foot_params,
+                                   distance, float(tol), used if has_used else points, has_used, points, seed)
+        return points[:count], seed[:count]
     shape = tuple(a.shape[0] for a in seeds.axes)
     far = np.zeros(nearest.shape, dtype=bool)
     grid_index = np.unravel_index(nearest, shape)
