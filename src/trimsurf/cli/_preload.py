@@ -39,7 +39,7 @@ MODULES = ("trimsurf.tessellate", "trimsurf.tessellate.measure", "trimsurf.quali
 #: code: left to its Python callers, the numpy paths) and its seam edges)
 KERNELS = {
     "trimsurf.geom._nurbs_kernels": ("curve_points_kernel", "surface_derivatives_kernel", "project_newton_kernel"),
-    "trimsurf.geom._seed_kernels": ("seed_grid_kernel",),
+    "trimsurf.geom._seed_kernels": ("seed_grid_kernel", "retry_seeds_kernel"),
     "trimsurf.geom.predicates": ("_slab_index", "_points_in_polygons_kernel"),
     "trimsurf.tessellate._line_kernels": ("loop_polylines_kernel", "inside_grids_kernel", "equidistributed_kernel",
                                           "line_net_kernel", "refine_cells_kernel"),
