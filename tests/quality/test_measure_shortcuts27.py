@@ -203,3 +203,36 @@ def test_compiled_retry_seeds_are_the_numpy_ones(monkeypatch):
             got = P._retry_seeds(seeds, nearest, seed_dist, foot, dist, tol, u)
             assert np.array_equal(got[0], ref[0]) and np.array_equal(got[1], ref[1])
             assert trial or len(ref[0]) > 20
+
+
+def test_nonneg_is_nanmax_with_zero():
+    from trimsurf.quality.deviation import _nonneg
+    for x in (np.nan, -np.inf, -1.0, -0.0, 0.0, 5e-324, 0.3, np.inf):
+        assert _nonneg(float(x)) == float(np.nanmax([x, 0.0]))
+
+
+def _group_nodes_inline(k, k_prev, k_first, surface_only):
+    """`_sample_more`'s node selection as it was written inline before `_group_nodes`."""
+    from trimsurf.quality.deviation import _bary_grid
+    w_all = _bary_grid(int(k))
+    if surface_only:
+        w_all = w_all[w_all.max(axis=1) < 1.0]
+    seen = np.zeros(len(w_all), dtype=bool)
+    idx = np.rint(w_all * k).astype(np.int64)
+    for kq in {k_prev, k_first} - {0}:
+        seen |= np.all(idx * kq % k == 0, axis=1)
+    corner = w_all.max(axis=1) >= 1.0
+    return w_all[~seen], w_all[~seen | corner]
+
+
+def test_group_nodes_are_the_inline_selection():
+    from trimsurf.quality.deviation import _group_nodes
+    for k in range(1, 33):
+        for k_prev in range(0, k):
+            for k_first in sorted({0, 1, 2, 3, 4, k_prev}):
+                for so in (False, True):
+                    got = _group_nodes(k, k_prev, k_first, so)
+                    ref = _group_nodes_inline(k, k_prev, k_first, so)
+                    for g, r in zip(got, ref):
+                        assert np.array_equal(g, r) and not g.flags.writeable
+    assert len(_group_nodes(6, 3, 3, False)[0]) == 28 - 10      # k = 6 repeats k = 3's 10 nodes

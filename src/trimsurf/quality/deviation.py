@@ -725,6 +725,27 @@ def _bary_grid(k: int) -> np.ndarray:
     return out
 
 
+@functools.lru_cache(maxsize=None)
+def _group_nodes(k: int, k_prev: int, k_first: int, surface_only: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The nodes (barycentric weights) `_sample_more` measures on a triangle sampled at k divisions that was
+    sampled at k_prev before and k_first first (0: none): (mesh side, surface side), each the grid's nodes
+    that are no node of either earlier grid (i / k = j / k_prev: every index times k_prev a multiple of k), the
+    surface side with the corners again; with `surface_only` no corners at all (a corner's surface point is
+    its foot: no farther from the mesh than the corner). Read-only, built once per key."""
+    w_all = _bary_grid(k)
+    if surface_only:
+        w_all = w_all[w_all.max(axis=1) < 1.0]
+    seen = np.zeros(len(w_all), dtype=bool)
+    idx = np.rint(w_all * k).astype(np.int64)
+    for kq in {k_prev, k_first} - {0}:     # the earlier grids' nodes: measured already
+        seen |= np.all(idx * kq % k == 0, axis=1)
+    corner = w_all.max(axis=1) >= 1.0
+    out = (w_all[~seen], w_all[~seen | corner])
+    for a in out:
+        a.flags.writeable = False
+    return out
+
+
 def _enclosing_radius(p: np.ndarray) -> np.ndarray:
     """Radius of the smallest ball containing each triangle (m, 3, 3): the circumradius of an acute
     triangle, half the longest side of an obtuse one.
@@ -907,12 +928,25 @@ def refine_deviation(devs: list, states: list, *, rel: float = 0.01, tol_rel: fl
         return b if st.skip is None else np.where(st.skip, st.apriori, b)
 
     first = {i: states[i].density.copy() for i in live}
+    # each face's bounds and the largest one it may still refine, recomputed only after the face was sampled
+    # again (they depend on its own values alone): a face whose largest is within the target has nothing to do
+    cached = {}
+    stale = set(live)
     while True:
-        g = max(float(np.nanmax([d.max_two_sided, 0.0])) for d in devs if d is not None)
+        g = max(_nonneg(d.max_two_sided) for d in devs if d is not None)
         target = (1.0 + rel) * g
-        todo = {i: np.flatnonzero((bounds(i) > target) & (states[i].density < max_density)
-                                  & (True if states[i].skip is None else ~states[i].skip)) for i in live}
-        todo = {i: c for i, c in todo.items() if len(c)}
+        for i in stale:
+            b = bounds(i)
+            el = (states[i].density < max_density) & (True if states[i].skip is None else ~states[i].skip)
+            cached[i] = (b, el, float(np.fmax.reduce(b[el], initial=-np.inf)))
+        stale = set()
+        todo = {}
+        for i in live:
+            b, el, top = cached[i]
+            if top > target:
+                c = np.flatnonzero((b > target) & el)
+                if len(c):
+                    todo[i] = c
         if not todo:
             break
         for i, cand in todo.items():
@@ -921,12 +955,18 @@ def refine_deviation(devs: list, states: list, *, rel: float = 0.01, tol_rel: fl
             prev = st.density[cand].copy()
             st.density[cand] = _smallest_density(st.tri_max[cand], beta[cand], kap[cand], prev, target, max_density)
             _sample_more(devs, states, info, i, cand, tol_rel, prev=prev, first=first[i][cand])
+            stale.add(i)
     overall = -np.inf
     for i in live:
         b = float(np.max(bounds(i), initial=0.0))
         overall = max(overall, b)
         devs[i] = replace(devs[i], max_bound=max(b, devs[i].max_two_sided), n_refined=int(info[i][3].sum()))
     return devs, float(overall)
+
+
+def _nonneg(x: float) -> float:
+    """``float(np.nanmax([x, 0.0]))`` of a float: x where it is above 0, else 0 (NaN included)."""
+    return x if x > 0.0 else 0.0
 
 
 def _smallest_density(dmax: np.ndarray, beta: np.ndarray, kap: np.ndarray, k: np.ndarray, target: float,
@@ -991,18 +1031,11 @@ def _sample_more(devs, states, info, i, cand, tol_rel, surface_only=False, prev=
     parts = ([], [])            # per side: (triangles, their new nodes) of each (k, k_prev, k_first) group
     for k, k_prev, k_first in groups.tolist():
         tri = cand[(st.density[cand] == k) & (kp == k_prev) & (k1 == k_first)]
-        w_all = _bary_grid(int(k))
-        if surface_only:        # a corner's surface point is its foot: no farther from the mesh than the corner
-            w_all = w_all[w_all.max(axis=1) < 1.0]
-        seen = np.zeros(len(w_all), dtype=bool)
-        idx = np.rint(w_all * k).astype(np.int64)
-        for kq in {k_prev, k_first} - {0}:     # the earlier grids' nodes: measured already
-            seen |= np.all(idx * kq % k == 0, axis=1)
-        corner = w_all.max(axis=1) >= 1.0
+        nodes = _group_nodes(int(k), int(k_prev), int(k_first), bool(surface_only))
         for side in (0, 1):
             if (side == 0 and surface_only) or (side == 1 and not st.two_sided):
                 continue
-            w = w_all[~seen | (corner if side == 1 else False)]
+            w = nodes[side]
             if len(w):
                 parts[side].append((tri, w))
     # every group's nodes in one batch per side (one projection call, one mesh search): the mesh side
