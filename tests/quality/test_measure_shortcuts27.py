@@ -236,3 +236,11 @@ def test_group_nodes_are_the_inline_selection():
                     for g, r in zip(got, ref):
                         assert np.array_equal(g, r) and not g.flags.writeable
     assert len(_group_nodes(6, 3, 3, False)[0]) == 28 - 10      # k = 6 repeats k = 3's 10 nodes
+
+
+def test_projection_cross_is_numpys():
+    # the crease kink test's cross product (`projection._cross3`) on strided rows, as `_kink_rad` passes them
+    rng = np.random.default_rng(9)
+    for scale in (1e-9, 1.0, 1e7):
+        d1 = rng.normal(size=(5000, 2, 3)) * scale
+        assert np.array_equal(P._cross3(d1[:, 0], d1[:, 1]), np.cross(d1[:, 0], d1[:, 1]))

@@ -374,13 +374,22 @@ def _crease_starts(axes: list, foot_params: np.ndarray, distance: np.ndarray, to
     return out
 
 
+def _cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross(a, b)`` of (n, 3) rows: the same operations (a1 b2 - a2 b1, ...) without its axis handling."""
+    out = np.empty(a.shape)
+    np.subtract(a[:, 1] * b[:, 2], a[:, 2] * b[:, 1], out=out[:, 0])
+    np.subtract(a[:, 2] * b[:, 0], a[:, 0] * b[:, 2], out=out[:, 1])
+    np.subtract(a[:, 0] * b[:, 1], a[:, 1] * b[:, 0], out=out[:, 2])
+    return out
+
+
 def _kink_rad(d1_far: np.ndarray, d1_near: np.ndarray) -> np.ndarray:
     """Angle (rad) between the tangents (curves) or normals (surfaces) from first derivatives (m, d, k)
     on the two sides of a crease; NaN where one is degenerate."""
     if d1_far.shape[1] == 1:
         a, b = d1_far[:, 0], d1_near[:, 0]
     else:
-        a, b = np.cross(d1_far[:, 0], d1_far[:, 1]), np.cross(d1_near[:, 0], d1_near[:, 1])
+        a, b = _cross3(d1_far[:, 0], d1_far[:, 1]), _cross3(d1_near[:, 0], d1_near[:, 1])
     with np.errstate(divide="ignore", invalid="ignore"):
         a = a / np.linalg.norm(a, axis=1, keepdims=True)
         b = b / np.linalg.norm(b, axis=1, keepdims=True)
