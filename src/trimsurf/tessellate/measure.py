@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+import weakref
 
 import numpy as np
 
@@ -10,7 +11,8 @@ from ..model import Shell, TriMesh
 from ..quality import topology_report, triangle_quality
 from ..quality.deviation import _shell_deviation
 
-__all__ = ["measure_mesh", "measure_result", "flipped_against_normal", "explained_nonmanifold_edges"]
+__all__ = ["measure_mesh", "measure_result", "flipped_against_normal", "explained_nonmanifold_edges",
+           "figures_of_same_mesh"]
 
 
 def flipped_against_normal(mesh: TriMesh, shell: Shell, *, reversed_faces=(), tol_rel: float = 1e-10,
@@ -267,10 +269,73 @@ def measure_result(result, shell: Shell) -> dict:
 
     Adds ``within_tolerance`` and ``nonmanifold_edges_explained`` (non-manifold
     edges where three or more faces of the model meet, `explained_nonmanifold_edges`).
+    What was measured (copies of the mesh's arrays, the shell, the reversed faces, the face meshes and
+    the tolerance) is kept with the figures that depend on nothing else, for `figures_of_same_mesh`.
     """
-    out = measure_mesh(result.mesh, shell, reversed_faces=result.report.get("faces_flipped", ()),
+    reversed_faces = result.report.get("faces_flipped", ())
+    out = measure_mesh(result.mesh, shell, reversed_faces=reversed_faces,
                        skipped_faces=[f.index for f in result.failed_faces])
     out["within_tolerance"] = bool(out["max_deviation"] <= result.tolerance)
     out["nonmanifold_edges_explained"] = int(explained_nonmanifold_edges(result.mesh, result.face_meshes,
                                                                          result.tolerance).sum())
+    _MEASURED[result.mesh] = _Measured(result.mesh, shell, reversed_faces, result.face_meshes, result.tolerance, out)
+    return out
+
+
+class _Measured:
+    """What `measure_result` measured its figures on: copies of the mesh's arrays (so that a later change
+    of the mesh's own arrays cannot pass for them), the shell and the face meshes (compared by identity),
+    the reversed faces and the tolerance; and those figures."""
+
+    def __init__(self, mesh: TriMesh, shell, reversed_faces, face_meshes, tolerance: float, figures: dict) -> None:
+        self.vertices = np.array(mesh.vertices, dtype=np.float64, order="C")
+        self.triangles = np.array(mesh.triangles, dtype=np.int64, order="C")
+        self.face_id = None if mesh.face_id is None else np.array(mesh.face_id, dtype=np.int64)
+        self.shell = shell
+        self.reversed_faces = sorted(int(f) for f in reversed_faces)
+        self.face_meshes = face_meshes
+        self.tolerance = float(tolerance)
+        self.figures = {k: figures[k] for k in ("nonmanifold_edges", "flipped", "nonmanifold_edges_explained")}
+
+
+#: per mesh object measured by `measure_result` (weakly: the record goes with the mesh)
+_MEASURED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _same_bits(a: np.ndarray | None, b: np.ndarray | None) -> bool:
+    """Same shape, dtype and bytes (float64: bit for bit, so -0.0 differs from 0.0); None only equals None."""
+    if a is None or b is None:
+        return a is None and b is None
+    a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
+    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+def figures_of_same_mesh(back: TriMesh, mesh: TriMesh, shell: Shell, *, reversed_faces=(), face_meshes=None,
+                         tolerance: float | None = None) -> dict:
+    """The figures `measure_result` measured on `mesh` that hold for `back` too, because `back` is that mesh.
+
+    `back` is typically the written file read back. Returns a dict with:
+
+    - ``nonmanifold_edges`` when `back` holds exactly the vertices (float64, bit for bit) and the
+      triangles (same order) that were measured: `topology_report` is a function of these alone;
+    - also ``flipped`` and ``nonmanifold_edges_explained`` when, moreover, `back` holds the same
+      ``face_id`` (not None), and `shell`, `reversed_faces`, `face_meshes` (the same objects) and
+      `tolerance` are those of the measurement.
+
+    Anything else gives an empty dict (or only ``nonmanifold_edges``): the caller measures `back` itself.
+    The comparison is against copies taken when `mesh` was measured, not against `mesh`'s arrays now.
+    ``flipped`` here took each centroid's foot from the deviation's samples (the (1/3, 1/3, 1/3) node of
+    the triangle's grid, `measure_mesh`); `flipped_against_normal` on `back` without feet projects the
+    centroids computed as the corners' mean: points that differ only by rounding (the same count on
+    all 34 shared runs, benchmarks/RESULTS.md).
+    """
+    rec = _MEASURED.get(mesh)
+    if rec is None or not (_same_bits(back.vertices, rec.vertices) and _same_bits(back.triangles, rec.triangles)):
+        return {}
+    out = {"nonmanifold_edges": rec.figures["nonmanifold_edges"]}
+    if (back.face_id is not None and _same_bits(back.face_id, rec.face_id) and rec.shell is shell
+            and sorted(int(f) for f in reversed_faces) == rec.reversed_faces and face_meshes is rec.face_meshes
+            and tolerance is not None and float(tolerance) == rec.tolerance):
+        out["flipped"] = rec.figures["flipped"]
+        out["nonmanifold_edges_explained"] = rec.figures["nonmanifold_edges_explained"]
     return out
