@@ -258,14 +258,19 @@ def topology_report(mesh: TriMesh, *, weld_tol: float | None = None) -> Topology
     flip, non_orientable = orientation_flips(w)
     labels = w.connected_components() if m else np.zeros(0, np.int64)
     n_comp = int(labels.max() + 1) if m else 0
-    # per component: V, E, F, boundary loops, manifoldness
-    tri_v = np.unique(np.column_stack([np.repeat(labels, 3), w.triangles.ravel()]), axis=0) if m \
-        else np.zeros((0, 2), np.int64)
-    v_c = np.bincount(tri_v[:, 0], minlength=n_comp)
+    # per component: V, E, F, boundary loops, manifoldness. V: the distinct (component, vertex) pairs (a
+    # vertex where components touch counts in each), as one int64 key each (a 1-D unique, not a row one)
+    n_v = max(w.n_vertices, 1)
+    pairs = np.unique(np.repeat(labels, 3) * n_v + w.triangles.ravel()) if m else np.zeros(0, np.int64)
+    v_c = np.bincount(pairs // n_v, minlength=n_comp)
     f_c = np.bincount(labels, minlength=n_comp)
     vertex_comp = np.zeros(w.n_vertices, dtype=np.int64)
     vertex_comp[w.triangles.ravel()] = np.repeat(labels, 3)
-    edge_comp = vertex_comp[edges[:, 0]] if len(edges) else np.zeros(0, np.int64)
+    # an edge's component: that of any of its triangles (all of them are connected through it); not its
+    # first vertex's, which may be a vertex where another component touches
+    edge_comp = np.zeros(len(edges), dtype=np.int64)
+    if m:
+        edge_comp[w.half_edge_edges()] = np.repeat(labels, 3)
     e_c = np.bincount(edge_comp, minlength=n_comp)
     chi_c = (v_c - e_c + f_c).astype(np.int64)
     bnd = w.boundary_edges()
