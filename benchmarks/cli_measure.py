@@ -5,7 +5,9 @@ defaults, or ``--tol-only``: max edge = diagonal) through ``trimsurf.cli.main``,
 ``python -m trimsurf`` does, with two timers added around the CLI's own functions: the CPU
 (``time.process_time``; the preload thread is joined before, the reader server is another process) of
 ``tessellate.measure.measure_result`` (the measurement in memory) and of
-``cli.tessellate._guarantees_met`` (the written file read back and checked). The report gives
+``cli.tessellate._guarantees_met`` (the written file read back and checked), their sum
+(``cli_measure_cpu``: the CPU behind the report's ``seconds_measure``), the meshing's CPU (``mesh_cpu``:
+``tessellate_shell`` less its measurement) and ``ratio_cpu`` = cli_measure_cpu / mesh_cpu. The report gives
 ``seconds_read``, ``seconds_mesh`` and ``seconds_measure`` (wall). Trees and models alternate run by
 run (``--src A --src B``: A, B, A, B, ... per model per round), so both see the same load; the table gives
 the median and the best of ``--runs`` per cell, and whether the report's figures (every field but
@@ -36,8 +38,9 @@ _CHILD = r"""
 import json, sys, time
 import trimsurf.cli as cli
 import trimsurf.cli.tessellate as ct
+import trimsurf.tessellate as ts
 import trimsurf.tessellate.measure as me
-acc = {"measure_cpu": 0.0, "check_cpu": 0.0}
+acc = {"measure_cpu": 0.0, "check_cpu": 0.0, "tessellate_cpu": 0.0}
 def timed(f, key):
     def g(*a, **k):
         c = time.process_time()
@@ -48,7 +51,11 @@ def timed(f, key):
     return g
 me.measure_result = timed(me.measure_result, "measure_cpu")
 ct._guarantees_met = timed(ct._guarantees_met, "check_cpu")
+ts.tessellate_shell = timed(ts.tessellate_shell, "tessellate_cpu")
 rc = cli.main(sys.argv[1:])
+acc["mesh_cpu"] = acc.pop("tessellate_cpu") - acc["measure_cpu"]
+acc["cli_measure_cpu"] = acc["measure_cpu"] + acc["check_cpu"]
+acc["ratio_cpu"] = acc["cli_measure_cpu"] / acc["mesh_cpu"]
 acc["process_cpu"] = time.process_time()
 acc["rc"] = rc
 print("@@" + json.dumps(acc))
@@ -97,8 +104,9 @@ def main() -> None:
                 for src in a.src:
                     rows.setdefault((m, src), []).append(_run(src, DATA / m, tmp, a.tol_only))
             print(f"round {r + 1}/{a.runs} done, load {os.getloadavg()[0]:.1f}", file=sys.stderr, flush=True)
-    cols = ("seconds_read", "seconds_mesh", "seconds_measure", "measure_cpu", "check_cpu", "process_cpu")
-    print(f"{'model':28s} {'src':22s} " + " ".join(f"{c:>17s}" for c in cols) + "  figures")
+    cols = ("seconds_read", "seconds_mesh", "seconds_measure", "mesh_cpu", "measure_cpu", "check_cpu",
+            "cli_measure_cpu", "ratio_cpu", "process_cpu")
+    print(f"{'model':16s} {'src':14s} " + " ".join(f"{c[:15]:>15s}" for c in cols) + "  figures")
     out = []
     for m in models:
         ref = rows[(m, a.src[0])][0]["figures"]
@@ -107,9 +115,9 @@ def main() -> None:
             cells = []
             for c in cols:
                 vals = [x[c] for x in rs]
-                cells.append(f"{statistics.median(vals):8.3f}/{min(vals):8.3f}")
+                cells.append(f"{statistics.median(vals):7.3f}/{min(vals):7.3f}")
             same = all(x["figures"] == ref for x in rs)
-            print(f"{m[:28]:28s} {src[-22:]:22s} " + " ".join(cells) + ("  same" if same else "  DIFFER"))
+            print(f"{m[:16]:16s} {src[-14:]:14s} " + " ".join(cells) + ("  same" if same else "  DIFFER"))
             out.append({"model": m, "src": src, "runs": rs, "figures_same_as_first_tree": same})
     print("cells: median/best of", a.runs, "runs; seconds_* from the report (wall), *_cpu in the CLI process")
     if a.json:
