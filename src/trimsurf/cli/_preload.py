@@ -15,6 +15,7 @@ The outputs do not change: the same machine code runs, only loaded earlier.
 
 from __future__ import annotations
 
+import gc
 import threading
 import time
 from importlib import import_module
@@ -80,6 +81,10 @@ class Preload:
 
     def _run(self) -> None:
         t0, c0 = time.perf_counter(), time.thread_time()
+        # the cyclic GC off while the modules load (as the reader server imports): its full collections
+        # would walk every object the imports have made so far, for the little garbage imports leave
+        gc_was_on = gc.isenabled()
+        gc.disable()
         try:
             from .._numba_load import load_cached
 
@@ -96,6 +101,8 @@ class Preload:
         except BaseException as exc:  # noqa: BLE001 -- the command goes on; it loads what it needs itself
             self.error = exc
         finally:
+            if gc_was_on:
+                gc.enable()
             self.seconds = time.perf_counter() - t0
             self.cpu_seconds = time.thread_time() - c0
 
