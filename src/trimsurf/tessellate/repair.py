@@ -156,6 +156,74 @@ def _g1_samples(face: TrimmedFace, lines: list, n: int):
     return dd[1, 0, :m], dd[0, 1, :m], dd[1, 0, m:], dd[0, 1, m:], cnt[cnt > 0]
 
 
+def _g1_samples_faces(items: list, n: int) -> tuple:
+    """`_g1_samples(face, lines, n)` of every (face, lines) in `items`, the faces one after the other as
+    `quick_repairs` concatenates them: ((su_l, sv_l, su_r, sv_r, cnt), per face its number of lines with
+    points (0: `_g1_samples` returns None)). The sample points of all lines at once (np.linspace's
+    arithmetic per line: arange x step + start, the end exact), the inside test per face, the
+    derivatives of all faces in one compiled call (`seams._derivatives01`: the kernel of
+    `surface_derivatives` with nd = 1, point by point, the parameters clipped as it clips them), so the
+    numbers of `_g1_samples`; per face where a line's step is 0 (np.linspace's other path), a surface is
+    not a NurbsSurface or a point not finite."""
+    from ..model import NurbsSurface
+    from ..quality.sampling import inside_face
+    from .seams import _derivatives01
+
+    rows = []           # per line: face, axis, knot value, its axis' domain (a, b), the other's (c, d)
+    for q, (face, lines) in enumerate(items):
+        (u0, u1), (v0, v1) = face.surface.domain
+        rows.extend((q, 0, k, u0, u1, v0, v1) for k in lines[0])
+        rows.extend((q, 1, k, v0, v1, u0, u1) for k in lines[1])
+    r = np.array(rows, dtype=np.float64).reshape(-1, 7)
+    q_of, axis, k, a, b, c, d = (r[:, i] for i in range(7))
+    q_of = q_of.astype(np.int64)
+    step = (d - c) / (n - 1)
+    surfaces = [face.surface for face, _ in items]
+    if not len(r) or (step == 0).any() or not all(type(s) is NurbsSurface for s in surfaces):
+        return _g1_samples_per_face(items, n)
+    lin = np.arange(n, dtype=np.float64)[None, :] * step[:, None]
+    lin += c[:, None]
+    lin[:, -1] = d
+    along = (axis == 0)[:, None]
+    eps = 1e-7 * (b - a)
+    kk = np.broadcast_to(k[:, None], lin.shape)
+    mid = np.empty((len(r), n, 2))
+    mid[:, :, 0] = np.where(along, kk, lin)
+    mid[:, :, 1] = np.where(along, lin, kk)
+    uv_l, uv_r = mid.copy(), mid.copy()
+    for side, x in ((uv_l, k - eps), (uv_r, k + eps)):
+        xx = np.broadcast_to(x[:, None], lin.shape)
+        side[:, :, 0] = np.where(along, xx, lin)
+        side[:, :, 1] = np.where(along, lin, xx)
+    ins = np.empty((len(r), n), dtype=bool)
+    cuts = np.r_[0, np.cumsum(np.bincount(q_of, minlength=len(items)))].tolist()
+    for q, (face, _) in enumerate(items):
+        if cuts[q + 1] > cuts[q]:
+            ins[cuts[q]:cuts[q + 1]] = inside_face(face, mid[cuts[q]:cuts[q + 1]].reshape(-1, 2),
+                                                   n_per_segment=16).reshape(-1, n)
+    flat = ins.ravel()
+    cnt = ins.sum(axis=1)
+    pts = np.concatenate([uv_l.reshape(-1, 2)[flat], uv_r.reshape(-1, 2)[flat]])
+    if not np.isfinite(pts).all():
+        return _g1_samples_per_face(items, n)
+    n_lines = np.bincount(q_of[cnt > 0], minlength=len(items)).astype(np.int64)
+    m = len(pts) // 2
+    fo = np.repeat(q_of, cnt)
+    dd = _derivatives01([face for face, _ in items], np.concatenate([fo, fo]), pts, cache=False)
+    return (dd[1, :m], dd[2, :m], dd[1, m:], dd[2, m:], cnt[cnt > 0]), n_lines
+
+
+def _g1_samples_per_face(items: list, n: int) -> tuple:
+    """`_g1_samples_faces` face by face (`_g1_samples`): its reference, and its path for the rest."""
+    side = [_g1_samples(face, lines, n) for face, lines in items]
+    n_lines = np.array([0 if x is None else len(x[4]) for x in side], dtype=np.int64).reshape(-1)
+    side = [x for x in side if x is not None]
+    if not side:
+        e = np.zeros((0, 3))
+        return (e, e, e, e, np.zeros(0, dtype=np.int64)), n_lines
+    return tuple(np.concatenate([x[i] for x in side]) for i in range(5)), n_lines
+
+
 def _g1_angles(su_l, sv_l, su_r, sv_r, cnt, face_start) -> np.ndarray:
     """`g1_defects`' largest angle per face from its samples (`_g1_samples`, several faces one after
     the other: face f has the lines face_start[f] .. face_start[f + 1] - 1 of cnt); elementwise, so the
@@ -401,10 +469,11 @@ def quick_repairs(faces: list, *, tolerance: float, g1_angle_deg: float = 1.0) -
     out: list = [None] * len(faces)
     cand, spans, seg_face, nxt = [], [], [], []
     segs: list = []
+    finite = _all_finite([face.surface.control_points for face in faces])
     for fi, face in enumerate(faces):
         s = face.surface
         (u0, u1), (v0, v1) = s.domain
-        if not (u1 > u0 and v1 > v0) or not np.all(np.isfinite(s.control_points)):
+        if not (u1 > u0 and v1 > v0) or not finite[fi]:
             continue
         cand.append(fi)
         spans.append(max(u1 - u0, v1 - v0))
@@ -457,8 +526,8 @@ def quick_repairs(faces: list, *, tolerance: float, g1_angle_deg: float = 1.0) -
     for ax, (owner, value) in enumerate(g1_lines):
         for o, v in zip(owner.tolist(), value.tolist()):
             lines_of[o][ax].append(v)
-    samples, face_g1 = [], np.zeros(len(take))
-    with_lines = []
+    face_g1 = np.zeros(len(take))
+    with_lines, g1_items = [], []
     for q, c in enumerate(take):
         face = faces[cand[c]]
         if odd[q]:
@@ -469,14 +538,17 @@ def quick_repairs(faces: list, *, tolerance: float, g1_angle_deg: float = 1.0) -
                 continue
         else:
             notes = []
-        side = _g1_samples(face, lines_of[q], 33) if lines_of[q][0] or lines_of[q][1] else None
-        if side is not None:
-            samples.append(side)
+        if lines_of[q][0] or lines_of[q][1]:
+            g1_items.append((face, lines_of[q]))
             with_lines.append(q)
         out[cand[c]] = (face, notes)
-    if samples:
-        fs = np.r_[0, np.cumsum([len(x[4]) for x in samples])]
-        face_g1[with_lines] = _g1_angles(*(np.concatenate([x[i] for x in samples]) for i in range(5)), fs)
+    if g1_items:
+        # the samples of all faces with C0 knot lines in one evaluation (`_g1_samples_faces`)
+        side, lines_per_face = _g1_samples_faces(g1_items, 33)
+        has = lines_per_face > 0
+        if has.any():
+            fs = np.r_[0, np.cumsum(lines_per_face[has])]
+            face_g1[np.asarray(with_lines, dtype=np.int64)[has]] = _g1_angles(*side, fs)
     for q, c in enumerate(take):
         fi = cand[c]
         if out[fi] is None:
@@ -491,6 +563,16 @@ def quick_repairs(faces: list, *, tolerance: float, g1_angle_deg: float = 1.0) -
             status = "flagged"
         out[fi] = FaceRepair(face, status, msgs, [], g1)
     return out
+
+
+def _all_finite(arrays: list) -> list:
+    """[bool(np.all(np.isfinite(a))) for a in arrays], in one pass over the arrays joined (float64
+    arrays, none empty; else one by one)."""
+    if not arrays or not all(type(a) is np.ndarray and a.dtype == np.float64 and a.size for a in arrays):
+        return [bool(np.all(np.isfinite(a))) for a in arrays]
+    sizes = np.fromiter((a.size for a in arrays), dtype=np.int64, count=len(arrays))
+    flags = np.isfinite(np.concatenate([a.ravel() for a in arrays]))
+    return np.logical_and.reduceat(flags, np.cumsum(sizes) - sizes).tolist()
 
 
 def _knot_runs(knots: list) -> tuple:

@@ -1,0 +1,63 @@
+"""Session 27 (issue 17): the shell-level and per-edge Python of the meshing, batched, against the
+per-face / per-segment code it replaces, array for array (bit for bit)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from trimsurf.io import read_shell
+from trimsurf.tessellate import repair
+
+
+def _g1_items(shell):
+    items = []
+    for f in shell.faces:
+        s = f.surface
+        lines = [[v for v, _, _ in repair._full_knots(k[p + 1:-p - 1], p, p)]
+                 for k, p in ((s.knots_u, s.degree_u), (s.knots_v, s.degree_v))]
+        if lines[0] or lines[1]:
+            items.append((f, lines))
+    return items
+
+
+def _same(a, b):
+    assert len(a) == len(b)
+    for x, y in zip(a, b):
+        x, y = np.asarray(x), np.asarray(y)
+        assert x.dtype == y.dtype and x.shape == y.shape
+        assert x.tobytes() == y.tobytes()
+
+
+@pytest.mark.parametrize("model", ["trimesh__featuretype.STEP", "gmsh__U_Joint_2.stp"])
+def test_g1_samples_batched_equal_per_face(shared_data, model):
+    """`repair._g1_samples_faces` (all lines' points at once, one compiled derivative call) gives the
+    samples of `_g1_samples` face by face; also with faces whose lines miss the trim and a subset."""
+    shell = read_shell(shared_data / "cad" / model)
+    items = _g1_items(shell)
+    assert len(items) >= 20
+    for sel in (items, items[::3], items[1:2]):
+        got, n_got = repair._g1_samples_faces(sel, 33)
+        ref, n_ref = repair._g1_samples_per_face(sel, 33)
+        _same(got, ref)
+        assert n_got.tolist() == n_ref.tolist()
+        assert sum(n_got) > 0
+    # a line outside the trim has no point inside: the face contributes nothing (as _g1_samples' None)
+    f, lines = items[0]
+    (u0, u1), _ = f.surface.domain
+    odd = [(f, [[u0 + 1e-9 * (u1 - u0)], []])] + items[:2]
+    got, n_got = repair._g1_samples_faces(odd, 33)
+    ref, n_ref = repair._g1_samples_per_face(odd, 33)
+    _same(got, ref)
+    assert n_got.tolist() == n_ref.tolist()
+
+
+def test_all_finite_equals_per_array():
+    rng = np.random.default_rng(3)
+    arrays = [rng.random((k, 3)) for k in (1, 4, 9, 2)]
+    arrays[1][2, 1] = np.nan
+    arrays[3][1, 0] = -np.inf
+    ref = [bool(np.all(np.isfinite(a))) for a in arrays]
+    assert repair._all_finite(arrays) == ref == [True, False, True, False]
+    assert repair._all_finite(arrays[:1]) == [True]
+    assert repair._all_finite([]) == []
