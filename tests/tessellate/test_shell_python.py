@@ -61,3 +61,47 @@ def test_all_finite_equals_per_array():
     assert repair._all_finite(arrays) == ref == [True, False, True, False]
     assert repair._all_finite(arrays[:1]) == [True]
     assert repair._all_finite([]) == []
+
+
+def _loop_arrays_loop(faces):
+    """`face._loop_arrays` segment by segment: the code `face._sample_loops` had before session 27."""
+    from trimsurf.geom.nurbs import _homogeneous, read_only
+
+    si, knots, pws, sf = [], [], [], []
+    ko = po = 0
+    loop_segs, face_loops = [], []
+    for face in faces:
+        face_loops.append((len(loop_segs), len(face.loops)))
+        for loop in face.loops:
+            loop_segs.append((len(si), len(loop.segments)))
+            for seg in loop.segments:
+                c = seg.curve
+                k = np.asarray(c.knots, dtype=np.float64)
+                pw = _homogeneous(c.control_points, c.weights)
+                si.append((c.degree, ko, len(k), po, pw.shape[0], pw.shape[1], c.weights is not None))
+                sf.append((seg.t0, seg.t1))
+                knots.append(k)
+                pws.append(pw.ravel())
+                ko += len(k)
+                po += pw.size
+    return (np.array(si, dtype=np.int64), np.array(sf, dtype=np.float64), read_only(np.concatenate(knots)),
+            read_only(np.concatenate(pws)), loop_segs, face_loops)
+
+
+@pytest.mark.parametrize("model", ["trimesh__featuretype.STEP", "gmsh__U_Joint_2.stp", "occt__screw.step"])
+def test_loop_arrays_equal_segment_by_segment(shared_data, model):
+    """`face._loop_arrays` (the p-curves packed by `trims._pcurve_rows`) against the per-segment packing
+    it replaces: the same arrays (bytes, dtype, shape, read-only flags) and bookkeeping; rational and
+    polynomial p-curves both present."""
+    from trimsurf.tessellate.face import _loop_arrays
+
+    shell = read_shell(shared_data / "cad" / model)
+    faces = list(shell.faces)
+    rat = [sg.curve.weights is not None for f in faces for lp in f.loops for sg in lp.segments]
+    if model != "occt__screw.step":
+        assert any(rat) and not all(rat)
+    for sel in (faces, faces[::-1][:7], faces[2:3]):
+        got, ref = _loop_arrays(sel), _loop_arrays_loop(sel)
+        _same(got[:4], ref[:4])
+        assert got[4:] == ref[4:]
+        assert [x.flags.writeable for x in got[:4]] == [x.flags.writeable for x in ref[:4]]

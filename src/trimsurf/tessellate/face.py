@@ -18,7 +18,7 @@ from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CI, cell_deviation_kerne
 from .grid import triangulate_domain
 from .repair import remove_polygon_loops, repair_face
 from .slivers import collapse_boundary_slivers
-from .trims import ChunkUse, discretize_chunk
+from .trims import ChunkUse, _pcurve_rows, discretize_chunk
 
 __all__ = ["tessellate_face", "face_domain_values", "shell_domain_values", "grid_box", "FaceMesh",
            "mesh_face_from_chunks", "check_parameters"]
@@ -99,30 +99,35 @@ def _sample_loops(faces, n_a: int, n_b: int) -> tuple:
     """Every trim segment of `faces` sampled as `loop.polylines(n_a, n_b)` does, all in one compiled call
     (`loop_polylines_kernel`): (out_a, out_b) with n - 1 rows per segment in face, loop, segment order;
     loop_segs, per loop (first segment, segment count); face_loops, per face (first loop, loop count)."""
-    si, knots, pws, sf = [], [], [], []
-    ko = po = 0
+    si, sf, ck, cpw, loop_segs, face_loops = _loop_arrays(faces)
+    m = len(si)
+    out_a, out_b = np.empty((m * (n_a - 1), 2)), np.empty((m * (n_b - 1), 2))
+    if m:
+        loop_polylines_kernel(si, sf, ck, cpw, n_a, n_b, out_a, out_b)
+    return out_a, out_b, loop_segs, face_loops
+
+
+def _loop_arrays(faces) -> tuple:
+    """The trim segments of `faces` as `loop_polylines_kernel` takes them: si (m, 7) int64 per segment
+    (degree, knots' offset and count, homogeneous control points' offset, rows, columns, rational), sf
+    (m, 2) its (t0, t1), the knots and control points flat and read-only (`trims._pcurve_rows`' arrays:
+    the points homogeneous as `geom.nurbs._homogeneous` makes them), loop_segs and face_loops."""
+    segs: list = []
     loop_segs = []
     face_loops = []
     for face in faces:
         face_loops.append((len(loop_segs), len(face.loops)))
         for loop in face.loops:
-            loop_segs.append((len(si), len(loop.segments)))
-            for seg in loop.segments:
-                c = seg.curve
-                k = np.asarray(c.knots, dtype=np.float64)
-                pw = _homogeneous(c.control_points, c.weights)
-                si.append((c.degree, ko, len(k), po, pw.shape[0], pw.shape[1], c.weights is not None))
-                sf.append((seg.t0, seg.t1))
-                knots.append(k)
-                pws.append(pw.ravel())
-                ko += len(k)
-                po += pw.size
-    m = len(si)
-    out_a, out_b = np.empty((m * (n_a - 1), 2)), np.empty((m * (n_b - 1), 2))
-    if m:
-        loop_polylines_kernel(np.array(si, dtype=np.int64), np.array(sf, dtype=np.float64),
-                              read_only(np.concatenate(knots)), read_only(np.concatenate(pws)), n_a, n_b, out_a, out_b)
-    return out_a, out_b, loop_segs, face_loops
+            loop_segs.append((len(segs), len(loop.segments)))
+            segs.extend(loop.segments)
+    m = len(segs)
+    if not m:
+        return np.zeros((0, 7), dtype=np.int64), np.zeros((0, 2)), read_only(np.zeros(0)), read_only(np.zeros(0)), \
+            loop_segs, face_loops
+    rows, ck, cpw = _pcurve_rows([sg.curve for sg in segs])
+    si = np.ascontiguousarray(rows[:, [0, 2, 3, 4, 5, 6, 1]])
+    sf = np.array([(sg.t0, sg.t1) for sg in segs], dtype=np.float64).reshape(m, 2)
+    return si, sf, read_only(ck), read_only(cpw), loop_segs, face_loops
 
 
 def _loop_polylines(face: TrimmedFace, n_a: int, n_b: int) -> tuple[list, list]:
