@@ -161,13 +161,13 @@ def _g1_samples_faces(items: list, n: int) -> tuple:
     `quick_repairs` concatenates them: ((su_l, sv_l, su_r, sv_r, cnt), per face its number of lines with
     points (0: `_g1_samples` returns None)). The sample points of all lines at once (np.linspace's
     arithmetic per line: arange x step + start, the end exact), the inside test per face, the
-    derivatives of all faces in one compiled call (`seams._derivatives01`: the kernel of
-    `surface_derivatives` with nd = 1, point by point, the parameters clipped as it clips them), so the
-    numbers of `_g1_samples`; per face where a line's step is 0 (np.linspace's other path), a surface is
+    derivatives per face in one call of the compiled kernel `surface_derivatives` calls (`seams._derivatives`:
+    its arguments prepared once per surface, the parameters clipped as it clips them), so the numbers of
+    `_g1_samples`; per face where a line's step is 0 (np.linspace's other path), a surface is
     not a NurbsSurface or a point not finite."""
     from ..model import NurbsSurface
     from ..quality.sampling import inside_face
-    from .seams import _derivatives01
+    from .seams import _derivatives
 
     rows = []           # per line: face, axis, knot value, its axis' domain (a, b), the other's (c, d)
     for q, (face, lines) in enumerate(items):
@@ -209,8 +209,16 @@ def _g1_samples_faces(items: list, n: int) -> tuple:
     n_lines = np.bincount(q_of[cnt > 0], minlength=len(items)).astype(np.int64)
     m = len(pts) // 2
     fo = np.repeat(q_of, cnt)
-    dd = _derivatives01([face for face, _ in items], np.concatenate([fo, fo]), pts, cache=False)
-    return (dd[1, :m], dd[2, :m], dd[1, m:], dd[2, m:], cnt[cnt > 0]), n_lines
+    # per face its points (both sides) in one evaluation
+    order = np.argsort(np.concatenate([fo, fo]), kind="stable")
+    at = np.searchsorted(np.concatenate([fo, fo])[order], np.arange(len(items) + 1)).tolist()
+    su, sv = np.empty((len(pts), 3)), np.empty((len(pts), 3))
+    for q in range(len(items)):
+        if at[q + 1] > at[q]:
+            r = order[at[q]:at[q + 1]]
+            dd = _derivatives(surfaces[q], pts[r], 1)
+            su[r], sv[r] = dd[1, 0], dd[0, 1]
+    return (su[:m], sv[:m], su[m:], sv[m:], cnt[cnt > 0]), n_lines
 
 
 def _g1_samples_per_face(items: list, n: int) -> tuple:

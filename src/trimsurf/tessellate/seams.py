@@ -478,15 +478,6 @@ def _packed(faces):
     hit = _PACKED.get(id(faces))
     if hit is not None and hit[0] is faces and hit[1] == tuple(map(id, faces)):    # (the entry keeps its items
         return hit[2]                                                                #  alive: their ids are theirs)
-    out = _pack(faces)
-    if len(_PACKED) >= 2:       # (it keeps its faces alive: a batch of shells must not pile up)
-        _PACKED.clear()
-    _PACKED[id(faces)] = (faces, tuple(map(id, faces)), out, tuple(faces))
-    return out
-
-
-def _pack(faces):
-    """`_packed(faces)`, built (not cached)."""
     nf = len(faces)
     deg = np.ones((nf, 2), dtype=np.int64)
     kofs = np.zeros((nf, 3), dtype=np.int64)
@@ -516,18 +507,21 @@ def _pack(faces):
     # (read-only, as `_kernel_args` hands them to the per-face kernel: the same compiled `_surface_point01`)
     args = (deg, kofs, read_only(np.concatenate(knots) if knots else np.zeros(0)), pofs, pshape,
             read_only(np.concatenate(pws) if pws else np.zeros(0)), rational, dom)
-    return (args, np.array([True if f is None else bool(f.same_sense) for f in faces], dtype=bool),
-            all(f is None or type(f.surface) is NurbsSurface for f in faces))
+    out = (args, np.array([True if f is None else bool(f.same_sense) for f in faces], dtype=bool),
+           all(f is None or type(f.surface) is NurbsSurface for f in faces))
+    if len(_PACKED) >= 2:       # (it keeps its faces alive: a batch of shells must not pile up)
+        _PACKED.clear()
+    _PACKED[id(faces)] = (faces, tuple(map(id, faces)), out, tuple(faces))
+    return out
 
 
-def _derivatives01(faces, face_of, pts, cache: bool = True) -> np.ndarray:
+def _derivatives01(faces, face_of, pts) -> np.ndarray:
     """(3, p, 3): S, S_u, S_v of faces[face_of[i]].surface at pts[i] in one compiled call, the values of
-    `_derivatives(surface, pts, 1)` per face (every used surface a NurbsSurface, `pts` finite).
-    cache=False: the faces' packing is built for this call only (`_pack`; a list used once)."""
+    `_derivatives(surface, pts, 1)` per face (every used surface a NurbsSurface, `pts` finite)."""
     out = np.empty((3, len(pts), 3))
     if len(pts):
         face_of = np.asarray(face_of, dtype=np.int64)
-        _multi_derivatives_kernel(*(_packed(faces) if cache else _pack(faces))[0], face_of, np.ascontiguousarray(pts[:, 0], dtype=np.float64),
+        _multi_derivatives_kernel(*_packed(faces)[0], face_of, np.ascontiguousarray(pts[:, 0], dtype=np.float64),
                                   np.ascontiguousarray(pts[:, 1], dtype=np.float64),
                                   np.argsort(face_of), out)       # (grouped by face; any order within)
     return out
