@@ -161,3 +161,38 @@ def test_knots_in_edge_values():
             break
     assert not np.signbit(ref[ref == 0.0][0]) and np.signbit(x[x == 0.0][0])
     _same_array(_knots_in(x, -0.5, 0.5), ref)
+
+
+def test_increasing_only_where_the_linspace_increases():
+    """`face._increasing` (an argued bound) never says True where `_linspace(a, b, n)` does not increase
+    strictly: random boxes of every scale, steps just above and below its threshold, huge and tiny
+    values, subnormal steps; and it says True on the usual boxes (else it saves nothing)."""
+    from trimsurf.tessellate.face import _U, _increasing, _linspace, _with_knots
+
+    rng = np.random.default_rng(7)
+    cases = []
+    for _ in range(4000):
+        a = float(rng.uniform(-1, 1) * 10.0 ** rng.integers(-30, 30))
+        n = int(rng.integers(2, 40))
+        scale = abs(a) if a else 1.0
+        # steps from far below to far above 8u (|a| + |b| + (b - a)): around the bound
+        s = scale * 8.0 * _U * float(rng.uniform(0.1, 10.0)) * (4.0 if rng.random() < 0.5 else 1.0)
+        if rng.random() < 0.3:
+            s = scale * float(rng.uniform(1e-3, 1.0))
+        cases.append((a, a + s * (n - 1), n))
+    cases += [(0.0, 1.0, 17), (-1.0, 1.0, 24), (1e300, 1.1e300, 17), (-5e-324, 5e-324, 2), (0.0, 1e-310, 17),
+              (1.0, 1.0 + 2 ** -40, 17), (0.0, 1.5e-323, 17), (0.0, 3e-322, 40), (1.0, 1.0, 17), (2.0, 1.0, 17), (0.0, np.inf, 17), (0.0, np.nan, 17)]
+    n_true = 0
+    for a, b, n in cases:
+        if not np.isfinite(b):
+            assert not _increasing(a, b, n)
+            continue
+        y = _linspace(a, b, n)
+        inc = bool((y[1:] > y[:-1]).all())
+        if _increasing(a, b, n):
+            n_true += 1
+            assert inc, (a, b, n)
+        _same(( _with_knots(a, b, n, np.zeros(0)),), (
+            y if inc else __import__("trimsurf.tessellate.domain", fromlist=["x"]).unique_values(y),))
+    assert n_true >= 1000
+    assert _increasing(0.0, 1.0, 17) and _increasing(np.float64(-3.0), np.float64(2.5), 24)

@@ -395,11 +395,31 @@ def _knots_in_numpy(knots: np.ndarray, a: float, b: float) -> np.ndarray:
 
 def _with_knots(a, b, n: int, kin: np.ndarray) -> np.ndarray:
     """unique_values(np.concatenate((_linspace(a, b, n), kin))) (the same array): the linspace itself
-    when there are no knots and its values increase strictly (nothing to sort or drop)."""
+    when there are no knots and its values increase strictly (nothing to sort or drop; `_increasing`
+    says so from a, b and n where it can, else the values are compared)."""
     y = _linspace(a, b, n)
-    if not len(kin) and bool((y[1:] > y[:-1]).all()):
+    if not len(kin) and (_increasing(a, b, n) or bool((y[1:] > y[:-1]).all())):
         return y
     return unique_values(np.concatenate((y, kin)))
+
+
+_U = 2.0 ** -53             # the unit roundoff
+_TINY = 2.0 ** -1000        # steps below: subnormal rounding is not relative (`_increasing` does not decide)
+
+
+def _increasing(a, b, n: int) -> bool:
+    """True only if `_linspace(a, b, n)` increases strictly (False: not known). The values are
+    y_i = fl(fl(i s) + a) (i < n - 1) and y_{n-1} = b with s = fl((b - a) / (n - 1)); each rounding is
+    relative, at most u = 2^-53 (s >= 2^-1000: no value between 0 and the normal range is rounded
+    but with an absolute error below 2^-1075, far below s). Then y_{i+1} - y_i >= s - 2u (n - 1) s (1 + u) -
+    u (|t_i + a| + |t_{i+1} + a|) and b - y_{n-2} >= s / (1 + u) - 3u (b - a) - u (|a| + 2 (b - a)), both
+    positive when s > 8u (|a| + |b| + (b - a)), as required here (with b > a, both finite). Argued bound;
+    the tests compare it with the values on many a, b, n, near the bound too."""
+    a, b = float(a), float(b)
+    if n < 2 or not (math.isfinite(a) and math.isfinite(b) and b > a):
+        return False
+    s = (b - a) / (n - 1)
+    return s >= _TINY and s > 8.0 * _U * (abs(a) + abs(b) + (b - a))
 
 
 def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
