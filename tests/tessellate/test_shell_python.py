@@ -196,3 +196,28 @@ def test_increasing_only_where_the_linspace_increases():
             y if inc else __import__("trimsurf.tessellate.domain", fromlist=["x"]).unique_values(y),))
     assert n_true >= 1000
     assert _increasing(0.0, 1.0, 17) and _increasing(np.float64(-3.0), np.float64(2.5), 24)
+
+
+@pytest.mark.parametrize("model", ["trimesh__featuretype.STEP", "gmsh__U_Joint_2.stp"])
+def test_straight_info_kept_equals_computed(shared_data, model):
+    """`face._straight_info`'s kept answers (`_STRAIGHT`) are the computed ones, with and without the
+    caller's `common`, for every surface and axis of the model; a writable net is not kept."""
+    from trimsurf.geom.nurbs import _homogeneous
+    from trimsurf.tessellate import face as fm
+
+    shell = read_shell(shared_data / "cad" / model)
+    fm._STRAIGHT.clear()
+    n_straight = 0
+    for f in shell.faces:
+        s = f.surface
+        pw = _homogeneous(s.control_points, s.weights)
+        for axis in (0, 1):
+            ref = fm._straight_info_computed(s, axis, pw) if fm._straight_dir(s, axis) else None
+            for common in (None, fm._net_extremes(s, pw), None):
+                assert fm._straight_info(s, axis, pw, common) == ref
+            n_straight += ref is not None
+            if ref is not None:
+                assert fm._STRAIGHT[(id(s), axis)][2] == ref
+                w = np.array(pw)            # (a writable copy: computed, not kept)
+                assert fm._straight_info(s, axis, w) == ref and fm._STRAIGHT[(id(s), axis)][1] is pw
+    assert n_straight >= 10

@@ -307,10 +307,31 @@ def _straight_info(s, axis: int, pw: np.ndarray, common: tuple | None = None):
     span) or the net is not finite with positive weights, else (bound, delta, dmax, k0, k1, same_w):
     `straight_bound` and its point noise delta, the largest difference of the net across the moving
     direction, the moving parameter's span, and whether each row's weights are the same at both ends.
-    `common`: the surface's `_net_extremes` when the caller has them (both axes share them)."""
-    cp = s.control_points
+    `common`: the surface's `_net_extremes(s, pw)` when the caller has them (both axes share them).
+
+    Straight lines' answers are kept per (surface, axis, net) (`_STRAIGHT`: a face's placement start and
+    its line families ask twice; the model's surfaces and nets are read-only, the entry keeps them alive so
+    that their ids are theirs)."""
     if not _straight_dir(s, axis):
         return None
+    hit = _STRAIGHT.get((id(s), axis))
+    if hit is not None and hit[0] is s and hit[1] is pw:
+        return hit[2]
+    out = _straight_info_computed(s, axis, pw, common)
+    if not s.control_points.flags.writeable and not pw.flags.writeable and (
+            s.weights is None or not s.weights.flags.writeable):
+        if len(_STRAIGHT) > 4096:
+            _STRAIGHT.clear()
+        _STRAIGHT[(id(s), axis)] = (s, pw, out)
+    return out
+
+
+_STRAIGHT: dict = {}    # (id(surface), axis) -> (surface, net, `_straight_info`) of straight lines
+
+
+def _straight_info_computed(s, axis: int, pw: np.ndarray, common: tuple | None = None):
+    """`_straight_info` computed (lines along `axis` straight)."""
+    cp = s.control_points
     if common is None:
         common = _net_extremes(s, pw)
     big, hw, wmin, wmax = common
