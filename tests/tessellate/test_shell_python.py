@@ -221,3 +221,20 @@ def test_straight_info_kept_equals_computed(shared_data, model):
                 w = np.array(pw)            # (a writable copy: computed, not kept)
                 assert fm._straight_info(s, axis, w) == ref and fm._STRAIGHT[(id(s), axis)][1] is pw
     assert n_straight >= 10
+
+
+def test_normals_rows_equal_normals():
+    """`seams._normals_rows` (scalars, a swap candidate's one or two triangles) against `seams._normals`, bit
+    for bit, on coordinates of many scales, degenerate triangles and a repeated vertex."""
+    from trimsurf.tessellate.seams import _normals, _normals_rows
+
+    rng = np.random.default_rng(11)
+    V = rng.normal(size=(60, 3)) * 10.0 ** rng.integers(-8, 8, size=(60, 1))
+    V[5] = V[4] + 1e-17
+    V[7] = 0.5 * (V[8] + V[9])
+    rows = [tuple(int(x) for x in rng.choice(60, 3, replace=False)) for _ in range(300)]
+    rows += [(4, 5, 6), (7, 8, 9), (1, 1, 2), (3, 2, 3)]
+    for k in range(0, len(rows), 2):
+        sel = rows[k:k + 2]
+        got, ref = _normals_rows(V, sel), _normals(V, np.array(sel, dtype=np.int64))
+        assert got.dtype == ref.dtype and got.shape == ref.shape and got.tobytes() == ref.tobytes()
