@@ -1276,29 +1276,57 @@ def cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, us, vs, ia, ib, flags,
             uv[c, 2, 0], uv[c, 2, 1] = u1, v1
             uv[c, 3, 0], uv[c, 3, 1] = u0, v1
             uv[c, 4, 0], uv[c, 4, 1] = 0.5 * (u0 + u1), 0.5 * (v0 + v1)
-            for k in range(5):
-                if k < 4:
-                    gi = ia[c] + (1 if k == 1 or k == 2 else 0)
-                    gj = ib[c] + (1 if k >= 2 else 0)
-                    if have[gi, gj]:
-                        for q in range(3):
-                            p[c, k, q] = node[gi, gj, q]
-                        continue
+            for k in range(4):
+                gi = ia[c] + (1 if k == 1 or k == 2 else 0)
+                gj = ib[c] + (1 if k >= 2 else 0)
+                if have[gi, gj]:
+                    for q in range(3):
+                        p[c, k, q] = node[gi, gj, q]
+                    continue
                 _surface_distance1(pu, pv, ku, kv, pw, rational, uv[c, k, 0], uv[c, k, 1], 0.0, 0.0, 0.0, zero,
                                    u_lo, u_hi, v_lo, v_hi, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp,
                                    skl, res)
                 for q in range(3):
                     p[c, k, q] = res[0, q]
-                if k < 4:
-                    have[gi, gj] = True
-                    for q in range(3):
-                        node[gi, gj, q] = res[0, q]
+                have[gi, gj] = True
+                for q in range(3):
+                    node[gi, gj, q] = res[0, q]
+            # the centre once with its derivatives: its point (the position `_surface_point01` computes
+            # with nd = 1 is nd = 0's, the same operations) and the first step of both diagonals' distances,
+            # `_surface_distance1` (one step) from there with the same operations: the start evaluation each
+            # of the two calls made (and the centre's own) done once
+            uc0, vc0 = uv[c, 4, 0], uv[c, 4, 1]
+            _surface_point01(pu, pv, ku, kv, pw, rational, min(max(uc0, u_lo), u_hi), min(max(vc0, v_lo), v_hi),
+                             one, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
+            c0, c1, c2 = res[0, 0], res[0, 1], res[0, 2]
+            p[c, 4, 0], p[c, 4, 1], p[c, 4, 2] = c0, c1, c2
+            su0, su1, su2 = res[1, 0], res[1, 1], res[1, 2]
+            sv0, sv1, sv2 = res[2, 0], res[2, 1], res[2, 2]
+            ga = su0 * su0 + su1 * su1 + su2 * su2
+            gb = su0 * sv0 + su1 * sv1 + su2 * sv2
+            gc = sv0 * sv0 + sv1 * sv1 + sv2 * sv2
+            det = ga * gc - gb * gb
+            solve = np.isfinite(det) and det > 1e-12 * max(ga * gc, 1e-300)
             for h in range(2):
                 i0, i1 = (0, 2) if h == 0 else (1, 3)
-                out_d[c, h] = _surface_distance1(pu, pv, ku, kv, pw, rational, uv[c, 4, 0], uv[c, 4, 1],
-                                                 0.5 * (p[c, i0, 0] + p[c, i1, 0]), 0.5 * (p[c, i0, 1] + p[c, i1, 1]),
-                                                 0.5 * (p[c, i0, 2] + p[c, i1, 2]), one, u_lo, u_hi, v_lo, v_hi,
-                                                 ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
+                x0 = 0.5 * (p[c, i0, 0] + p[c, i1, 0])
+                x1 = 0.5 * (p[c, i0, 1] + p[c, i1, 1])
+                x2 = 0.5 * (p[c, i0, 2] + p[c, i1, 2])
+                r0, r1, r2 = x0 - c0, x1 - c1, x2 - c2
+                bd = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+                ru = su0 * r0 + su1 * r1 + su2 * r2
+                rv = sv0 * r0 + sv1 * r1 + sv2 * r2
+                if solve:
+                    un = min(max(uc0 + (gc * ru - gb * rv) / det, u_lo), u_hi)
+                    vn = min(max(vc0 + (ga * rv - gb * ru) / det, v_lo), v_hi)
+                else:
+                    un = min(max(uc0, u_lo), u_hi)
+                    vn = min(max(vc0, v_lo), v_hi)
+                _surface_point01(pu, pv, ku, kv, pw, rational, min(max(un, u_lo), u_hi), min(max(vn, v_lo), v_hi),
+                                 zero, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
+                r0, r1, r2 = x0 - res[0, 0], x1 - res[0, 1], x2 - res[0, 2]
+                dist = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+                out_d[c, h] = dist if dist < bd else bd
         return
     if op == 2:
         q8 = np.empty((8, 2))
