@@ -188,3 +188,42 @@ def test_refine_round_bulges_equal_numpy(t20):
         assert np.array_equal(cu, su >= 0.5 * sv) and np.array_equal(cv, sv >= 0.5 * su)
         n += int(np.sum(cu != cv))
     assert n > 0
+
+
+def test_cell_centres_and_diagonal_fits_equal_the_per_point_path(t20):
+    """`cell_surface_kernel` op 0 evaluates a cell's centre once with its derivatives and takes both
+    diagonals' one-step distances from it: its points and distances are bit for bit those of the per-point
+    path it replaces (`NurbsSurface.evaluate` of the corners and the centre, `surface_distance(..., steps=1)`
+    of the diagonals' midpoints from the centre, `face._diagonal_fits`), also for grids reaching past the
+    surface's domain (clipped starts and steps) and at the degenerate rows of a cone's apex (the step's
+    singular system: no step)."""
+    from trimsurf.tessellate._line_kernels import cell_surface_kernel
+    from trimsurf.tessellate.face import _BARY, _CellCache, _diagonal_fits
+
+    from trimsurf.model.nurbs import NurbsSurface
+    from trimsurf.model.trim import TrimmedFace
+
+    # a rational quarter cone, its v = 1 row collapsed to the apex (S_u = 0 there: no step from it)
+    r = np.sqrt(0.5)
+    cp = np.array([[[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]], [[1.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+                   [[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]])
+    cone = NurbsSurface(2, 1, [0, 0, 0, 1, 1, 1], [0, 0, 1, 1], cp, np.array([[1.0, 1.0], [r, r], [1.0, 1.0]]))
+    faces = _faces(t20) + [TrimmedFace(cone)]
+    n_out = n_cells = 0
+    for face in faces:
+        s = face.surface
+        (u0, u1), (v0, v1) = s.domain
+        du, dv = u1 - u0, v1 - v0
+        for us, vs in ((np.linspace(u0, u1, 9), np.linspace(v0, v1, 7)),
+                       (np.linspace(u0 - 0.3 * du, u1 + 0.2 * du, 8), np.linspace(v0 - 0.25 * dv, v1 + 0.1 * dv, 6))):
+            ia, ib = (a.ravel() for a in np.meshgrid(np.arange(len(us) - 1), np.arange(len(vs) - 1), indexing="ij"))
+            k = len(ia)
+            uv, p, d = np.empty((k, 5, 2)), np.empty((k, 5, 3)), np.empty((k, 2))
+            cell_surface_kernel(0, *_CellCache(s)._surf, us, vs, ia, ib, np.zeros(0, bool), _BARY, uv, p, 0.0,
+                                np.zeros(0), np.zeros(0, bool), np.zeros(0, bool), d)
+            ref_p = s.evaluate(np.clip(uv.reshape(-1, 2), [u0, v0], [u1, v1])).reshape(k, 5, 3)
+            assert np.array_equal(p, ref_p)
+            assert np.array_equal(d, _diagonal_fits(s, us, vs))
+            n_out += int(np.sum((uv[:, 4, 0] < u0) | (uv[:, 4, 0] > u1) | (uv[:, 4, 1] < v0) | (uv[:, 4, 1] > v1)))
+            n_cells += k
+    assert n_out > 100 and n_cells > 500
