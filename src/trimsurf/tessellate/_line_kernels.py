@@ -1363,8 +1363,25 @@ def cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, us, vs, ia, ib, flags,
         return
     su = np.empty((2 * nb, 2))
     sx = np.empty((2 * nb, 3))
+    # the two triangles share the split diagonal: its midpoint's sample in the second triangle (kd) is
+    # the first's (ko) where their parameters and points have the same bits (the same sample: the same
+    # distance, which the maxima below already hold): per split, the bary rows of the midpoints of the
+    # triangles' edges (t0, t2) and (t0, t1) (main split, corners 0 2), (t1, t2) and (t0, t2) (the other)
+    e01 = e02 = e12 = -1
+    for b in range(nb):
+        if bary[b, 0] == 0.5 and bary[b, 1] == 0.5 and bary[b, 2] == 0.0:
+            e01 = b
+        elif bary[b, 0] == 0.5 and bary[b, 1] == 0.0 and bary[b, 2] == 0.5:
+            e02 = b
+        elif bary[b, 0] == 0.0 and bary[b, 1] == 0.5 and bary[b, 2] == 0.5:
+            e12 = b
     for c in range(n):
         r = ia[c]
+        ko, kd = (e02, e01) if flags[c] else (e12, e02)
+        if ko >= 0 and kd >= 0:
+            kd += nb
+        else:
+            ko = kd = -1
         for s in range(2):
             if flags[c]:
                 t0, t1, t2 = (0, 1, 2) if s == 0 else (0, 2, 3)
@@ -1378,7 +1395,15 @@ def cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, us, vs, ia, ib, flags,
                     sx[k, q] = (bary[b, 0] * p[r, t0, q] + bary[b, 1] * p[r, t1, q]) + bary[b, 2] * p[r, t2, q]
         bnd = 0.0
         ex = 0.0
+        skip = kd >= 0
+        if skip:
+            for q in range(2):
+                skip = skip and _same_bits(su[kd, q], su[ko, q])
+            for q in range(3):
+                skip = skip and _same_bits(sx[kd, q], sx[ko, q])
         for k in range(2 * nb):
+            if skip and k == kd:
+                continue
             if screen > 0:
                 d0 = _surface_distance1(pu, pv, ku, kv, pw, rational, su[k, 0], su[k, 1], sx[k, 0], sx[k, 1],
                                         sx[k, 2], zero, u_lo, u_hi, v_lo, v_hi, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v,
