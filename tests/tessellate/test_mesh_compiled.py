@@ -193,25 +193,65 @@ def test_compiled_triangulation_on_real_faces(shared_data, monkeypatch, mode):
     assert fallback[0] == 0         # every face of the screw took the compiled path
 
 
-def _sliver_calls(shell, mode):
-    """The arguments of every `collapse_boundary_slivers` call of a tessellation."""
+def _sliver_calls(shell, mode, raw=False):
+    """The arguments of every `collapse_boundary_slivers` call of a tessellation (made by
+    `collapse_face_slivers`: its triangles oriented, its trim vertices as a mask); raw: the arguments of
+    `collapse_face_slivers` as they are."""
     import trimsurf.tessellate.face as face_mod
     from trimsurf.tessellate import tessellate_shell
 
     calls = []
-    real = face_mod.collapse_boundary_slivers
+    real = face_mod.collapse_face_slivers
 
     def rec(*a, **k):
         calls.append((a, k))
         return real(*a, **k)
 
     d = shell.diagonal()
-    face_mod.collapse_boundary_slivers = rec
+    face_mod.collapse_face_slivers = rec
     try:
         tessellate_shell(shell, tolerance=1e-3 * d, max_edge=d if mode == "tol" else 3e-2 * d, measure=False)
     finally:
-        face_mod.collapse_boundary_slivers = real
-    return calls
+        face_mod.collapse_face_slivers = real
+    if raw:
+        return calls
+    out = []
+    for (s, uv, xyz, tris, reverse, grid_node, n_trim), k in calls:
+        fixed = (grid_node < 0) | (np.arange(len(uv)) < n_trim)
+        out.append(((s, uv, xyz, np.ascontiguousarray(tris[:, ::-1] if reverse else tris), fixed), k))
+    return out
+
+
+def test_face_slivers_equal_general(shared_data):
+    """`collapse_face_slivers` (the copy, the trim mask and the first candidates in one compiled pass, kept
+    None for the identity) equals `collapse_boundary_slivers` on the oriented triangles and the trim mask,
+    on every face of t20, the screw and featuretype (both senses), at the default angle and at larger
+    ones with a looser tolerance (collapses)."""
+    from trimsurf.io import read_shell
+    from trimsurf.tessellate.slivers import collapse_boundary_slivers, collapse_face_slivers
+
+    n = {"cmp": 0, "identity": 0, "rounds": 0, "collapsed": 0, "reversed": 0}
+    for name in ("gmsh__t20_data.step", "occt__screw.step", "trimesh__featuretype.STEP"):
+        shell = read_shell(shared_data / "cad" / name)
+        for (s, uv, xyz, tris, reverse, grid_node, n_trim), k in _sliver_calls(shell, "tol", raw=True):
+            fixed = (grid_node < 0) | (np.arange(len(uv)) < n_trim)
+            oriented = np.ascontiguousarray(tris[:, ::-1] if reverse else tris)
+            for lim, scale in ((12.0, 1.0), (30.0, 100.0), (55.0, 100.0)):
+                kw = dict(k, min_angle_deg=lim, tolerance=scale * k["tolerance"], max_edge=np.inf)
+                t1, kept1 = collapse_face_slivers(s, uv, xyz, tris, reverse, grid_node, n_trim, **kw)
+                t2, kept2 = collapse_boundary_slivers(s, uv, xyz, oriented, fixed, **kw)
+                assert t1.dtype == t2.dtype == np.int64 and t1.flags.c_contiguous
+                assert np.array_equal(t1, t2)
+                if kept1 is None:
+                    assert np.array_equal(kept2, np.arange(len(tris))) and np.array_equal(t1, oriented)
+                    n["identity"] += 1
+                else:
+                    assert np.array_equal(kept1, kept2)
+                    n["rounds"] += 1
+                n["cmp"] += 1
+                n["collapsed"] += len(t2) < len(tris)
+                n["reversed"] += bool(reverse)
+    assert n["cmp"] > 200 and n["identity"] > 50 and n["rounds"] > 20 and n["collapsed"] > 0 and n["reversed"] > 20, n
 
 
 def test_compiled_slivers_equal_numpy(shared_data):
@@ -288,7 +328,12 @@ def _reference_paths(monkeypatch):
         return p, x, v, keep, 2 if status == 1 else status
 
     monkeypatch.setattr(face_mod, "triangulate_domain", numpy_triangulation)
-    monkeypatch.setattr(face_mod, "collapse_boundary_slivers", _collapse_boundary_slivers_numpy)
+    def numpy_slivers(s, uv, xyz, tris, reverse, grid_node, n_trim, **k):
+        fixed = (grid_node < 0) | (np.arange(len(uv)) < n_trim)
+        return _collapse_boundary_slivers_numpy(s, uv, xyz, np.ascontiguousarray(tris[:, ::-1] if reverse else tris),
+                                                fixed, **k)
+
+    monkeypatch.setattr(face_mod, "collapse_face_slivers", numpy_slivers)
     monkeypatch.setattr(face_mod, "trim_loop_kernel", loop_always_checked)
     monkeypatch.setattr(face_mod._TriangleDeviations, "start_bound",
                         lambda self, uv, xyz, t: np.full(len(t), np.inf))

@@ -1383,6 +1383,9 @@ def _face_loops_numpy(face: TrimmedFace, loop_chunks: list, tolerance) -> tuple:
     return polys, np.concatenate(xyzs), np.concatenate(vids), removed, None
 
 
+from .slivers import collapse_face_slivers  # noqa: E402
+
+
 def _face_loops(face: TrimmedFace, loop_chunks: list, tolerance) -> tuple:
     """The trim polygons of a face from its loops' chunks (`mesh_face_from_chunks`): (polygons (list of
     (k, 2)), their points' xyz and vertex ids concatenated, points cut out by `remove_polygon_loops`,
@@ -1505,17 +1508,19 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
     n_trim = dt.n_trim
     vid = np.full(len(dt.uv), -1, dtype=np.int64)
     vid[:n_trim] = trim_vid
-    tris = dt.triangles if face.same_sense else dt.triangles[:, ::-1]
     quads = dt.quads
     kept = None
     if tol is not None and slivers:
-        # boundary-only reduction of thin triangles (grid nodes next to the trim); trim points stay
-        fixed = (dt.grid_node < 0) | (np.arange(len(dt.uv)) < n_trim)
-        tris, kept = collapse_boundary_slivers(s, dt.uv, xyz, np.ascontiguousarray(tris), fixed, tolerance=tol,
-                                               max_edge=max_edge)
-        quads = kept[quads] if len(quads) else quads
-        quads = quads[(quads >= 0).all(axis=1)] if len(quads) else quads
-    tris = np.ascontiguousarray(tris)
+        # boundary-only reduction of thin triangles (grid nodes next to the trim); trim points stay (those of
+        # the trim and Triangle's: grid_node < 0); kept None where no triangle changed (the identity, which
+        # leaves the quads and `_face_tri_dev`'s numbers as they are)
+        tris, kept = collapse_face_slivers(s, dt.uv, xyz, dt.triangles, not face.same_sense, dt.grid_node, n_trim,
+                                           tolerance=tol, max_edge=max_edge)
+        if kept is not None:
+            quads = kept[quads] if len(quads) else quads
+            quads = quads[(quads >= 0).all(axis=1)] if len(quads) else quads
+    else:
+        tris = np.ascontiguousarray(dt.triangles if face.same_sense else dt.triangles[:, ::-1])
     task = None
     if plane_delta is not None:
         # the exact bound: the distance to the plane is affine on a triangle, its largest at a corner (a

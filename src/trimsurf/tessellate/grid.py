@@ -550,7 +550,7 @@ def _domain_prepare_kernel(pts, lens, us, vs, extra, cell_main, has_main, shear,
     if not ok:      # the numpy path's case
         z2, zi = np.empty((0, 2)), np.empty(0, dtype=np.int64)
         return (3, z2, zi, np.empty((0, 3), dtype=np.int64), np.empty((0, 2), dtype=np.int64),
-                np.zeros((0, 0), dtype=np.bool_), z2, 0.0, 1.0, 0, zi, zi, z2, np.empty((0, 2), dtype=np.int64), zi,
+                np.zeros((0, 0), dtype=np.bool_), z2, 0.0, 1.0, 0, zi, zi, z2, np.empty((0, 2), dtype=np.int32), zi,
                 np.zeros(2), np.ones(2))
     seg_b, p1, crossed, e_ok, y0, h, n_slab, start, edges, keep = _domain_cells(pts, lens, us, vs, extra)
     nq = 0
@@ -607,12 +607,12 @@ def _domain_prepare_kernel(pts, lens, us, vs, extra, cell_main, has_main, shear,
         quads[k, 0] = k
         quads[k, 1] = nq + k
     q = np.empty((0, 2))
-    lseg = np.empty((0, 2), dtype=np.int64)
+    no_seg = np.empty((0, 2), dtype=np.int32)     # Triangle's segments (its C int) where it is not called
     used = np.empty(0, dtype=np.int64)
     lo = np.zeros(2)
     scale = np.ones(2)
     if not any_crossed:
-        return (0, uv, grid_node, grid_tris, quads, crossed, p1, y0, h, n_slab, start, edges, q, lseg, used,
+        return (0, uv, grid_node, grid_tris, quads, crossed, p1, y0, h, n_slab, start, edges, q, no_seg, used,
                 lo, scale)
     n_base = n_trim + n_node
     # constraint segments: the trim segments, then the crossed cells' sides (`_side_segments`)
@@ -690,7 +690,7 @@ def _domain_prepare_kernel(pts, lens, us, vs, extra, cell_main, has_main, shear,
         local[used[c]] = c
     n_q = used.shape[0]
     if n_q == 0:
-        return (2, uv, grid_node, grid_tris, quads, crossed, p1, y0, h, n_slab, start, edges, q, lseg, used,
+        return (2, uv, grid_node, grid_tris, quads, crossed, p1, y0, h, n_slab, start, edges, q, no_seg, used,
                 lo, scale)
     hi = np.empty(2)
     for d in range(2):
@@ -714,7 +714,7 @@ def _domain_prepare_kernel(pts, lens, us, vs, extra, cell_main, has_main, shear,
     for r in range(m):
         lseg[r, 0], lseg[r, 1] = local[seg[r, 0]], local[seg[r, 1]]
     if not finite or not _is_clean_kernel(q, lseg, snap, bound):
-        return (2, uv, grid_node, grid_tris, quads, crossed, p1, y0, h, n_slab, start, edges, q, lseg, used,
+        return (2, uv, grid_node, grid_tris, quads, crossed, p1, y0, h, n_slab, start, edges, q, no_seg, used,
                 lo, scale)
     # `_unique_segments`: sorted by (lower end, higher end), repeated ones once
     lo_s = np.empty(m)
@@ -733,7 +733,7 @@ def _domain_prepare_kernel(pts, lens, us, vs, extra, cell_main, has_main, shear,
         if u == 0 or k != keys[u - 1]:
             keys[u] = k
             u += 1
-    out = np.empty((u, 2), dtype=np.int64)
+    out = np.empty((u, 2), dtype=np.int32)      # Triangle's C int: its wrapper takes it as it is
     for r in range(u):
         out[r, 0] = keys[r] // n_k
         out[r, 1] = keys[r] % n_k
@@ -967,22 +967,27 @@ def _triangulate_compiled(us, vs, pts, polys, e, cell_main, tie_main):
         return None
     if status == 1:
         # `tr.triangulate({"vertices": q, "segments": lseg}, "pQ")` without its renaming of the dicts' keys:
-        # the same call of Triangle (its options string too)
+        # the same triangulation (`TRIANGLE_OPTS`), the arrays in the wrapper's types (float64, C int: no
+        # conversion) and back as it gives them (the points float64, the triangles C int)
         # (the wrapper, not Triangle's C function from compiled code: Triangle ends an internal error by a
         # longjmp to the buffer the wrapper sets, so only the wrapper turns one into an exception)
-        res, _ = _triang({"pointlist": q, "segmentlist": lseg}, "Qz{pQ}")
+        res, _ = _triang({"pointlist": q, "segmentlist": lseg}, TRIANGLE_OPTS)
         out_v, out_t = res["pointlist"], res["trianglelist"]
     else:
         out_v, out_t = _EMPTY2, _EMPTY_TRI
     uv, tris, grid_node, quads, n_crossed = _domain_finish_kernel(
-        uv, grid_node, grid_tris, quads, np.ascontiguousarray(out_v, dtype=np.float64),
-        np.ascontiguousarray(out_t, dtype=np.int64), used, lo, scale, shear, us, vs, crossed, pts, p1, y0, h,
+        uv, grid_node, grid_tris, quads, out_v, out_t, used, lo, scale, shear, us, vs, crossed, pts, p1, y0, h,
         n_slab, start, edges)
     return DomainTriangulation(uv, tris, len(pts), grid_node, quads, int(n_crossed), int(crossed.size))
 
 
 _EMPTY_BOOL = np.zeros(0, dtype=np.bool_)
-_EMPTY_TRI = np.zeros((0, 3), dtype=np.int64)
+_EMPTY_TRI = np.zeros((0, 3), dtype=np.intc)
+
+#: Triangle's switches of the compiled path: tr.triangulate(..., "pQ") passes "Qz{pQ}" (Q quiet, z indices from
+#: 0, p the segments; its parser skips the braces); P and B only leave out the output segments and the
+#: boundary markers (not read), the points and triangles are the same (tests/tessellate/test_mesh_compiled.py)
+TRIANGLE_OPTS = "QzpPB"
 
 
 def _triangulate_domain_numpy(us, vs, polygons, *, split=None, extra=None, metric=None,

@@ -299,23 +299,41 @@ def collapse_boundary_slivers(surface, uv: np.ndarray, xyz: np.ndarray, triangle
     T = triangles.copy()
     alive = np.ones(len(T), dtype=bool)
     changed = np.zeros(len(T), dtype=bool)
-    nv = len(uv)
     angle = np.full(len(T), np.nan)
-    # a triangle whose every cosine is at most this one is not thin (a margin far above the arc cosine's
-    # rounding): `_sliver_candidates_kernel`
-    cos_lim = math.cos(math.radians(min_angle_deg + 1e-6))
+    out = _sliver_rounds(surface, uv, xyz, T, is_trim, alive, changed, angle, None, tolerance, max_edge,
+                         min_angle_deg, rounds)
+    return (T, np.arange(len(T), dtype=np.int64)) if out is None else out
+
+
+def _cos_limit(min_angle_deg: float) -> float:
+    """A triangle whose every cosine is at most this one is not thin (a margin far above the arc cosine's
+    rounding): `_sliver_candidates_kernel`."""
+    return math.cos(math.radians(min_angle_deg + 1e-6))
+
+
+def _sliver_rounds(surface, uv, xyz, T, is_trim, alive, changed, angle, first, tolerance, max_edge, min_angle_deg,
+                   rounds):
+    """The rounds of `collapse_boundary_slivers` on T (in place; alive, changed, angle its state): (triangles,
+    kept), or None where the first round found no triangle whose angle was unsure (none is thin: T stays
+    as it is, kept the identity). `first`: the first round's (sgn, idx, mixed, unsure) when computed
+    (`_face_sliver_start_kernel`), else None."""
+    nv = len(uv)
+    cos_lim = _cos_limit(min_angle_deg)
     sgn = None
-    for _ in range(rounds):
+    for r in range(rounds):
         # candidates: triangles with trim and inner vertices, thin (their angles only: per triangle the same;
         # computed again once it changed)
-        sg, idx, mixed, unsure = _sliver_candidates_kernel(T, alive, is_trim, xyz, uv, angle, cos_lim,
-                                                           np.bool_(sgn is None))
+        if r == 0 and first is not None:
+            sg, idx, mixed, unsure = first
+        else:
+            sg, idx, mixed, unsure = _sliver_candidates_kernel(T, alive, is_trim, xyz, uv, angle, cos_lim,
+                                                               np.bool_(sgn is None))
         if sgn is None:
             sgn = sg
             if not len(unsure):
                 # the first round: every candidate's angle was settled "not thin" (inf), so no triangle is
                 # thin: what `_sliver_pick_kernel` and `_sliver_result_kernel` would return (T is a copy)
-                return T, np.arange(len(T), dtype=np.int64)
+                return None
         if not len(idx):
             break
         if len(unsure):
@@ -331,6 +349,47 @@ def collapse_boundary_slivers(surface, uv: np.ndarray, xyz: np.ndarray, triangle
                             (qs, mv, ms, gn, gs), tolerance, max_edge):
             break
     return _sliver_result_kernel(T, alive, changed)
+
+
+def collapse_face_slivers(surface, uv: np.ndarray, xyz: np.ndarray, triangles: np.ndarray, reverse: bool,
+                          grid_node: np.ndarray, n_trim: int, *, tolerance: float, max_edge: float,
+                          min_angle_deg: float = 12.0, rounds: int = 3) -> tuple:
+    """`collapse_boundary_slivers` of a face's triangulation (`face.mesh_face_from_chunks`): the triangles
+    `triangles[:, ::-1]` where `reverse`, the trim vertices those with `grid_node` < 0 or among the first
+    `n_trim`; the copy, the fixed vertices and the first round's candidates made in one compiled pass
+    (`_face_sliver_start_kernel`). Returns (triangles, kept), kept None where no triangle changed (the
+    identity: the triangles are the given ones, reversed where asked)."""
+    T, is_trim, angle, sg, idx, mixed, unsure = _face_sliver_start_kernel(
+        triangles, np.bool_(reverse), grid_node, np.int64(n_trim), xyz, uv, _cos_limit(min_angle_deg))
+    if not len(unsure):         # `_sliver_rounds`' first exit
+        return T, None
+    alive = np.ones(len(T), dtype=bool)
+    changed = np.zeros(len(T), dtype=bool)
+    out = _sliver_rounds(surface, uv, xyz, T, is_trim, alive, changed, angle, (sg, idx, mixed, unsure), tolerance,
+                         max_edge, min_angle_deg, rounds)
+    return (T, None) if out is None else out
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _face_sliver_start_kernel(tris, reverse, grid_node, n_trim, xyz, uv, cos_lim):
+    """`collapse_face_slivers`' start: T (a copy of tris, each row reversed where `reverse`), is_trim
+    (grid_node < 0 or among the first n_trim vertices), angle (NaN, then what the candidates settle) and
+    the first round's `_sliver_candidates_kernel` (sgn, idx, mixed, unsure) on every triangle alive."""
+    m = tris.shape[0]
+    T = np.empty((m, 3), dtype=np.int64)
+    for t in range(m):
+        if reverse:
+            T[t, 0], T[t, 1], T[t, 2] = tris[t, 2], tris[t, 1], tris[t, 0]
+        else:
+            T[t, 0], T[t, 1], T[t, 2] = tris[t, 0], tris[t, 1], tris[t, 2]
+    n = grid_node.shape[0]
+    is_trim = np.empty(n, dtype=np.bool_)
+    for i in range(n):
+        is_trim[i] = grid_node[i] < 0 or i < n_trim
+    alive = np.ones(m, dtype=np.bool_)
+    angle = np.full(m, np.nan)
+    sgn, idx, mixed, unsure = _sliver_candidates_kernel(T, alive, is_trim, xyz, uv, angle, cos_lim, np.bool_(True))
+    return T, is_trim, angle, sgn, idx, mixed, unsure
 
 
 @njit(cache=True, nogil=True)
