@@ -8,8 +8,8 @@ from numba import njit
 from ..geom._nurbs_kernels import _point_scratch, _surface_point01
 from ..geom.predicates import _segments_apart_kernel
 
-__all__ = ["cell_main_kernel", "deviation_samples", "deviation_start_bound", "face_loops_kernel", "lift_kernel",
-           "trim_loop_kernel"]
+__all__ = ["cell_main_kernel", "curved_kernel", "deviation_samples", "deviation_start_bound", "face_loops_kernel",
+           "lift_kernel", "trim_loop_kernel"]
 
 
 @njit(cache=True, nogil=True)
@@ -272,3 +272,45 @@ def cell_main_kernel(d, has_tol, tolerance, pref):
         switch = ((dp > half) and (do < 0.8 * dp)) or ((dp > most) and (do < 0.98 * dp))
         out[c] = (not pref) if switch else pref
     return out
+
+
+@njit(cache=True, nogil=True)
+def curved_kernel(cp, w, rational, has_tol, tolerance):
+    """True where `trimsurf.tessellate.face._plane_offset` certainly answers None (a weight not positive,
+    or the control points' spread along the control net's normal above its limit with a margin), False
+    where it must decide (a degenerate net, a near-planar one, or numbers not finite).
+
+    The spread: the points' products with the unit normal, each within gamma_3 * sum_k |p_k n_k| of the
+    exact one whatever the order of the sums (numpy's matmul, BLAS; gamma_3 < 3.4e-16); the margin
+    1e-14 (sum + spread) lies far above those roundings and the ones of the limit and the normal."""
+    if rational:
+        for i in range(w.shape[0]):
+            for j in range(w.shape[1]):
+                if not w[i, j] > 0:
+                    return True
+    nu, nv = cp.shape[0], cp.shape[1]
+    a0 = cp[nu - 1, nv - 1, 0] - cp[0, 0, 0]
+    a1 = cp[nu - 1, nv - 1, 1] - cp[0, 0, 1]
+    a2 = cp[nu - 1, nv - 1, 2] - cp[0, 0, 2]
+    b0 = cp[nu - 1, 0, 0] - cp[0, nv - 1, 0]
+    b1 = cp[nu - 1, 0, 1] - cp[0, nv - 1, 1]
+    b2 = cp[nu - 1, 0, 2] - cp[0, nv - 1, 2]
+    n0, n1, n2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+    ln2 = n0 * n0 + n1 * n1 + n2 * n2
+    s2 = max(a0 * a0 + a1 * a1 + a2 * a2, b0 * b0 + b1 * b1 + b2 * b2)
+    if not ln2 > 1e-12 * s2 * s2:
+        return False
+    size = np.sqrt(s2)
+    ln = np.sqrt(ln2)
+    n0, n1, n2 = n0 / ln, n1 / ln, n2 / ln
+    lo, hi, big = np.inf, -np.inf, 0.0
+    for i in range(nu):
+        for j in range(nv):
+            x, y, z = cp[i, j, 0], cp[i, j, 1], cp[i, j, 2]
+            dist = x * n0 + y * n1 + z * n2
+            lo = min(lo, dist)
+            hi = max(hi, dist)
+            big = max(big, abs(x * n0) + abs(y * n1) + abs(z * n2))
+    delta = 0.5 * (hi - lo)
+    limit = 1e-9 * size if not has_tol else min(1e-9 * size, 1e-3 * tolerance)
+    return delta - 1e-14 * (big + delta) > limit

@@ -1383,6 +1383,7 @@ def _face_loops_numpy(face: TrimmedFace, loop_chunks: list, tolerance) -> tuple:
     return polys, np.concatenate(xyzs), np.concatenate(vids), removed, None
 
 
+from ._mesh_kernels import curved_kernel  # noqa: E402
 from .slivers import collapse_face_slivers  # noqa: E402
 
 
@@ -1606,7 +1607,21 @@ def _plane_offset(surface, tolerance: float | None):
     """(delta, unit normal n, height h) when the surface's control points lie within a negligible delta
     of the plane n . x = h (delta at most 1e-9 of the control net's size and 1e-3 of the tolerance;
     positive weights): the surface, in the convex hull of its control points, lies within delta of the
-    plane. None for a curved surface."""
+    plane. None for a curved surface (most at once by `_mesh_kernels.curved_kernel`, for the model's arrays,
+    which cannot change; `_plane_offset_numpy` is the reference)."""
+    cp, w = surface.control_points, surface.weights
+    if (not cp.flags.writeable and (w is None or not w.flags.writeable) and cp.ndim == 3 and cp.shape[2] == 3
+            and curved_kernel(cp, _NO_W if w is None else w, w is not None, tolerance is not None,
+                              0.0 if tolerance is None else float(tolerance))):
+        return None
+    return _plane_offset_numpy(surface, tolerance)
+
+
+_NO_W = read_only(np.ones((1, 1)))
+
+
+def _plane_offset_numpy(surface, tolerance: float | None):
+    """`_plane_offset` in numpy: its reference, and its decision where `curved_kernel` cannot settle it."""
     w = surface.weights
     if w is not None and not w.min() > 0:
         return None
