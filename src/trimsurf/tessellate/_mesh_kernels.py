@@ -205,39 +205,43 @@ def lift_kernel(bary, uv, trim_xyz, tris, pu, pv, ku, kv, pw, rational, all_poin
 
 
 @njit(cache=True, nogil=True)
-def face_loops_kernel(uv, xyz, ids, counts, forward, loop_start, bound):
+def face_loops_kernel(uv, xyz, ids, meta, n_chunks, bound):
     """Every trim loop of a face (`trimsurf.tessellate.face.mesh_face_from_chunks`) from its chunks in one
-    pass: chunk c (rows of uv, xyz, ids after those of the chunks before it; counts[c] points) adds its
-    points but the last in its direction (forward[c]; else reversed, without its first point), loop l
-    being chunks loop_start[l]:loop_start[l + 1]; then `trim_loop_kernel` of each loop (ids -1: no id).
+    pass: chunk c (rows of uv, xyz, ids after those of the chunks before it; meta[c] // 2 points) adds its
+    points but the last in its direction (forward where meta[c] is odd; else reversed, without its first
+    point), loop l being chunks meta[n_chunks + l]:meta[n_chunks + l + 1]; then `trim_loop_kernel` of each
+    loop (ids -1: no id).
 
-    Returns (status, pts, x, vid, lens): the loops that kept 3 points or more (lens[l] 0 for a loop that
-    did not) concatenated; status 2 where some loop is not certainly simple (then nothing else is
-    meaningful: `remove_polygon_loops` must decide, loop by loop), else 0."""
-    n_loops = loop_start.shape[0] - 1
+    Returns (status, pts, x, vid, lens): the loops that kept 3 points or more concatenated, lens their
+    lengths (a loop that did not keep 3 left out); status 2 where some loop is not certainly simple (then
+    nothing else is meaningful: `remove_polygon_loops` must decide, loop by loop), else 0."""
+    n_loops = meta.shape[0] - n_chunks - 1
     total = 0
-    for c in range(counts.shape[0]):
-        total += max(counts[c] - 1, 0)
+    for c in range(n_chunks):
+        total += max((meta[c] >> 1) - 1, 0)
     pts = np.empty((total, 2))
     x = np.empty((total, 3))
     vid = np.empty(total, dtype=np.int64)
     lens = np.zeros(n_loops, dtype=np.int64)
-    first = np.zeros(counts.shape[0] + 1, dtype=np.int64)
-    for c in range(counts.shape[0]):
-        first[c + 1] = first[c] + counts[c]
+    first = np.zeros(n_chunks + 1, dtype=np.int64)
+    for c in range(n_chunks):
+        first[c + 1] = first[c] + (meta[c] >> 1)
     out = 0
+    n_kept = 0
     for lp in range(n_loops):
+        c0, c1 = meta[n_chunks + lp], meta[n_chunks + lp + 1]
         m = 0
-        for c in range(loop_start[lp], loop_start[lp + 1]):
-            m += max(counts[c] - 1, 0)
+        for c in range(c0, c1):
+            m += max((meta[c] >> 1) - 1, 0)
         p = np.empty((m, 2))
         q = np.empty((m, 3))
         v = np.empty(m, dtype=np.int64)
         j = 0
-        for c in range(loop_start[lp], loop_start[lp + 1]):
-            k = counts[c] - 1
+        for c in range(c0, c1):
+            k = (meta[c] >> 1) - 1
+            fw = (meta[c] & 1) == 1
             for r in range(k):
-                src = first[c] + r if forward[c] else first[c] + k - r
+                src = first[c] + r if fw else first[c] + k - r
                 p[j, 0], p[j, 1] = uv[src, 0], uv[src, 1]
                 q[j, 0], q[j, 1], q[j, 2] = xyz[src, 0], xyz[src, 1], xyz[src, 2]
                 v[j] = ids[src]
@@ -247,13 +251,14 @@ def face_loops_kernel(uv, xyz, ids, counts, forward, loop_start, bound):
             return 2, pts, x, vid, lens
         if status == 0:
             continue
-        lens[lp] = p2.shape[0]
+        lens[n_kept] = p2.shape[0]
+        n_kept += 1
         for i in range(p2.shape[0]):
             pts[out, 0], pts[out, 1] = p2[i, 0], p2[i, 1]
             x[out, 0], x[out, 1], x[out, 2] = x2[i, 0], x2[i, 1], x2[i, 2]
             vid[out] = v2[i]
             out += 1
-    return 0, pts[:out], x[:out], vid[:out], lens
+    return 0, pts[:out], x[:out], vid[:out], lens[:n_kept]
 
 
 @njit(cache=True, nogil=True)

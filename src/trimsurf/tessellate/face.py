@@ -1392,7 +1392,8 @@ def _face_loops(face: TrimmedFace, loop_chunks: list, tolerance) -> tuple:
     (k, 2)), their points' xyz and vertex ids concatenated, points cut out by `remove_polygon_loops`,
     (pts, lens) the polygons packed or None). One compiled pass (`face_loops_kernel`) where every loop is
     certainly simple or has no area; else loop by loop (`_face_loops_numpy`)."""
-    uvs, xs, idl, fw, counts, loop_start = [], [], [], [], [], [0]
+    # per chunk 2 * its number of points + 1 if it runs forward, then the loops' first chunks
+    uvs, xs, idl, meta, loop_start = [], [], [], [], [0]
     n_ids = 0
     for entries in loop_chunks:
         if not entries:
@@ -1404,25 +1405,21 @@ def _face_loops(face: TrimmedFace, loop_chunks: list, tolerance) -> tuple:
             idl.append(ids)
             n_ids += ids is not None
             pc = chunk.uses[ui].pcurve
-            fw.append(pc.t0 < pc.t1)
-            counts.append(len(uv))
+            meta.append(2 * len(uv) + (pc.t0 < pc.t1))
         loop_start.append(len(uvs))
     if not uvs:         # no loop
         return _face_loops_numpy(face, loop_chunks, tolerance)
-    n = sum(counts)
     if n_ids == len(idl):
         ids = np.concatenate(idl)
     elif n_ids == 0:
-        ids = np.full(n, -1, dtype=np.int64)
+        ids = np.full(sum(m >> 1 for m in meta), -1, dtype=np.int64)
     else:
-        ids = np.concatenate([np.full(c, -1, dtype=np.int64) if i is None else i for i, c in zip(idl, counts)])
+        ids = np.concatenate([np.full(m >> 1, -1, dtype=np.int64) if i is None else i for i, m in zip(idl, meta)])
     status, pts, x, vid, lens = face_loops_kernel(
-        np.concatenate(uvs), np.concatenate(xs), np.ascontiguousarray(ids, dtype=np.int64),
-        np.array(counts, dtype=np.int64), np.array(fw, dtype=np.bool_),
-        np.array(loop_start, dtype=np.int64), _CCW_BOUND)
+        np.concatenate(uvs), np.concatenate(xs), ids if ids.dtype == np.int64 else ids.astype(np.int64),
+        np.array(meta + loop_start, dtype=np.int64), np.int64(len(meta)), _CCW_BOUND)
     if status == 2:
         return _face_loops_numpy(face, loop_chunks, tolerance)
-    lens = lens[lens > 0]
     polys, o = [], 0
     for k in lens.tolist():
         polys.append(pts[o:o + k])
@@ -1558,8 +1555,8 @@ def _lift_points(s, uv, trim_xyz, tris=None, tol=None, known=None):
         return _lift_points_numpy(s, uv, trim_xyz, tris, tol, known)
     with_tris = tris is not None
     status, xyz, off, maybe = lift_kernel(
-        _BARY, np.ascontiguousarray(uv, dtype=np.float64), np.ascontiguousarray(trim_xyz, dtype=np.float64),
-        np.ascontiguousarray(tris, dtype=np.int64) if with_tris else _NO_TRIS, s.degree_u, s.degree_v,
+        _BARY, _contiguous(uv, np.float64), _contiguous(trim_xyz, np.float64),
+        _contiguous(tris, np.int64) if with_tris else _NO_TRIS, s.degree_u, s.degree_v,
         read_only(s.knots_u), read_only(s.knots_v), _homogeneous(s.control_points, s.weights), s.weights is not None,
         np.bool_(with_tris), float(tol) if with_tris else 0.0)
     if status:
@@ -1568,6 +1565,12 @@ def _lift_points(s, uv, trim_xyz, tris=None, tol=None, known=None):
 
 
 _NO_TRIS = np.zeros((0, 3), dtype=np.int64)
+
+
+def _contiguous(a: np.ndarray, dtype) -> np.ndarray:
+    """np.ascontiguousarray(a, dtype=dtype) without its copy of an array the compiled kernels returned (whose
+    dtype is another instance, equal to `dtype`)."""
+    return a if a.dtype == dtype and a.flags.c_contiguous else np.ascontiguousarray(a, dtype=dtype)
 
 
 def _lift_points_numpy(s, uv, trim_xyz, tris=None, tol=None, known=None):

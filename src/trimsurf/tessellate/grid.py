@@ -904,8 +904,8 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
         Polygons with fewer than 3 points or outside the grid.
     """
 
-    us = np.asarray(us, dtype=np.float64)
-    vs = np.asarray(vs, dtype=np.float64)
+    us = _as_float(us)
+    vs = _as_float(vs)
     if packed is None:
         polys = [np.asarray(p, dtype=np.float64) for p in polygons]
         if any(len(p) < 3 for p in polys) or not polys:
@@ -938,6 +938,12 @@ def triangulate_domain(us: np.ndarray, vs: np.ndarray, polygons: list, *, split=
 _EMPTY2 = np.zeros((0, 2))
 
 
+def _as_float(a) -> np.ndarray:
+    """np.asarray(a, dtype=np.float64) without its copy of an array the compiled kernels returned (whose
+    dtype is another instance, equal to float64)."""
+    return a if isinstance(a, np.ndarray) and a.dtype == np.float64 else np.asarray(a, dtype=np.float64)
+
+
 def _split_all(us, vs, polys, pts, e, split) -> np.ndarray:
     """`split` asked for the cells `_domain_prepare_kernel` keeps, as a flat per-cell array (True elsewhere)."""
     if not (np.all(us[1:] > us[:-1]) and np.all(vs[1:] > vs[:-1]) and np.isfinite(pts).all()
@@ -959,7 +965,9 @@ def _triangulate_compiled(us, vs, pts, polys, e, cell_main, tie_main):
     lens = polys if isinstance(polys, np.ndarray) else np.array([len(p) for p in polys], dtype=np.int64)
     shear = 0.0 if tie_main is None else (-1e-3 if tie_main else 1e-3)
     has_main = cell_main is not None
-    cm = np.ascontiguousarray(cell_main, dtype=np.bool_) if has_main else _EMPTY_BOOL
+    cm = (cell_main if isinstance(cell_main, np.ndarray) and cell_main.dtype == np.bool_
+          and cell_main.flags.c_contiguous else np.ascontiguousarray(cell_main, dtype=np.bool_)) if has_main \
+        else _EMPTY_BOOL
     (status, uv, grid_node, grid_tris, quads, crossed, p1, y0, h, n_slab, start, edges, q, lseg, used, lo,
      scale) = _domain_prepare_kernel(np.ascontiguousarray(pts), lens, us, vs, np.ascontiguousarray(e), cm,
                                      np.bool_(has_main), shear, SNAP, _CCW_BOUND)
