@@ -115,3 +115,19 @@ def test_triangle_switches_give_the_same_triangulation(shared_data):
         assert np.array_equal(got["pointlist"], want["vertices"])
         assert np.array_equal(got["trianglelist"], want["triangles"])
         assert got["trianglelist"].dtype == np.intc and set(got) == {"pointlist", "trianglelist"}
+
+
+def test_sliver_side_lengths_as_norm():
+    """`slivers._check`'s side lengths (sqrt of the summed squares, the previous corner by index) are
+    np.linalg.norm(pn - np.roll(pn, 1, axis=1), axis=2) bit for bit, NaN and inf too."""
+    from trimsurf.tessellate.slivers import _PREV
+
+    rng = np.random.default_rng(27)
+    pn = rng.normal(size=(500, 3, 3)) * 10.0 ** rng.uniform(-8, 8, (500, 1, 1))
+    pn[3, 1, 2] = np.nan
+    pn[7, 0, 0] = np.inf
+    e = pn - pn.take(_PREV, axis=1)
+    got = np.sqrt(np.add.reduce(e * e, axis=2))
+    want = np.linalg.norm(pn - np.roll(pn, 1, axis=1), axis=2)
+    assert np.array_equal(got, want, equal_nan=True)
+    assert np.array_equal(got.max(axis=1) > 1.0, want.max(axis=1) > 1.0)

@@ -24,6 +24,8 @@ _install_lazy_bitcode()     # before this module's kernels load (trimsurf._numba
 __all__ = ["collapse_boundary_slivers"]
 
 _BARY = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.5]])
+#: each corner's previous one (np.roll(..., 1) of the three)
+_PREV = np.array([2, 0, 1])
 # orientation test points: centroid and corners
 _ORIENT_BARY = np.array([[1 / 3, 1 / 3, 1 / 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
 
@@ -474,7 +476,10 @@ def _check(surface, uv, xyz, T, cv, cu, a0, mi, ci, sgn, tolerance, max_edge) ->
     newt = np.where(oldt == cv[ci, None], cu[ci, None], oldt)
     fail = _uv_area(uv, newt) * sgn <= 0
     pn = xyz[newt]
-    fail |= np.linalg.norm(pn - np.roll(pn, 1, axis=1), axis=2).max(axis=1) > max_edge
+    # the sides' lengths: np.linalg.norm(pn - np.roll(pn, 1, axis=1), axis=2), the same operations (norm's
+    # sqrt(add.reduce(x * x)) for real x, roll's previous corner taken by index)
+    e = pn - pn.take(_PREV, axis=1)
+    fail |= np.sqrt(np.add.reduce(e * e, axis=2)).max(axis=1) > max_edge
     # the collapse must not make a thinner triangle than the one it removes
     fail |= _min_angles_deg(pn) < a0[ci]
     bad = np.zeros(ns, dtype=bool)
