@@ -117,17 +117,55 @@ def test_triangle_switches_give_the_same_triangulation(shared_data):
         assert got["trianglelist"].dtype == np.intc and set(got) == {"pointlist", "trianglelist"}
 
 
-def test_sliver_side_lengths_as_norm():
-    """`slivers._check`'s side lengths (sqrt of the summed squares, the previous corner by index) are
-    np.linalg.norm(pn - np.roll(pn, 1, axis=1), axis=2) bit for bit, NaN and inf too."""
-    from trimsurf.tessellate.slivers import _PREV
+def test_sliver_checks_equal_numpy(shared_data, monkeypatch):
+    """`slivers._check` (the moved triangles' corners, (u, v) sense, sides and cosines in one compiled pass)
+    equals `_check_numpy` on every call the sliver rounds of four models make (default and larger angles,
+    looser tolerances: collapses refused by each test and taken), and on the same calls with a short
+    max_edge, a flipped sense and NaN / inf points."""
+    from trimsurf.tessellate import slivers as sl
+    from trimsurf.tessellate import tessellate_shell
 
-    rng = np.random.default_rng(27)
-    pn = rng.normal(size=(500, 3, 3)) * 10.0 ** rng.uniform(-8, 8, (500, 1, 1))
-    pn[3, 1, 2] = np.nan
-    pn[7, 0, 0] = np.inf
-    e = pn - pn.take(_PREV, axis=1)
-    got = np.sqrt(np.add.reduce(e * e, axis=2))
-    want = np.linalg.norm(pn - np.roll(pn, 1, axis=1), axis=2)
-    assert np.array_equal(got, want, equal_nan=True)
-    assert np.array_equal(got.max(axis=1) > 1.0, want.max(axis=1) > 1.0)
+    calls = []
+    real = sl._check
+
+    def rec(*a):
+        calls.append(a)
+        return real(*a)
+
+    monkeypatch.setattr(sl, "_check", rec)
+    for name in ("gmsh__t20_data.step", "occt__screw.step", "trimesh__featuretype.STEP", "gmsh__U_Joint_2.stp"):
+        shell = read_shell(shared_data / "cad" / name)
+        d = shell.diagonal()
+        tessellate_shell(shell, tolerance=1e-3 * d, max_edge=d, measure=False)
+    monkeypatch.setattr(sl, "_check", real)
+    assert len(calls) > 100
+    n = {"refused": 0, "taken": 0, "edge": 0, "nan": 0, "flat": 0}
+    for a in calls:
+        surface, uv, xyz, T, cv, cu, a0, mi, ci, sgn, tol, max_edge = a
+        variants = [a]
+        if len(mi):
+            e = np.linalg.norm(xyz[T[mi]] - np.roll(xyz[T[mi]], 1, axis=1), axis=2)
+            variants.append((surface, uv, xyz, T, cv, cu, a0, mi, ci, sgn, tol, float(np.median(e))))
+            variants.append((surface, uv, xyz, T, cv, cu, a0 * 0.5, mi, ci, -sgn, 100 * tol, max_edge))
+            variants.append((surface, uv, xyz, T, cv, cu, a0 * 0.5, mi, ci, sgn, 100 * tol, np.inf))
+            bad_x = xyz.copy()
+            bad_x[T[mi[0], 0]] = np.nan
+            bad_x[T[mi[-1], 1], 2] = np.inf
+            variants.append((surface, uv, bad_x, T, cv, cu, a0 * 0.5, mi, ci, sgn, 100 * tol, max_edge))
+            # a NaN side with the others longer than max_edge: numpy's max is NaN, no failure
+            variants.append((surface, uv, bad_x, T, cv, cu, a0 * 0.5, mi, ci, sgn, 100 * tol, 0.0))
+            # a moved triangle of no (u, v) area: refused (area * sgn <= 0)
+            t0 = np.where(T[mi[0]] == cv[ci[0]], cu[ci[0]], T[mi[0]])
+            flat_uv = uv.copy()
+            flat_uv[t0[2]] = flat_uv[t0[1]] if t0[2] != cu[ci[0]] else flat_uv[t0[0]]
+            variants.append((surface, flat_uv, xyz, T, cv, cu, a0 * 0.5, mi, ci, sgn, 100 * tol, np.inf))
+        for k, v in enumerate(variants):
+            with np.errstate(all="ignore"):
+                got, want = sl._check(*v), sl._check_numpy(*v)
+            assert got.dtype == want.dtype == np.bool_ and np.array_equal(got, want), k
+            n["refused"] += int((~want).sum())
+            n["taken"] += int(want.sum())
+            n["edge"] += k == 1 and not want.all()
+            n["nan"] += k == 5 and not want.all()
+            n["flat"] += k == 6 and not want[ci[0]]
+    assert n["refused"] > 100 and n["taken"] > 20 and n["edge"] > 20 and n["nan"] > 20 and n["flat"] > 20, n

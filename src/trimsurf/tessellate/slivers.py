@@ -24,8 +24,6 @@ _install_lazy_bitcode()     # before this module's kernels load (trimsurf._numba
 __all__ = ["collapse_boundary_slivers"]
 
 _BARY = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.5]])
-#: each corner's previous one (np.roll(..., 1) of the three)
-_PREV = np.array([2, 0, 1])
 # orientation test points: centroid and corners
 _ORIENT_BARY = np.array([[1 / 3, 1 / 3, 1 / 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
 
@@ -468,7 +466,94 @@ def _check(surface, uv, xyz, T, cv, cu, a0, mi, ci, sgn, tolerance, max_edge) ->
     collapse of each, a0 the smallest angle of the thin triangle each removes): (s,) bool, True where
     every moved triangle stays counter-clockwise (in the face's sense) in (u, v), within max_edge and the
     tolerance, not turned against the surface normal in 3D, and no thinner than the thin triangle the
-    collapse removes."""
+    collapse removes. The moved triangles' corners, their (u, v) sense, sides and cosines in one compiled
+    pass (`_check_shape_kernel`), the arc cosines and the surface tests in numpy; `_check_numpy` is the
+    reference."""
+    ns = len(cv)
+    if not len(mi):
+        return np.ones(ns, dtype=bool)
+    newt, fail, cos = _check_shape_kernel(uv, xyz, T, mi, cv, cu, ci, float(sgn), float(max_edge))
+    # the collapse must not make a thinner triangle than the one it removes (`_min_angles_deg`)
+    ang = np.degrees(np.arccos(cos))
+    fail |= np.where(np.isnan(ang), 0.0, ang).min(axis=1) < a0[ci]
+    bad = np.zeros(ns, dtype=bool)
+    bad[ci[fail]] = True
+    # the surface tests only for the triangles of collapses no test above refused (per triangle the same)
+    rest = np.flatnonzero(~bad[ci])
+    if len(rest):
+        nt = newt[rest]
+        _surface_tests(surface, uv, xyz[nt], nt, ci[rest], bad, sgn, tolerance)
+    return ~bad
+
+
+def _surface_tests(surface, uv, pr, nt, cr, bad, sgn, tolerance) -> None:
+    """bad[cr[k]] = True where moved triangle nt[k] (points pr[k]) leaves the tolerance or turns against the
+    surface normal in 3D."""
+    tuv = np.einsum("bk,mkd->mbd", _BARY, uv[nt])
+    txyz = np.einsum("bk,mkd->mbd", _BARY, pr)
+    dev = np.linalg.norm(surface.evaluate(tuv.reshape(-1, 2)).reshape(txyz.shape) - txyz, axis=2)
+    f2 = ~(dev.max(axis=1) <= tolerance)
+    # no moved triangle may turn against the surface normal in 3D (a flip the (u, v) test misses)
+    f2 |= _turned_in_3d(surface, uv[nt], pr, sgn)
+    bad[cr[f2]] = True
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _check_shape_kernel(uv, xyz, T, mi, cv, cu, ci, sgn, max_edge):
+    """`_check_numpy`'s first tests per moved triangle k (mi[k], of collapse ci[k]: cv into cu): its corners
+    after the collapse (newt), fail where its (u, v) area (`_uv_area`) times sgn is not positive or its
+    longest side (sqrt((dx^2 + dy^2) + dz^2), as np.linalg.norm sums it; none where a side is NaN, as
+    the max of numpy) exceeds max_edge, and its corners' cosines (`_corner_cosines`): the same operations
+    in the same order."""
+    m = mi.shape[0]
+    newt = np.empty((m, 3), dtype=np.int64)
+    fail = np.empty(m, dtype=np.bool_)
+    cos = np.empty((m, 3))
+    L = np.empty(3)
+    for k in range(m):
+        t = mi[k]
+        v, u = cv[ci[k]], cu[ci[k]]
+        for c in range(3):
+            x = T[t, c]
+            newt[k, c] = u if x == v else x
+        a, b, c3 = newt[k, 0], newt[k, 1], newt[k, 2]
+        area = ((uv[b, 0] - uv[a, 0]) * (uv[c3, 1] - uv[a, 1])
+                - (uv[c3, 0] - uv[a, 0]) * (uv[b, 1] - uv[a, 1]))
+        f = area * sgn <= 0
+        longest = -np.inf
+        has_nan = False
+        for c in range(3):      # side c: corner c minus the one before it
+            p, q = newt[k, c], newt[k, (c + 2) % 3]
+            dx, dy, dz = xyz[p, 0] - xyz[q, 0], xyz[p, 1] - xyz[q, 1], xyz[p, 2] - xyz[q, 2]
+            e = np.sqrt((dx * dx + dy * dy) + dz * dz)
+            if e != e:
+                has_nan = True
+            elif e > longest:
+                longest = e
+        if not has_nan and longest > max_edge:
+            f = True
+        fail[k] = f
+        for c in range(3):      # `_corner_cosines`: side c opposite corner c (P[c + 1] - P[c + 2])
+            p, q = newt[k, (c + 1) % 3], newt[k, (c + 2) % 3]
+            dx, dy, dz = xyz[p, 0] - xyz[q, 0], xyz[p, 1] - xyz[q, 1], xyz[p, 2] - xyz[q, 2]
+            L[c] = np.sqrt((dx * dx + dy * dy) + dz * dz)
+        for c in range(3):
+            l1, l2 = L[(c + 1) % 3], L[(c + 2) % 3]
+            cs = (l1 * l1 + l2 * l2 - L[c] * L[c]) / (2 * l1 * l2)
+            if cs < -1.0:
+                cs = -1.0
+            elif cs > 1.0:
+                cs = 1.0
+            cos[k, c] = cs
+    return newt, fail, cos
+
+
+def _check_numpy(surface, uv, xyz, T, cv, cu, a0, mi, ci, sgn, tolerance, max_edge) -> np.ndarray:
+    """Batched tests of the selected collapses (cv[s] into cu[s]; mi their moved triangles, ci the
+    collapse of each, a0 the smallest angle of the thin triangle each removes): (s,) bool, True where
+    every moved triangle stays counter-clockwise (in the face's sense) in (u, v), within max_edge and the
+    tolerance, not turned against the surface normal in 3D, and no thinner than the thin triangle the
+    collapse removes. `_check` in numpy (its reference, for the tests)."""
     ns = len(cv)
     if not len(mi):
         return np.ones(ns, dtype=bool)
@@ -476,10 +561,7 @@ def _check(surface, uv, xyz, T, cv, cu, a0, mi, ci, sgn, tolerance, max_edge) ->
     newt = np.where(oldt == cv[ci, None], cu[ci, None], oldt)
     fail = _uv_area(uv, newt) * sgn <= 0
     pn = xyz[newt]
-    # the sides' lengths: np.linalg.norm(pn - np.roll(pn, 1, axis=1), axis=2), the same operations (norm's
-    # sqrt(add.reduce(x * x)) for real x, roll's previous corner taken by index)
-    e = pn - pn.take(_PREV, axis=1)
-    fail |= np.sqrt(np.add.reduce(e * e, axis=2)).max(axis=1) > max_edge
+    fail |= np.linalg.norm(pn - np.roll(pn, 1, axis=1), axis=2).max(axis=1) > max_edge
     # the collapse must not make a thinner triangle than the one it removes
     fail |= _min_angles_deg(pn) < a0[ci]
     bad = np.zeros(ns, dtype=bool)
