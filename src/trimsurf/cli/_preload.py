@@ -48,7 +48,7 @@ KERNELS = {
     "trimsurf.tessellate.grid": ("_domain_prepare_kernel", "_domain_finish_kernel"),
     "trimsurf.tessellate._mesh_kernels": ("lift_kernel", "face_loops_kernel", "cell_main_kernel", "curved_kernel"),
     "trimsurf.tessellate.slivers": ("_face_sliver_start_kernel", "_sliver_pick_kernel", "_sliver_result_kernel",
-                                    "_corner_cosines"),
+                                    "_corner_cosines", "_check_shape_kernel"),
     "trimsurf.tessellate.seams": ("_seam_select_kernel", "_dev_against_kernel", "_seam_edges_kernel"),
     "trimsurf.quality._kernels": ("grid_build_kernel", "grid_closest_kernel", "hint_closest_kernel",
                                   "segments_distance_kernel", "uv_locate_kernel"),
