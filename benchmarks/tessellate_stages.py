@@ -35,6 +35,7 @@ STAGES = [  # (module, attribute, label)
     ("triangle", "triangulate", "Triangle"),
     ("trimsurf.tessellate.grid", "_triang", "Triangle"),       # the wrapper's core
     ("trimsurf.tessellate.face", "collapse_boundary_slivers", "slivers"),
+    ("trimsurf.tessellate.face", "collapse_face_slivers", "slivers"),   # s27-faces: the faces' call
     ("trimsurf.tessellate.seams", "reduce_seams", "seams"),
     ("trimsurf.tessellate.stitch", "stitch_mesh", "stitch"),
 ]
