@@ -3,7 +3,7 @@
 A STEP, IGES or BREP file is read by a child of the reader server (`trimsurf.io._occ._isolate`); the
 command itself only waits on a pipe, holding no lock and no CPU. Everything its first tessellation then
 needs on top of the work itself is the same for every file (`trimsurf.tessellate`'s modules, numba's own
-start -- its typing and target registries, the runtime it compiles once per process -- the 30 compiled
+start -- its typing and target registries, the runtime it compiles once per process -- the 33 compiled
 kernels every conforming tessellation with its report calls, `trimsurf.quality` and trimesh, which
 reads the written mesh back): `Preload` does it in a thread during that wait. The command joins the
 thread as soon as the read is done, before any work of its own, so that a forked worker (``--jobs``)
@@ -27,7 +27,7 @@ __all__ = ["KERNELS", "MODULES", "Preload"]
 MODULES = ("trimsurf.tessellate", "trimsurf.tessellate.measure", "trimsurf.quality", "trimsurf.io._meshfile")
 
 #: the compiled kernels (numba dispatchers) that ``trimsurf tessellate`` calls on every model with shared edges,
-#: with its report (measured: these 30 on each of occt__screw, trimesh__featuretype, gmsh__U_Joint_2, gmsh__t20_data,
+#: with its report (measured: these 33 on each of occt__screw, trimesh__featuretype, gmsh__U_Joint_2, gmsh__t20_data,
 #: gmsh__wrenchnut, occt__linkrods, one specialization each; `cell_surface_kernel`, called from Python only when
 #: cells must be split (3 of the 6), is left to its call; tests/cli/test_preload.py checks the list against what
 #: the command calls on the screw. s25-mesh: the face triangulation's kernels; `surface_distance_kernel` and

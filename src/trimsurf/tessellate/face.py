@@ -17,7 +17,6 @@ from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CI, cell_deviation_kerne
                             line_net_kernel, loop_polylines_kernel, refine_cells_kernel, refine_round_kernel)
 from .grid import triangulate_domain
 from .repair import remove_polygon_loops, repair_face
-from .slivers import collapse_boundary_slivers
 from .trims import ChunkUse, _pcurve_rows, discretize_chunk
 
 __all__ = ["tessellate_face", "face_domain_values", "shell_domain_values", "grid_box", "FaceMesh",
