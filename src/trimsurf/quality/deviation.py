@@ -24,6 +24,7 @@ from ..geom.projection import _SETTLED_FRACTION, project_to_surface
 from ..model import Shell, TriMesh
 from ._results import ResultMixin
 from ._kernels import uv_locate_kernel
+from . import closest_point as _cp
 from .closest_point import _closest, _TriangleLocator, closest_points_on_mesh
 from .interpolation_bound import domain_bound, span_bounds, triangle_bounds
 from .sampling import (_inside_loops, as_face, distance_outside_face, loop_polygons, sample_face_domain,
@@ -230,13 +231,18 @@ _SPAN_BOUNDS: dict = {}
 
 def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, two_sided: bool, tol_rel: float,
                        trim_tol_uv: float | None, adaptive: bool = False, pre: _Pre | None = None,
-                       skip_at: float = -np.inf, prune: bool = False):
+                       skip_at: float = -np.inf, prune: bool = False, t2m_at: float | None = None):
     """`surface_deviation` and, with `adaptive`, the state `refine_deviation` continues from.
 
     `pre` (`_prepare_face`, with `adaptive` and `two_sided`): the samples and vertex feet computed
     already; then the triangles whose a-priori bound is at most `skip_at` are skipped (`_shell_deviation`):
     of their own samples only the centroid is projected (for `flipped_against_normal`), and the surface
     samples of the (u, v) grids that fall in their footprints are not measured.
+
+    `prune` (`_shell_deviation` with ``skip``): without `pre`'s footprint hints, the (u, v) grids' exact
+    distances to the mesh are searched by `_closest_from` with the larger of this face's largest mesh ->
+    surface sample and `t2m_at` (the faces measured before: their largest surface -> mesh value) as the
+    value to beat: the same distances, most found within that radius.
     """
     _check_mesh(mesh, "surface_deviation")
     face = as_face(target)
@@ -302,7 +308,10 @@ def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, tw
         if adaptive and np.all(np.isfinite(pts)):
             # the refinement measures to the same mesh again: its triangle search structure is kept
             loc = _TriangleLocator(mesh.vertices, mesh.triangles)
-            d2 = _closest(pts, loc, hint=hint).distance
+            if hint is None and prune:
+                d2 = _closest_from(pts, loc, max(mx, t2m_at if t2m_at is not None else -np.inf))
+            else:
+                d2 = _closest(pts, loc, hint=hint).distance
         else:
             d2 = closest_points_on_mesh(pts, mesh).distance
         if adaptive:
@@ -327,6 +336,37 @@ def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, tw
                     float(np.nanmax([mx, mx2])), n_conv, outside,
                     float(out_uv.max(initial=0.0)), per_tri)
     return dev, state
+
+
+def _closest_from(pts: np.ndarray, loc, at: float) -> np.ndarray:
+    """Exact distances of the points `pts` (n, 3) to `loc`'s triangles (`closest_point._TriangleLocator`),
+    bit for bit those of ``closest_point._closest(pts, loc).distance``, searched first within `at`.
+
+    `_kernels.grid_closest_kernel` keeps a bound it is given and replaces it only by a strictly nearer
+    triangle; it stops once every triangle with a point nearer than its current best has been tried. Given
+    the bound `at` (> 0) for every point, it therefore returns, for a point whose distance d* to the
+    mesh is below `at`, the same minimum d* over the same triangle-point values (`_kernels._tri_closest`)
+    as a search from infinity, having tried only triangles nearer than `at`; for a point with
+    d* >= `at` it returns `at` itself, and that point is searched again from infinity. The result does
+    not depend on `at` (any positive value gives the same distances; NaN, inf or <= 0: one plain search);
+    a value about the distances' maximum makes most points' searches short.
+    """
+    n = len(pts)
+    q = np.ascontiguousarray(pts, dtype=np.float64)
+    lo, hi, origin, h, dims, start, items = loc.grid
+    if not (np.isfinite(at) and at > 0.0) or n == 0:
+        return _closest(q, loc).distance
+    best_d = np.full(n, float(at))
+    best_t = np.zeros(n, dtype=np.int64)
+    best_p = np.zeros((n, 3))
+    best_w = np.zeros((n, 3))
+    # through the module (one kernel, timed where benchmarks wrap it)
+    _cp.grid_closest_kernel(q, loc.a, loc.b, loc.c, lo, hi, origin, h, dims, start, items, best_d, best_t, best_p,
+                            best_w)
+    redo = np.flatnonzero(~(best_d < at))
+    if len(redo):
+        best_d[redo] = _closest(np.ascontiguousarray(q[redo]), loc).distance
+    return best_d
 
 
 def _kept_rows(mesh: TriMesh, samples, skip: np.ndarray, density: int) -> np.ndarray:
@@ -483,7 +523,8 @@ def _shell_deviation(mesh: TriMesh, shell: Shell, *, density: int, n_domain: int
             pre = _prepare_face(subs[i], as_face(shell.faces[i]), density, tol_rel)
         dev, st = _surface_deviation(subs[i], shell.faces[i], density=density, n_domain=n_domain,
                                      two_sided=two_sided, tol_rel=tol_rel, trim_tol_uv=None,
-                                     adaptive=refine is not None, pre=pre, skip_at=t_skip, prune=bool(flat))
+                                     adaptive=refine is not None, pre=pre, skip_at=t_skip, prune=bool(flat),
+                                     t2m_at=m2 if flat else None)
         if np.isfinite(dev.max_mesh_to_target):
             m1 = max(m1, float(dev.max_mesh_to_target))
         if np.isfinite(dev.max_target_to_mesh):
