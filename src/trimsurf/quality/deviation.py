@@ -371,6 +371,10 @@ def _first_pass_lazy(mesh: TriMesh, face, tol_rel: float):
     triangle's footprint test (so the same footprint samples and curvature bounds). What waits: a
     triangle's largest sample D_t, which `_complete_first_pass` settles once the curvature bounds and
     the maximum G over all faces are known, before any refinement decision.
+
+    One case could differ from projecting every node, as in `_chord_bound`: a projection whose global
+    search misses the nearest foot returns more than the true distance, possibly more than c(w); a
+    pending node then keeps the lower (truer) value (not seen on the 34 shared runs).
     """
     samples = sample_triangles(mesh, density=3)
     kind = samples.kind
@@ -630,7 +634,10 @@ def _shell_deviation(mesh: TriMesh, shell: Shell, *, density: int, n_domain: int
     other triangles (their own samples, bounds and the running maximum are unchanged). Skipped
     triangles enter the bound with A_t (<= T). Per-face figures of faces with skipped triangles may be
     lower than without skipping (never above); the sample counts and RMS values cover the measured
-    samples only.
+    samples only. Faces of at least `LAZY_MIN_TRIANGLES` triangles measured without that skipping take
+    `_first_pass_lazy` (edge nodes below their face's maximum by their chord bound wait, and
+    `_complete_first_pass`, from `refine_deviation`, projects those that could matter): the same maxima,
+    refinement decisions and bound.
     """
     _check_mesh(mesh, "shell_deviation")
     if not isinstance(shell, Shell):

@@ -168,6 +168,20 @@ def measure_mesh(mesh: TriMesh, shell: Shell, *, density: int = 3, n_domain: int
     could raise neither (tolerance-only, refinement nodes projected: screw 14,022 -> 5,177, t20 18,660 ->
     1,812, featuretype 11,784 -> 3,077; the per-triangle
     maxima and densities are the same numbers, tests/quality/test_chord_prune.py).
+
+    First-pass edge nodes left out by the same bound (`quality.deviation._first_pass_lazy`, faces of at
+    least 128 triangles measured after the skipping order above): a face's vertices and centroids are
+    projected first; an edge node whose chord bound c(w) is below the face's largest vertex / centroid
+    value, on triangles that pass the refinement's footprint test already, waits. Its value (and that of
+    the footprint sample S(x(w)) at the same node) is at most c(w), so the face's maxima are the same;
+    before the refinement decides anything, a triangle whose bound
+    ``U_t + beta_t / ((1 - kappa_t U_t) k^2)`` with U_t = max(its values, its waiting nodes' c(w)) exceeds
+    the maximum G over all faces has its waiting nodes projected (full search, restarts included:
+    `_complete_first_pass`); the others have B_t <= G with their true D_t (the bound grows with D_t), so
+    none is refined or raises ``max_deviation_bound``, and every figure is the same (proven; checked on
+    the 34 shared runs, `benchmarks/measure_same.py`, and tests/quality/test_first_pass_lazy.py).
+    Surface -> mesh, the first pass's (u, v) grid points are searched first within the face's largest
+    values (`_closest_from`): the same distances bit for bit.
     """
     t0 = time.perf_counter()
     dev, states = _shell_deviation(mesh, shell, density=density, n_domain=n_domain, two_sided=True, tol_rel=1e-10,
