@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..geom._nurbs_kernels import _curve_point, _point_scratch, _surface_point01
+from ..geom._nurbs_kernels import _curve_point
 from ._line_kernels import (_chunk_criteria, _nonzero, _snap1, _ss_left, _ss_right, _stable_order, _unique,
                             _use_arrays, _use_uv, chunk_iso_kernel, equidistributed_kernel)
 
@@ -352,6 +352,201 @@ def _merge_close(G, gl, ptol, s, uvs, iso):
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _scratch(ci):
+    """One work array for `_curve_uv` and `_surface_xyz` of any use in ci (their layout, per use: left,
+    right (max degree + 1 each), the curve's basis, the surface's two bases, tmp (pu + 1, dimw); the
+    point in the last 3)."""
+    mcp, mpu, mpv, mdw = 0, 0, 0, 0
+    for j in range(ci.shape[0]):
+        mcp = max(mcp, ci[j, 0])
+        mpu = max(mpu, ci[j, 2])
+        mpv = max(mpv, ci[j, 3])
+        mdw = max(mdw, ci[j, 17])
+    nl = max(mcp, mpu, mpv) + 1
+    return np.empty(2 * nl + (mcp + 1) + (mpu + 1) + (mpv + 1) + (mpu + 1) * mdw + 3)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _curve_uv(ci, cf, ck, cpw, j, s, w):
+    """(u, v) of use j at the chunk parameter s: `_use_uv` of one value (`_curve_point` written out as
+    in `_chunk_criteria`: the same operations in the same order), w a `_scratch`. Only inside the
+    loops of `_probe_extent` / `_even_spacing` (inline: the arrays are the caller's)."""
+    cp, crat = ci[j, 0], ci[j, 1] != 0
+    okc, ocw, ncw, cdimw = ci[j, 5], ci[j, 7], ci[j, 8], ci[j, 9]
+    nl = max(cp, ci[j, 2], ci[j, 3]) + 1
+    ol, orr, onc = 0, nl, 2 * nl
+    lo, hi = cf[j, 0], cf[j, 1]
+    t0, t1 = ck[okc + cp], ck[okc + ci[j, 6] - cp - 1]
+    cdim = cdimw - 1 if crat else cdimw
+    tt = lo + s * (hi - lo)
+    tt = min(max(tt, t0), t1)
+    if tt >= ck[okc + ncw]:
+        sc = ncw - 1
+        while sc > cp and ck[okc + sc] >= ck[okc + ncw]:
+            sc -= 1
+    else:
+        sc = cp
+        hi_ = ncw
+        while hi_ - sc > 1:
+            mid_ = (sc + hi_) // 2
+            if tt < ck[okc + mid_]:
+                hi_ = mid_
+            else:
+                sc = mid_
+    w[onc] = 1.0
+    for j_ in range(1, cp + 1):
+        w[ol + j_] = tt - ck[okc + sc + 1 - j_]
+        w[orr + j_] = ck[okc + sc + j_] - tt
+        saved = 0.0
+        for r_ in range(j_):
+            temp = w[onc + r_] / (w[orr + r_ + 1] + w[ol + j_ - r_])
+            w[onc + r_] = saved + w[orr + r_ + 1] * temp
+            saved = w[ol + j_ - r_] * temp
+        w[onc + j_] = saved
+    wc = 1.0
+    if crat:
+        wc = 0.0
+        for r in range(cp + 1):
+            wc += w[onc + r] * cpw[ocw + (sc - cp + r) * cdimw + cdim]
+    uv0 = 0.0
+    uv1 = 0.0
+    for dd in range(cdim):
+        acc = 0.0
+        for r in range(cp + 1):
+            acc += w[onc + r] * cpw[ocw + (sc - cp + r) * cdimw + dd]
+        if dd == 0:
+            uv0 = acc / wc if crat else acc
+        else:
+            uv1 = acc / wc if crat else acc
+    return min(max(uv0, cf[j, 2]), cf[j, 3]), min(max(uv1, cf[j, 4]), cf[j, 5])
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _surface_xyz(ci, cku, ckv, cpw4, j, uu, vv, w):
+    """S(clip(u, v)) of use j's surface into w[-3:]: `_surface_point01` (nd = 0) written out as in
+    `_chunk_criteria` (the same operations in the same order), w a `_scratch`. Only inside the loops of
+    `_probe_extent` / `_shared_points` (inline: the arrays are the caller's)."""
+    pu, pv, srat = ci[j, 2], ci[j, 3], ci[j, 4] != 0
+    oku, okv, opw = ci[j, 10], ci[j, 12], ci[j, 14]
+    nu_c, nv_c, dimw = ci[j, 15], ci[j, 16], ci[j, 17]
+    dim = dimw - 1 if srat else dimw
+    nl = max(ci[j, 0], pu, pv) + 1
+    ol, orr = 0, nl
+    onu = 2 * nl + ci[j, 0] + 1
+    onv = onu + pu + 1
+    otm = onv + pv + 1
+    ores = w.shape[0] - 3
+    su0, su1 = cku[oku + pu], cku[oku + ci[j, 11] - pu - 1]
+    sv0, sv1 = ckv[okv + pv], ckv[okv + ci[j, 13] - pv - 1]
+    uu = min(max(uu, su0), su1)
+    vv = min(max(vv, sv0), sv1)
+    if uu >= cku[oku + nu_c]:
+        su = nu_c - 1
+        while su > pu and cku[oku + su] >= cku[oku + nu_c]:
+            su -= 1
+    else:
+        su = pu
+        hi_ = nu_c
+        while hi_ - su > 1:
+            mid_ = (su + hi_) // 2
+            if uu < cku[oku + mid_]:
+                hi_ = mid_
+            else:
+                su = mid_
+    if vv >= ckv[okv + nv_c]:
+        sv = nv_c - 1
+        while sv > pv and ckv[okv + sv] >= ckv[okv + nv_c]:
+            sv -= 1
+    else:
+        sv = pv
+        hi_ = nv_c
+        while hi_ - sv > 1:
+            mid_ = (sv + hi_) // 2
+            if vv < ckv[okv + mid_]:
+                hi_ = mid_
+            else:
+                sv = mid_
+    w[onu] = 1.0
+    for j_ in range(1, pu + 1):
+        w[ol + j_] = uu - cku[oku + su + 1 - j_]
+        w[orr + j_] = cku[oku + su + j_] - uu
+        saved = 0.0
+        for r_ in range(j_):
+            temp = w[onu + r_] / (w[orr + r_ + 1] + w[ol + j_ - r_])
+            w[onu + r_] = saved + w[orr + r_ + 1] * temp
+            saved = w[ol + j_ - r_] * temp
+        w[onu + j_] = saved
+    w[onv] = 1.0
+    for j_ in range(1, pv + 1):
+        w[ol + j_] = vv - ckv[okv + sv + 1 - j_]
+        w[orr + j_] = ckv[okv + sv + j_] - vv
+        saved = 0.0
+        for r_ in range(j_):
+            temp = w[onv + r_] / (w[orr + r_ + 1] + w[ol + j_ - r_])
+            w[onv + r_] = saved + w[orr + r_ + 1] * temp
+            saved = w[ol + j_ - r_] * temp
+        w[onv + j_] = saved
+    for r in range(pu + 1):
+        for dd in range(dimw):
+            w[otm + r * dimw + dd] = 0.0
+        for s_ in range(pv + 1):
+            bb = w[onv + s_]
+            if bb != 0.0:
+                row = su - pu + r
+                col = sv - pv + s_
+                for dd in range(dimw):
+                    w[otm + r * dimw + dd] += bb * cpw4[opw + (row * nv_c + col) * dimw + dd]
+    w0 = 1.0
+    if srat:
+        w0 = 0.0
+        for r in range(pu + 1):
+            w0 += w[onu + r] * w[otm + r * dimw + dim]
+    for dd in range(dim):
+        acc = 0.0
+        for r in range(pu + 1):
+            acc += w[onu + r] * w[otm + r * dimw + dd]
+        w[ores + dd] = acc / w0 if srat else acc
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _probe_extent(ci, cf, ck, cpw, cku, ckv, cpw4, j, s33, thr, extent, w):
+    """The 33-point probe of use j (`discretize_chunks_kernel`): the 3D extent from its first point,
+    updated from `extent`, stopping at the first point that puts it above thr (or NaN). One call per
+    use, the points written out (`_curve_uv`, `_surface_xyz`)."""
+    ores = w.shape[0] - 3
+    x0, y0, z0 = 0.0, 0.0, 0.0
+    for i in range(s33.shape[0]):
+        u, v = _curve_uv(ci, cf, ck, cpw, j, s33[i], w)
+        _surface_xyz(ci, cku, ckv, cpw4, j, u, v, w)
+        if i == 0:
+            x0, y0, z0 = w[ores], w[ores + 1], w[ores + 2]
+        d0, d1, d2 = w[ores] - x0, w[ores + 1] - y0, w[ores + 2] - z0
+        e = np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
+        if e > extent or np.isnan(e):
+            extent = e
+        if not extent <= thr:
+            break
+    return extent
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _shared_points(ci, cku, ckv, cpw4, j, uvs, k, o_pts, ns, o_uv, nuv, w):
+    """Use j's part of the shared points: (u, v) into o_uv[nuv + j k + i], S(clip(u, v)) set (j = 0) or
+    added into o_pts[ns + i, 1:4]. One call per use, the points written out (`_surface_xyz`)."""
+    ores = w.shape[0] - 3
+    for i in range(k):
+        uu, vv = uvs[j, i, 0], uvs[j, i, 1]
+        o_uv[nuv + j * k + i, 0] = uu
+        o_uv[nuv + j * k + i, 1] = vv
+        _surface_xyz(ci, cku, ckv, cpw4, j, uu, vv, w)
+        for q in range(3):
+            if j == 0:
+                o_pts[ns + i, 1 + q] = w[ores + q]
+            else:
+                o_pts[ns + i, 1 + q] += w[ores + q]
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _grow(a, n):
     """a (rows, cols) with room for at least n rows (copied by a loop)."""
     if a.shape[0] >= n:
@@ -459,6 +654,7 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
     s1_ = np.empty(1)
     ns = 0
     nuv = 0
+    w = _scratch(ci)
     for c in range(n_chunks):
         u0, u1 = c_off[c], c_off[c + 1]
         L = u1 - u0
@@ -482,11 +678,6 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
                 for q in range(n):
                     G[j, axis, q] = gf[o + q]
         chord_tol = tolerance if L < 2 else shared_chord * tolerance
-        mpu, mpv = np.int64(1), np.int64(1)
-        for j in range(L):
-            mpu, mpv = max(mpu, cic[j, 2]), max(mpv, cic[j, 3])
-        ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(mpu, mpv, np.int64(4))
-        res = np.empty((3, 3))
         if mode != 1:
             # the start values: the first use's p-curve knots inside its range, mapped onto [0, 1], and s9
             cp = cic[0, 0]
@@ -512,32 +703,12 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
             # the 3D extent of the 33 probe points (per use, from its first point): only whether it is
             # <= 1e-3 x tolerance is read, so a forced chunk skips the probe, and the probe stops at the
             # first point that puts the extent above it (or NaN: the extent is then NaN, no degenerate);
-            # point by point (`_use_uv` of one parameter: the same numbers as of all 33)
-            s1 = np.empty(1)
-            uvp = np.empty((1, 2))
+            # point by point (`_curve_uv`, `_surface_xyz`: the numbers of `_use_uv` and `_surface_point01`)
             thr = 1e-3 * tolerance
             extent = 0.0
             n_use = L if forced[c] < 0 else 0
             for j in range(n_use):
-                kc_, cw_, ku, kv, pw = _use_arrays(cic, ck, cpw, cku, ckv, cpw4, j)
-                pu, pv, srat = cic[j, 2], cic[j, 3], cic[j, 4] != 0
-                su0, su1 = ku[pu], ku[ku.shape[0] - pu - 1]
-                sv0, sv1 = kv[pv], kv[kv.shape[0] - pv - 1]
-                x0, y0, z0 = 0.0, 0.0, 0.0
-                for i in range(s33.shape[0]):
-                    s1[0] = s33[i]
-                    _use_uv(cic, cfc, ck, cpw, j, s1, uvp)
-                    _surface_point01(pu, pv, ku, kv, pw, srat, min(max(uvp[0, 0], su0), su1),
-                                     min(max(uvp[0, 1], sv0), sv1), np.int64(0), ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
-                                     bu, bv, tmp, skl, res)
-                    if i == 0:
-                        x0, y0, z0 = res[0, 0], res[0, 1], res[0, 2]
-                    d0, d1, d2 = res[0, 0] - x0, res[0, 1] - y0, res[0, 2] - z0
-                    e = np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
-                    if e > extent or np.isnan(e):
-                        extent = e
-                    if not extent <= thr:
-                        break
+                extent = _probe_extent(cic, cfc, ck, cpw, cku, ckv, cpw4, j, s33, thr, extent, w)
                 if not extent <= thr:
                     break
             if forced[c] >= 0:
@@ -612,21 +783,7 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
             o_pts[ns + i, 4] = 1.0 if iso[i] else 0.0
         # the shared points: np.mean over the uses of S(uv) (a sequential sum, then / L)
         for j in range(L):
-            kc_, cw_, ku, kv, pw = _use_arrays(cic, ck, cpw, cku, ckv, cpw4, j)
-            pu, pv, srat = cic[j, 2], cic[j, 3], cic[j, 4] != 0
-            su0, su1 = ku[pu], ku[ku.shape[0] - pu - 1]
-            sv0, sv1 = kv[pv], kv[kv.shape[0] - pv - 1]
-            for i in range(k):
-                uu, vv = uvs[j, i, 0], uvs[j, i, 1]
-                o_uv[nuv + j * k + i, 0] = uu
-                o_uv[nuv + j * k + i, 1] = vv
-                _surface_point01(pu, pv, ku, kv, pw, srat, min(max(uu, su0), su1), min(max(vv, sv0), sv1), np.int64(0),
-                                 ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
-                for q in range(3):
-                    if j == 0:
-                        o_pts[ns + i, 1 + q] = res[0, q]
-                    else:
-                        o_pts[ns + i, 1 + q] += res[0, q]
+            _shared_points(cic, cku, ckv, cpw4, j, uvs, k, o_pts, ns, o_uv, nuv, w)
         for i in range(k):
             for q in range(3):
                 o_pts[ns + i, 1 + q] = o_pts[ns + i, 1 + q] / L
