@@ -23,8 +23,8 @@ import numpy as np
 from numba import njit
 
 from ..geom._nurbs_kernels import _curve_point
-from ._line_kernels import (_chunk_criteria, _nonzero, _snap1, _ss_left, _ss_right, _stable_order, _unique,
-                            _use_arrays, _use_uv, chunk_iso_kernel, equidistributed_kernel)
+from ._line_kernels import (_chunk_criteria, _grid, _nonzero, _sgn, _snap1, _ss_left, _ss_right, _stable_order, _take,
+                            _unique, _use_arrays, equidistributed_kernel)
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
@@ -147,7 +147,7 @@ def _reduce(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, s, uvs, must, flags, toleran
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _even_spacing(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tolerance, max_edge, m9):
+def _even_spacing(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tolerance, max_edge, m9, w):
     """`trims._even_spacing`: between consecutive grid-line crossings, the fewest equally spaced points
     (in s) that meet both criteria with every chord in one grid cell of every use, where they are no
     more than the reduction kept there."""
@@ -180,8 +180,6 @@ def _even_spacing(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tol
     best = np.zeros(cnt, dtype=np.int64)
     uvq = np.empty((L, 2))
     uvp = np.empty((L, 2))
-    one = np.empty((1, 2))
-    pt = np.empty(1)
     yes = m9 > 0
     for n in range(1, m_max + 2):
         any_sel = False
@@ -209,10 +207,9 @@ def _even_spacing(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tol
                     elif jj == n:
                         uvq[j, 0], uvq[j, 1] = uvs[j, mi[cand[q] + 1], 0], uvs[j, mi[cand[q] + 1], 1]
                     else:
-                        pt[0] = gs[jj]
-                        _use_uv(ci, cf, ck, cpw, j, pt, one)
-                        uvq[j, 0] = _snap1(one[0, 0], G[j, 0, :gl[j, 0]], ptol[j])[0]
-                        uvq[j, 1] = _snap1(one[0, 1], G[j, 1, :gl[j, 1]], ptol[j])[0]
+                        u_, v_ = _curve_uv(ci, cf, ck, cpw, j, gs[jj], w)
+                        uvq[j, 0] = _snap1(u_, G[j, 0, :gl[j, 0]], ptol[j])[0]
+                        uvq[j, 1] = _snap1(v_, G[j, 1, :gl[j, 1]], ptol[j])[0]
                     if jj > 0 and not _cell_ok(G, gl, uvp[j, 0], uvp[j, 1], uvq[j, 0], uvq[j, 1], j):
                         cell = False
                 if not cell:
@@ -266,7 +263,7 @@ def _even_spacing(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tol
                 uv_cat[j, c, 0], uv_cat[j, c, 1] = uvs[j, i, 0], uvs[j, i, 1]
                 c += 1
         if n_new:
-            _use_uv(ci, cf, ck, cpw, j, new_s, _use_uv_all)
+            _uv_batch(ci, cf, ck, cpw, j, new_s, _use_uv_all, w)
         for axis in range(2):
             g = G[j, axis, :gl[j, axis]]
             for i in range(n_new):
@@ -287,7 +284,7 @@ def _even_spacing(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tol
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
-def _reduce_chunk(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tolerance, max_edge, m9):
+def _reduce_chunk(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tolerance, max_edge, m9, w):
     """The polygon reduction of `discretize_chunk`: `_reduce` keeping the grid-line crossings (on a shared
     edge only those the polygon does not run along, on a single use its iso points), then on a shared
     edge `_even_spacing` (one compiled function: the criteria linked into it once)."""
@@ -302,7 +299,7 @@ def _reduce_chunk(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tol
     s, uvs, iso = _reduce(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, s, uvs, must, iso, tolerance, max_edge, m9)
     if L >= 2:
         s, uvs, iso = _even_spacing(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tolerance, max_edge,
-                                    m9)
+                                    m9, w)
     return s, uvs, iso
 
 
@@ -547,6 +544,182 @@ def _shared_points(ci, cku, ckv, cpw4, j, uvs, k, o_pts, ns, o_uv, nuv, w):
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _uv_batch(ci, cf, ck, cpw, j, s, out, w):
+    """`_line_kernels._use_uv` (uv of use j at the chunk parameters s into out (n, 2)) point by point with
+    `_curve_uv` (the same numbers; no allocation, call or array view per point), w a `_scratch`."""
+    for i in range(s.shape[0]):
+        u, v = _curve_uv(ci, cf, ck, cpw, j, s[i], w)
+        out[i, 0] = u
+        out[i, 1] = v
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _refine_crossing_w(ci, cf, ck, cpw, j, axis, ptol, s, value, lo, hi, w):
+    """`_line_kernels._refine_crossing` with `_uv_batch` (the same numbers)."""
+    n = s.shape[0]
+    buf = np.empty((n, 2))
+    _uv_batch(ci, cf, ck, cpw, j, lo, buf, w)
+    flo = np.empty(n)
+    fhi = np.empty(n)
+    for i in range(n):
+        flo[i] = buf[i, axis] - value[i]
+    _uv_batch(ci, cf, ck, cpw, j, hi, buf, w)
+    for i in range(n):
+        fhi[i] = buf[i, axis] - value[i]
+    side = np.zeros(n, dtype=np.int8)
+    lo = lo.copy()
+    hi = hi.copy()
+    s = s.copy()
+    fs = np.empty(n)
+    for _ in range(40):
+        for i in range(n):
+            den = fhi[i] - flo[i]
+            if abs(den) > 0:
+                si = lo[i] - flo[i] * (hi[i] - lo[i]) / (den if den != 0 else 1.0)
+            else:
+                si = 0.5 * (lo[i] + hi[i])
+            a, b = min(lo[i], hi[i]), max(lo[i], hi[i])
+            s[i] = min(max(si, a), b)
+        _uv_batch(ci, cf, ck, cpw, j, s, buf, w)
+        conv = True
+        for i in range(n):
+            fs[i] = buf[i, axis] - value[i]
+            if not abs(fs[i]) <= 1e-3 * ptol:
+                conv = False
+        if conv:
+            break
+        for i in range(n):
+            left = _sgn(fs[i]) == _sgn(flo[i])
+            if left:
+                lo[i], flo[i] = s[i], fs[i]
+            else:
+                hi[i], fhi[i] = s[i], fs[i]
+            if left and side[i] == 1:
+                fhi[i] = 0.5 * fhi[i]
+            if (not left) and side[i] == -1:
+                flo[i] = 0.5 * flo[i]
+            side[i] = 1 if left else -1
+    return s
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _chunk_iso(ci, cf, ck, cpw, G, gl, ptol, s, w):
+    """`_line_kernels.chunk_iso_kernel` with the p-curve points of `_uv_batch` (no call, allocation or
+    array view per point; the same numbers), w a `_scratch` of ci."""
+    n_uses = G.shape[0]
+    cap = 16
+    f_sc = np.empty(cap)
+    f_val = np.empty(cap)
+    f_ui = np.empty(cap, dtype=np.int64)
+    f_ax = np.empty(cap, dtype=np.int64)
+    nf = 0
+    s_all = s
+    for _ in range(4):
+        ex = np.empty(0)
+        n_ex = 0
+        k_all = s_all.shape[0]
+        for ui in range(n_uses):
+            uv = np.empty((k_all, 2))
+            _uv_batch(ci, cf, ck, cpw, ui, s_all, uv, w)
+            for q in range(nf):
+                if f_ui[q] == ui:
+                    uv[_ss_left(s_all, f_sc[q]), f_ax[q]] = f_val[q]
+            for axis in range(2):
+                grid = _grid(G, gl, ui, axis)
+                coord = np.empty(k_all)
+                for i in range(k_all):
+                    coord[i] = _snap1(uv[i, axis], grid, ptol[ui])[0]
+                # iso_crossings
+                cnt_total = 0
+                for i in range(k_all - 1):
+                    a, b = coord[i], coord[i + 1]
+                    first = _ss_right(grid, min(a, b))
+                    last = _ss_left(grid, max(a, b))
+                    if last > first:
+                        cnt_total += last - first
+                if cnt_total == 0:
+                    continue
+                sc = np.empty(cnt_total)
+                val = np.empty(cnt_total)
+                c = 0
+                for i in range(k_all - 1):
+                    a, b = coord[i], coord[i + 1]
+                    first = _ss_right(grid, min(a, b))
+                    last = _ss_left(grid, max(a, b))
+                    for g in range(first, last):
+                        vv = grid[g]
+                        f = (vv - a) / (b - a)
+                        sc[c] = s_all[i] + f * (s_all[i + 1] - s_all[i])
+                        val[c] = vv
+                        c += 1
+                lo = np.empty(cnt_total)
+                hi = np.empty(cnt_total)
+                for q in range(cnt_total):
+                    k = _ss_right(s_all, sc[q]) - 1
+                    k = min(max(k, 0), k_all - 2)
+                    lo[q], hi[q] = s_all[k], s_all[k + 1]
+                sc = _refine_crossing_w(ci, cf, ck, cpw, ui, axis, ptol[ui], sc, val, lo, hi, w)
+                for q in range(cnt_total):
+                    k = _ss_left(s_all, sc[q])
+                    k = min(max(k, 0), k_all - 1)
+                    if abs(s_all[k] - sc[q]) > 1e-13:
+                        if n_ex == ex.shape[0]:
+                            ex2 = np.empty(2 * n_ex + 8)
+                            for e in range(n_ex):
+                                ex2[e] = ex[e]
+                            ex = ex2
+                        ex[n_ex] = sc[q]
+                        n_ex += 1
+                        if nf == cap:
+                            cap *= 2
+                            a1, a2 = np.empty(cap), np.empty(cap)
+                            a3, a4 = np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64)
+                            for e in range(nf):
+                                a1[e], a2[e], a3[e], a4[e] = f_sc[e], f_val[e], f_ui[e], f_ax[e]
+                            f_sc, f_val, f_ui, f_ax = a1, a2, a3, a4
+                        f_sc[nf], f_val[nf], f_ui[nf], f_ax[nf] = sc[q], val[q], ui, axis
+                        nf += 1
+        if n_ex == 0:
+            break
+        merged = np.empty(k_all + n_ex)
+        for e in range(k_all):
+            merged[e] = s_all[e]
+        for e in range(n_ex):
+            merged[k_all + e] = ex[e]
+        s_all = _unique(merged)
+    # drop near-duplicate parameters
+    k_all = s_all.shape[0]
+    keep = np.ones(k_all, dtype=np.bool_)
+    for i in range(1, k_all):
+        keep[i] = s_all[i] - s_all[i - 1] > 1e-13
+    s_all = _take(s_all, _nonzero(keep))
+    k_all = s_all.shape[0]
+    uvs = np.empty((n_uses, k_all, 2))
+    iso = np.zeros(k_all, dtype=np.bool_)
+    for ui in range(n_uses):
+        _uv_batch(ci, cf, ck, cpw, ui, s_all, uvs[ui], w)
+        for axis in range(2):
+            grid = _grid(G, gl, ui, axis)
+            for i in range(k_all):
+                v, hit = _snap1(uvs[ui, i, axis], grid, ptol[ui])
+                uvs[ui, i, axis] = v
+                if hit:
+                    iso[i] = True
+    # the crossings lie exactly on their iso-line (whatever the solver's last digit)
+    for q in range(nf):
+        sc = f_sc[q]
+        k = _ss_left(s_all, sc)
+        k = min(max(k, 0), k_all - 1)
+        if k > 0 and abs(s_all[k - 1] - sc) < abs(s_all[k] - sc):
+            k -= 1
+        uvs[f_ui[q], k, f_ax[q]] = f_val[q]
+        iso[k] = True
+    iso[0] = True
+    iso[k_all - 1] = True
+    return s_all, uvs, iso
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _grow(a, n):
     """a (rows, cols) with room for at least n rows (copied by a loop)."""
     if a.shape[0] >= n:
@@ -767,12 +940,12 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
             s = np.empty(s_off[c + 1] - s_off[c])
             for i in range(s.shape[0]):
                 s[i] = s_in[s_off[c] + i]
-        s_all, uvs, iso = chunk_iso_kernel(cic, cfc, ck, cpw, G, gl, ptol, s)
+        s_all, uvs, iso = _chunk_iso(cic, cfc, ck, cpw, G, gl, ptol, s, w)
         if s_all.shape[0] > 2:
             s_all, uvs, iso = _merge_close(G, gl, ptol, s_all, uvs, iso)
         if do_reduce and not degenerate and s_all.shape[0] > 2:
             s_all, uvs, iso = _reduce_chunk(cic, cfc, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s_all, uvs, iso, chord_tol,
-                                            max_edge, m9)
+                                            max_edge, m9, w)
         k = s_all.shape[0]
         info[c, 0] = k
         info[c, 1] = degenerate
