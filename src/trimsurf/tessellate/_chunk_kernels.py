@@ -4,7 +4,8 @@ call (`discretize_chunks_kernel`).
 Each chunk goes through the steps of the numpy path with the same operations in the same order, so the
 output is the numpy path's bit for bit (`trims._discretize_chunk_numpy` is the reference the tests compare
 against): the start values (p-curve knots and 9 uniform values), the 33-point probe of the 3D extent,
-the placement (`_line_kernels.equidistributed_kernel`), the iso-values (`_line_kernels.chunk_iso_kernel`),
+the placement (`_line_kernels.equidistributed_kernel`), the iso-values (`_chunk_iso`, a copy of
+`_line_kernels.chunk_iso_kernel` with the p-curve points of `_uv_batch`),
 the merge of nearly coincident points, the polygon reduction (`_reduce`), the even spacing between the
 grid-line crossings of a shared edge (`_even_spacing`) and the shared 3D points (mean over the uses).
 
@@ -14,7 +15,11 @@ per use its grid (`gi` = (offset of us, len, offset of vs, len) into `gf`) and p
 per chunk the range of its uses (`c_off`) and whether it is degenerate (`forced`: 1 yes, 0 no, -1 decide
 from the probe). numba's searchsorted,
 argsort, boolean indexing and slice assignment cost seconds of compile time each: plain loops and the
-helpers of `_line_kernels` instead.
+helpers of `_line_kernels` instead. Every call of a compiled helper that takes arrays, and every array
+view, costs numba an atomic reference count pair: the points evaluated per chunk (probe, p-curve points,
+shared points) go through `_curve_uv` / `_surface_xyz`, the point code of `_chunk_criteria` (the numbers
+of `_curve_point` / `_surface_point01`), in one call per use and one work array (`_scratch`) per kernel
+call.
 """
 
 from __future__ import annotations
