@@ -26,7 +26,7 @@ def _use_points(ci, cf, ck, cpw, cku, ckv, cpw4, j, s):
     _uv_batch(ci, cf, ck, cpw, j, s, uvs[j], w)
     o_pts = np.full((n, 5), -0.0)
     o_uv = np.empty(((j + 1) * n, 2))
-    _shared_points(ci, cku, ckv, cpw4, j, uvs, n, o_pts, 0, o_uv, 0, w)
+    _shared_points(ci, cku, ckv, cpw4, j, uvs, o_pts, o_uv, w)
     return uvs[j].copy(), o_pts[:, 1:4].copy(), o_uv[j * n:(j + 1) * n].copy()
 
 

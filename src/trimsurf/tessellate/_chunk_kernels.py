@@ -532,20 +532,22 @@ def _probe_extent(ci, cf, ck, cpw, cku, ckv, cpw4, j, s33, thr, extent, w):
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
-def _shared_points(ci, cku, ckv, cpw4, j, uvs, k, o_pts, ns, o_uv, nuv, w):
-    """Use j's part of the shared points: (u, v) into o_uv[nuv + j k + i], S(clip(u, v)) set (j = 0) or
-    added into o_pts[ns + i, 1:4]. One call per use, the points written out (`_surface_xyz`)."""
+def _shared_points(ci, cku, ckv, cpw4, j, uvs, o_pts, o_uv, w):
+    """Use j's part of the shared points of a chunk of k = uvs.shape[1] points: (u, v) into o_uv[j k + i],
+    S(clip(u, v)) set (j = 0) or added into o_pts[i, 1:4]. One call per use, the points written out
+    (`_surface_xyz`)."""
     ores = w.shape[0] - 3
+    k = uvs.shape[1]
     for i in range(k):
         uu, vv = uvs[j, i, 0], uvs[j, i, 1]
-        o_uv[nuv + j * k + i, 0] = uu
-        o_uv[nuv + j * k + i, 1] = vv
+        o_uv[j * k + i, 0] = uu
+        o_uv[j * k + i, 1] = vv
         _surface_xyz(ci, cku, ckv, cpw4, j, uu, vv, w)
         for q in range(3):
             if j == 0:
-                o_pts[ns + i, 1 + q] = w[ores + q]
+                o_pts[i, 1 + q] = w[ores + q]
             else:
-                o_pts[ns + i, 1 + q] += w[ores + q]
+                o_pts[i, 1 + q] += w[ores + q]
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
@@ -961,7 +963,7 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
             o_pts[ns + i, 4] = 1.0 if iso[i] else 0.0
         # the shared points: np.mean over the uses of S(uv) (a sequential sum, then / L)
         for j in range(L):
-            _shared_points(cic, cku, ckv, cpw4, j, uvs, k, o_pts, ns, o_uv, nuv, w)
+            _shared_points(cic, cku, ckv, cpw4, j, uvs, o_pts[ns:ns + k], o_uv[nuv:nuv + L * k], w)
         for i in range(k):
             for q in range(3):
                 o_pts[ns + i, 1 + q] = o_pts[ns + i, 1 + q] / L
