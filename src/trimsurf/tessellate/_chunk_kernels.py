@@ -185,6 +185,8 @@ def _even_spacing(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tol
     best = np.zeros(cnt, dtype=np.int64)
     uvq = np.empty((L, 2))
     uvp = np.empty((L, 2))
+    one = np.empty((1, 2))
+    pt = np.empty(1)
     yes = m9 > 0
     for n in range(1, m_max + 2):
         any_sel = False
@@ -212,9 +214,10 @@ def _even_spacing(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, ptol, s, uvs, iso, tol
                     elif jj == n:
                         uvq[j, 0], uvq[j, 1] = uvs[j, mi[cand[q] + 1], 0], uvs[j, mi[cand[q] + 1], 1]
                     else:
-                        u_, v_ = _curve_uv(ci, cf, ck, cpw, j, gs[jj], w)
-                        uvq[j, 0] = _snap1(u_, G[j, 0, :gl[j, 0]], ptol[j])[0]
-                        uvq[j, 1] = _snap1(v_, G[j, 1, :gl[j, 1]], ptol[j])[0]
+                        pt[0] = gs[jj]
+                        _uv_batch(ci, cf, ck, cpw, j, pt, one, w)
+                        uvq[j, 0] = _snap1(one[0, 0], G[j, 0, :gl[j, 0]], ptol[j])[0]
+                        uvq[j, 1] = _snap1(one[0, 1], G[j, 1, :gl[j, 1]], ptol[j])[0]
                     if jj > 0 and not _cell_ok(G, gl, uvp[j, 0], uvp[j, 1], uvq[j, 0], uvq[j, 1], j):
                         cell = False
                 if not cell:
