@@ -64,14 +64,20 @@ def _corner_cosines(P):
             dx, dy, dz = P[t, p, 0] - P[t, q, 0], P[t, p, 1] - P[t, q, 1], P[t, p, 2] - P[t, q, 2]
             L[c] = np.sqrt((dx * dx + dy * dy) + dz * dz)
         for c in range(3):
-            l1, l2 = L[(c + 1) % 3], L[(c + 2) % 3]
-            cs = (l1 * l1 + l2 * l2 - L[c] * L[c]) / (2 * l1 * l2)
-            if cs < -1.0:
-                cs = -1.0
-            elif cs > 1.0:
-                cs = 1.0
-            out[t, c] = cs
+            out[t, c] = _clipped_cosine(L[c], L[(c + 1) % 3], L[(c + 2) % 3])
     return out
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _clipped_cosine(opposite, l1, l2):
+    """The cosine of the angle between sides l1 and l2 opposite side `opposite` (law of cosines), clipped to
+    [-1, 1], NaN kept: scalars only (no array reference to count per call in the kernels that use it)."""
+    cs = (l1 * l1 + l2 * l2 - opposite * opposite) / (2 * l1 * l2)
+    if cs < -1.0:
+        return -1.0
+    if cs > 1.0:
+        return 1.0
+    return cs
 
 
 def _min_angles_deg_numpy(P: np.ndarray) -> np.ndarray:
@@ -538,13 +544,7 @@ def _check_shape_kernel(uv, xyz, T, mi, cv, cu, ci, sgn, max_edge):
             dx, dy, dz = xyz[p, 0] - xyz[q, 0], xyz[p, 1] - xyz[q, 1], xyz[p, 2] - xyz[q, 2]
             L[c] = np.sqrt((dx * dx + dy * dy) + dz * dz)
         for c in range(3):
-            l1, l2 = L[(c + 1) % 3], L[(c + 2) % 3]
-            cs = (l1 * l1 + l2 * l2 - L[c] * L[c]) / (2 * l1 * l2)
-            if cs < -1.0:
-                cs = -1.0
-            elif cs > 1.0:
-                cs = 1.0
-            cos[k, c] = cs
+            cos[k, c] = _clipped_cosine(L[c], L[(c + 1) % 3], L[(c + 2) % 3])
     return newt, fail, cos
 
 
