@@ -20,8 +20,9 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import InputError
-from ..geom.predicates import _points_in_polygons_kernel, points_in_polygons
+from ..geom.predicates import PolygonIndex, _points_in_polygons_kernel, points_in_polygons
 from ..model import NurbsSurface, TriMesh, TrimmedFace
+from ..model.trim import loops_polylines
 from ._kernels import segments_distance_kernel
 
 __all__ = ["TriangleSamples", "sample_triangles", "as_face", "loop_polygons", "inside_face",
@@ -178,7 +179,7 @@ def _loop_polygons(face: TrimmedFace, n_per_segment: int) -> tuple:
     if hit is not None and hit[0] is face:
         return hit[1]
     if face.loops:
-        polys = [loop.polyline(n_per_segment) for loop in face.loops]
+        polys = loops_polylines(face.loops, n_per_segment)      # one compiled call for all loops
     else:
         (u0, u1), (v0, v1) = face.surface.domain
         polys = [np.array([[u0, v0], [u1, v0], [u1, v1], [u0, v1]], dtype=np.float64)]
@@ -210,7 +211,18 @@ def _inside_loops(face: TrimmedFace, uv: np.ndarray, n_per_segment: int = 32) ->
 
 
 def _slab_index(polygons) -> tuple:
-    """The edges and horizontal slabs `geom.predicates.points_in_polygons` builds (its code, kept)."""
+    """The edges and horizontal slabs `geom.predicates.points_in_polygons` builds: (a, b, y0, h, n_slab,
+    start, edges) of its `PolygonIndex` (compiled, one call per polygon list; the same arrays as
+    `_slab_index_numpy`, the former numpy version, kept as the reference of the tests)."""
+    index = PolygonIndex(polygons)
+    if not len(index.a):
+        a = index.a
+        return a, a.copy(), 0.0, 1.0, 1, np.zeros(2, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    return index.a, index.b, float(index.y0), float(index.h), int(index.n_slab), index.start, index.edges
+
+
+def _slab_index_numpy(polygons) -> tuple:
+    """`_slab_index` in numpy (the reference its tests compare with)."""
     a = np.ascontiguousarray(np.concatenate([np.asarray(p, dtype=np.float64) for p in polygons]))
     b = np.ascontiguousarray(np.concatenate([np.roll(np.asarray(p, dtype=np.float64), -1, axis=0)
                                              for p in polygons]))

@@ -1,0 +1,112 @@
+"""The batched trim paths (session 27, issue 17 item 2) against the per-segment / numpy ones they replace:
+`Loop.polyline` and `loops_polylines` (one compiled call for all segments) must give the points of
+`Loop._polyline_by_segment` bit for bit, and `sampling._slab_index` (predicates' compiled `PolygonIndex`)
+the arrays of `_slab_index_numpy`."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from trimsurf.io import read_shell
+from trimsurf.model import NurbsCurve
+from trimsurf.model.trim import Loop, PCurve, loops_polylines
+from trimsurf.quality import sampling as S
+
+_NS = (2, 3, 8, 32, 512)
+
+
+@pytest.fixture(scope="module")
+def faces(shared_data):
+    out = []
+    for name in ("trimesh__featuretype.STEP", "occt__screw.step"):
+        out.extend(read_shell(shared_data / "cad" / name).faces)
+    return [f for f in out if f.loops]
+
+
+def _bits_equal(a, b):
+    return a.shape == b.shape and a.dtype == b.dtype and np.array_equal(a.view(np.int64), b.view(np.int64))
+
+
+def _synthetic_loop():
+    # a rational quarter circle run backwards over part of its range, a cubic, a line: degrees 1-3
+    w = np.sqrt(0.5)
+    arc = NurbsCurve(2, np.array([0, 0, 0, 1, 1, 1.0]), np.array([[1.0, 0], [1, 1], [0, 1]]),
+                     np.array([1, w, 1]))
+    cub = NurbsCurve(3, np.array([0, 0, 0, 0, 0.3, 1, 1, 1, 1.0]),
+                     np.array([[0, 1.0], [-0.4, 0.7], [-0.5, 0.2], [-0.2, 0.1], [0.9, 0.0]]))
+    line = NurbsCurve(1, np.array([-2, -2, 5, 5.0]), np.array([[0.9, 0.0], [1.0, 0.0]]))
+    return Loop((PCurve(arc, 0.9, 0.1), PCurve(cub, 0.0, 1.0), PCurve(line, -2.0, 4.7)))
+
+
+def test_polyline_batched_is_per_segment_bit_for_bit(faces):
+    loops = [loop for f in faces for loop in f.loops] + [_synthetic_loop()]
+    assert sum(len(lp) for lp in loops) > 500
+    for n in _NS:
+        for loop in loops:
+            got, ref = loop.polyline(n), loop._polyline_by_segment(n)
+            assert _bits_equal(got, ref), n
+            assert got.base is None
+
+
+def test_loops_polylines_splits_each_loop(faces):
+    multi = [f for f in faces if len(f.loops) > 1]
+    assert multi
+    for f in multi:
+        for n in (8, 512):
+            got = loops_polylines(f.loops, n)
+            assert len(got) == len(f.loops)
+            for g, loop in zip(got, f.loops):
+                assert _bits_equal(g, loop._polyline_by_segment(n))
+    assert loops_polylines((), 32) == []
+    assert loops_polylines(multi[0].loops, 1)[0].shape == (0, 2)      # n < 2: the per-segment path
+
+
+def test_face_polygons_use_batched_points(faces):
+    f = faces[0]
+    S._POLYGONS.clear()
+    S._SLABS.clear()
+    polys = S.loop_polygons(f, n_per_segment=32)
+    for p, loop in zip(polys, f.loops):
+        assert _bits_equal(p, loop._polyline_by_segment(32))
+        assert not p.flags.writeable
+
+
+def _index_equal(x, y):
+    assert len(x) == len(y) == 7
+    for u, v in zip(x, y):
+        if isinstance(u, np.ndarray):
+            assert _bits_equal(np.asarray(u), np.asarray(v))
+        else:
+            assert type(u) is type(v) and u == v
+
+
+def test_slab_index_is_the_numpy_one(faces):
+    rng = np.random.default_rng(3)
+    cases = [[loop._polyline_by_segment(n) for loop in f.loops] for f in faces for n in (32, 512)]
+    # tall edges (fewer slabs), a flat polygon (h = 1), a single triangle
+    cases.append([rng.random((300, 2)) * [1, 50]])
+    cases.append([np.array([[0, 1.0], [1, 1.0], [2, 1.0]])])
+    cases.append([np.array([[0, 0.0], [1, 0.0], [0, 1.0]]), np.array([[0.2, 0.2], [0.3, 0.2], [0.2, 0.3]])])
+    for polys in cases:
+        _index_equal(S._slab_index(polys), S._slab_index_numpy(polys))
+
+
+def test_inside_loops_answers_match_brute_force(faces):
+    rng = np.random.default_rng(7)
+    for f in faces[::7]:
+        S._POLYGONS.clear()
+        S._SLABS.clear()
+        polys = S.loop_polygons(f, n_per_segment=32)
+        lo, hi = np.min([p.min(0) for p in polys], 0), np.max([p.max(0) for p in polys], 0)
+        uv = lo + (hi - lo) * rng.random((400, 2))
+        a = np.concatenate(polys)
+        b = np.concatenate([np.roll(p, -1, axis=0) for p in polys])
+        # even-odd crossing count, brute force over all edges (the kernel's test)
+        x, y = uv[:, :1], uv[:, 1:]
+        cond = (a[None, :, 1] > y) != (b[None, :, 1] > y)
+        with np.errstate(all="ignore"):
+            xc = a[None, :, 0] + (y - a[None, :, 1]) * (b[None, :, 0] - a[None, :, 0]) / (b[None, :, 1] - a[None, :, 1])
+        ref = (np.sum(cond & (x < xc), axis=1) % 2) == 1
+        got = S._inside_loops(f, uv, 32)
+        assert np.mean(got == ref) > 0.99
