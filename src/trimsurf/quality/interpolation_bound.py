@@ -83,6 +83,20 @@ def _breaks(knots: np.ndarray, p: int, n: int) -> tuple[np.ndarray, np.ndarray, 
     # span index of cell [b_i, b_i+1]: the last s with knots[s] == b_i (s <= n - 1)
     s = np.searchsorted(knots, b[:-1], side="right") - 1
     s = np.minimum(s, n - 1)
+    # multiplicities: the knots are non-decreasing (`NurbsSurface` checks), so the run of each value
+    mult = np.searchsorted(knots, b, side="right") - np.searchsorted(knots, b, side="left")
+    crease = mult >= max(p, 1)
+    crease[0] = crease[-1] = False
+    return b, s, crease
+
+
+def _breaks_by_count(knots: np.ndarray, p: int, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """`_breaks` with a count per breakpoint (the reference of its tests)."""
+    lo, hi = knots[p], knots[n]
+    b = np.unique(knots[(knots >= lo) & (knots <= hi)])
+    # span index of cell [b_i, b_i+1]: the last s with knots[s] == b_i (s <= n - 1)
+    s = np.searchsorted(knots, b[:-1], side="right") - 1
+    s = np.minimum(s, n - 1)
     mult = np.array([int(np.count_nonzero(knots == x)) for x in b])
     crease = mult >= max(p, 1)
     crease[0] = crease[-1] = False
@@ -105,13 +119,81 @@ def _cell_max(arr: np.ndarray, su: np.ndarray, sv: np.ndarray, lo_u: int, n_u: i
 
 
 def span_bounds(surface) -> SpanBounds:
-    """`SpanBounds` of a `NurbsSurface` (see the module's notes for what they bound)."""
+    """`SpanBounds` of a `NurbsSurface` (see the module's notes for what they bound).
+
+    A rational surface's points and weights are differenced together (one (nu, nv, 4) array: the same
+    elementwise differences and factors), and each cell's block of them gathered once; the numbers are
+    those of `_span_bounds_by_part`, bit for bit."""
     pu, pv = int(surface.degree_u), int(surface.degree_v)
     ku, kv = np.asarray(surface.knots_u, float), np.asarray(surface.knots_v, float)
     cp = np.asarray(surface.control_points, float)
     nu, nv = cp.shape[:2]
     bu, su, cu = _breaks(ku, pu, nu)
     bv, sv, cv = _breaks(kv, pv, nv)
+    w = surface.weights
+    if w is None:
+        xu = _diff(cp, ku, pu, 0)
+        xuu = _diff(xu, ku[1:-1], pu - 1, 0)
+        xv = _diff(cp, kv, pv, 1)
+        xvv = _diff(xv, kv[1:-1], pv - 1, 1)
+        xuv = _diff(xu, kv, pv, 1)
+        muu = _cell_max(xuu, su, sv, pu, pu - 1, pv, pv + 1)
+        mvv = _cell_max(xvv, su, sv, pu, pu + 1, pv, pv - 1)
+        muv = _cell_max(xuv, su, sv, pu, pu, pv, pv)
+        return SpanBounds(bu, bv, cu, cv, np.stack([muu, muv, mvv]))
+    wt = np.asarray(w, float)[..., None]
+    d = cp.shape[2]
+    hw = np.concatenate([cp * wt, wt], axis=-1)                 # (nu, nv, d + 1): x w, then w
+    hu = _diff(hw, ku, pu, 0)
+    huu = _diff(hu, ku[1:-1], pu - 1, 0)
+    hv = _diff(hw, kv, pv, 1)
+    hvv = _diff(hv, kv[1:-1], pv - 1, 1)
+    huv = _diff(hu, kv, pv, 1)
+    iu = su[:, None] - pu + np.arange(pu + 1)[None, :]
+    iv = sv[:, None] - pv + np.arange(pv + 1)[None, :]
+    blk = cp[iu[:, None, :, None], iv[None, :, None, :]]        # (cu, cv, pu+1, pv+1, 3)
+    centre = blk.mean(axis=(2, 3))                              # (cu, cv, 3)
+    rmax = np.linalg.norm(blk - centre[:, :, None, None, :], axis=-1).max(axis=(2, 3))
+    wmin = np.asarray(w, float)[iu[:, None, :, None], iv[None, :, None, :]].min(axis=(2, 3))
+    a_u, w_u = _cell_max2(hu, d, su, sv, pu, pu, pv, pv + 1, centre)
+    a_v, w_v = _cell_max2(hv, d, su, sv, pu, pu + 1, pv, pv, centre)
+    a_uu, w_uu = _cell_max2(huu, d, su, sv, pu, pu - 1, pv, pv + 1, centre)
+    a_vv, w_vv = _cell_max2(hvv, d, su, sv, pu, pu + 1, pv, pv - 1, centre)
+    a_uv, w_uv = _cell_max2(huv, d, su, sv, pu, pu, pv, pv, centre)
+    s_u = (a_u + w_u * rmax) / wmin
+    s_v = (a_v + w_v * rmax) / wmin
+    muu = (a_uu + 2.0 * w_u * s_u + w_uu * rmax) / wmin
+    mvv = (a_vv + 2.0 * w_v * s_v + w_vv * rmax) / wmin
+    muv = (a_uv + w_u * s_v + w_v * s_u + w_uv * rmax) / wmin
+    return SpanBounds(bu, bv, cu, cv, np.stack([muu, muv, mvv]))
+
+
+def _cell_max2(harr: np.ndarray, d: int, su: np.ndarray, sv: np.ndarray, lo_u: int, n_u: int, lo_v: int,
+               n_v: int, centre: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`_cell_max(x, .., centre, w)` and `_cell_max(w, ..)` of harr = [x, w] (.., .., d + 1), each cell's
+    block gathered once (the same contiguous arrays reduced, so the same numbers)."""
+    if n_u <= 0 or n_v <= 0:
+        z = np.zeros((len(su), len(sv)))
+        return z, z.copy()
+    iu = (su[:, None] - lo_u + np.arange(n_u)[None, :])         # (cu, n_u)
+    iv = (sv[:, None] - lo_v + np.arange(n_v)[None, :])         # (cv, n_v)
+    hb = harr[iu[:, None, :, None], iv[None, :, None, :]]      # (cu, cv, n_u, n_v, d + 1)
+    wb = np.ascontiguousarray(hb[..., d:])
+    blk = hb[..., :d] - centre[:, :, None, None, :] * wb
+    a = np.sqrt(np.einsum("...d,...d->...", blk, blk)).max(axis=(2, 3))
+    w = np.sqrt(np.einsum("...d,...d->...", wb, wb)).max(axis=(2, 3))
+    return a, w
+
+
+def _span_bounds_by_part(surface) -> SpanBounds:
+    """`span_bounds` as it was: one `_diff` / `_cell_max` per control-point array (the reference of its
+    tests; the creases by a count per breakpoint)."""
+    pu, pv = int(surface.degree_u), int(surface.degree_v)
+    ku, kv = np.asarray(surface.knots_u, float), np.asarray(surface.knots_v, float)
+    cp = np.asarray(surface.control_points, float)
+    nu, nv = cp.shape[:2]
+    bu, su, cu = _breaks_by_count(ku, pu, nu)
+    bv, sv, cv = _breaks_by_count(kv, pv, nv)
     w = surface.weights
     hom = cp if w is None else cp * np.asarray(w, float)[..., None]
     xu = _diff(hom, ku, pu, 0)
