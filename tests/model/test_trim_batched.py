@@ -110,3 +110,18 @@ def test_inside_loops_answers_match_brute_force(faces):
         ref = (np.sum(cond & (x < xc), axis=1) % 2) == 1
         got = S._inside_loops(f, uv, 32)
         assert np.mean(got == ref) > 0.99
+
+
+def test_packed_segments_cached_per_loops_tuple(faces):
+    from trimsurf.model import trim
+
+    f = next(f for f in faces if len(f.loops) > 1)
+    trim._PACKED.clear()
+    first = loops_polylines(f.loops, 8)
+    assert trim._PACKED[id(f.loops)][0] is f.loops
+    for n in (8, 32, 512):           # later densities from the cached arrays
+        for g, loop in zip(loops_polylines(f.loops, n), f.loops):
+            assert _bits_equal(g, loop._polyline_by_segment(n))
+    assert all(_bits_equal(a, b) for a, b in zip(first, loops_polylines(f.loops, 8)))
+    f.loops[0].polyline(8)           # a single loop (a fresh list) is not cached
+    assert len(trim._PACKED) == 1

@@ -111,7 +111,7 @@ class Loop:
         `_polyline_by_segment` (each segment's `evaluate(parameters(n))`), bit for bit."""
         n = int(n_per_segment)
         if n >= 2:
-            return loops_polylines((self,), n)[0]
+            return loops_polylines([self], n)[0]    # (a list: not cached by `_packed_segments`)
         return self._polyline_by_segment(n)
 
     def _polyline_by_segment(self, n_per_segment: int = 32) -> np.ndarray:
@@ -149,25 +149,21 @@ def loops_polylines(loops, n_per_segment: int = 32) -> list[np.ndarray]:
 
     Each loop's array is its own (not a view of a shared one). n_per_segment < 2, or a segment whose
     parameter step is not finite, takes the segment-by-segment path (its results and errors)."""
+    given = loops
     loops = tuple(loops)
     n = int(n_per_segment)
-    segs = [s for loop in loops for s in loop.segments]
-    if n < 2 or not segs:
+    if n < 2 or not any(loop.segments for loop in loops):
         return [loop._polyline_by_segment(n) for loop in loops]
     from ..tessellate._line_kernels import loop_polylines_kernel
-    from ..tessellate.trims import _pcurve_rows
-    from ..geom.nurbs import read_only
 
-    m = len(segs)
-    sf = np.array([(sg.t0, sg.t1) for sg in segs], dtype=np.float64).reshape(m, 2)
+    si, sf, ck, cpw = _packed_segments(loops, given is loops)
+    m = len(si)
     with np.errstate(over="ignore", invalid="ignore"):
         if not np.all(np.isfinite((sf[:, 1] - sf[:, 0]) / (n - 1))):
             return [loop._polyline_by_segment(n) for loop in loops]
-    rows, ck, cpw = _pcurve_rows([sg.curve for sg in segs])
-    si = np.ascontiguousarray(rows[:, [0, 2, 3, 4, 5, 6, 1]])
     out = [np.empty((len(loop.segments) * (n - 1), 2)) for loop in loops]
     flat = out[0] if len(loops) == 1 else np.empty((m * (n - 1), 2))
-    loop_polylines_kernel(si, sf, read_only(ck), read_only(cpw), np.int64(n), np.int64(2), flat,
+    loop_polylines_kernel(si, sf, ck, cpw, np.int64(n), np.int64(2), flat,
                           np.empty((m, 2)))
     if len(loops) > 1:
         o = 0
@@ -175,6 +171,35 @@ def loops_polylines(loops, n_per_segment: int = 32) -> list[np.ndarray]:
             a[...] = flat[o:o + len(a)]
             o += len(a)
     return out
+
+
+#: `_packed_segments` of the last loop tuples asked for (a face's `loops`, kept alive in the entry so its
+#: id is not reused while cached): measuring a face asks for its polylines at several densities
+_PACKED: dict = {}
+_PACKED_SIZE = 2048
+
+
+def _packed_segments(loops: tuple, cache: bool) -> tuple:
+    """The segments of `loops` as `loop_polylines_kernel` takes them (si, sf and the flat read-only knots
+    and homogeneous control points, as `tessellate.face._loop_arrays` builds them); kept per tuple when
+    `cache` (the tuple is the caller's own, e.g. `TrimmedFace.loops`)."""
+    hit = _PACKED.get(id(loops)) if cache else None
+    if hit is not None and hit[0] is loops:
+        return hit[1]
+    from ..geom.nurbs import read_only
+    from ..tessellate.trims import _pcurve_rows
+
+    segs = [s for loop in loops for s in loop.segments]
+    m = len(segs)
+    sf = np.array([(sg.t0, sg.t1) for sg in segs], dtype=np.float64).reshape(m, 2)
+    rows, ck, cpw = _pcurve_rows([sg.curve for sg in segs])
+    si = np.ascontiguousarray(rows[:, [0, 2, 3, 4, 5, 6, 1]])
+    packed = (si, sf, read_only(ck), read_only(cpw))     # si, sf writable: the meshing's specialization
+    if cache:
+        if len(_PACKED) >= _PACKED_SIZE:
+            _PACKED.pop(next(iter(_PACKED)))
+        _PACKED[id(loops)] = (loops, packed)
+    return packed
 
 
 @dataclass(frozen=True, slots=True, eq=False)
