@@ -105,25 +105,12 @@ class Loop:
         return bool(np.all(self.gaps() <= tol))
 
     def polyline(self, n_per_segment: int = 32) -> np.ndarray:
-        """Sampled loop in (u, v), shape (k * (n_per_segment - 1), 2), not repeating the first point.
-
-        All segments in one compiled call (`loops_polylines`); the points are those of
-        `_polyline_by_segment` (each segment's `evaluate(parameters(n))`), bit for bit."""
-        n = int(n_per_segment)
-        if n >= 2:
-            return loops_polylines([self], n)[0]    # (a list: not cached by `_packed_segments`)
-        return self._polyline_by_segment(n)
-
-    def _polyline_by_segment(self, n_per_segment: int = 32) -> np.ndarray:
-        """`polyline`, segment by segment (one curve evaluation each): the reference of the batched path."""
+        """Sampled loop in (u, v), shape (k * (n_per_segment - 1), 2), not repeating the first point."""
         parts = [s.evaluate(s.parameters(n_per_segment))[:-1] for s in self.segments]
         return np.concatenate(parts, axis=0)
 
     def polylines(self, *n_per_segment: int) -> tuple[np.ndarray, ...]:
         """`polyline(n)` for each n, every segment evaluated once for all of them (the same points)."""
-        return self._polylines_by_segment(*n_per_segment)
-
-    def _polylines_by_segment(self, *n_per_segment: int) -> tuple[np.ndarray, ...]:
         parts: list[list[np.ndarray]] = [[] for _ in n_per_segment]
         for s in self.segments:
             ts = [s.parameters(n) for n in n_per_segment]
@@ -139,67 +126,6 @@ class Loop:
         p = self.polyline(n_per_segment)
         q = np.roll(p, -1, axis=0)
         return 0.5 * float(np.sum(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]))
-
-
-def loops_polylines(loops, n_per_segment: int = 32) -> list[np.ndarray]:
-    """`[loop.polyline(n_per_segment) for loop in loops]`, every segment of every loop sampled in one
-    compiled call (`tessellate._line_kernels.loop_polylines_kernel`, the meshing's: `PCurve.parameters`'
-    arithmetic, clamped into the curve's domain as `geom.nurbs.curve_derivatives` clamps, each point as
-    `curve_points_kernel` computes it), so the same points bit for bit as segment by segment.
-
-    Each loop's array is its own (not a view of a shared one). n_per_segment < 2, or a segment whose
-    parameter step is not finite, takes the segment-by-segment path (its results and errors)."""
-    given = loops
-    loops = tuple(loops)
-    n = int(n_per_segment)
-    if n < 2 or not any(loop.segments for loop in loops):
-        return [loop._polyline_by_segment(n) for loop in loops]
-    from ..tessellate._line_kernels import loop_polylines_kernel
-
-    si, sf, ck, cpw = _packed_segments(loops, given is loops)
-    m = len(si)
-    with np.errstate(over="ignore", invalid="ignore"):
-        if not np.all(np.isfinite((sf[:, 1] - sf[:, 0]) / (n - 1))):
-            return [loop._polyline_by_segment(n) for loop in loops]
-    out = [np.empty((len(loop.segments) * (n - 1), 2)) for loop in loops]
-    flat = out[0] if len(loops) == 1 else np.empty((m * (n - 1), 2))
-    loop_polylines_kernel(si, sf, ck, cpw, np.int64(n), np.int64(2), flat,
-                          np.empty((m, 2)))
-    if len(loops) > 1:
-        o = 0
-        for a in out:
-            a[...] = flat[o:o + len(a)]
-            o += len(a)
-    return out
-
-
-#: `_packed_segments` of the last loop tuples asked for (a face's `loops`, kept alive in the entry so its
-#: id is not reused while cached): measuring a face asks for its polylines at several densities
-_PACKED: dict = {}
-_PACKED_SIZE = 2048
-
-
-def _packed_segments(loops: tuple, cache: bool) -> tuple:
-    """The segments of `loops` as `loop_polylines_kernel` takes them (si, sf and the flat read-only knots
-    and homogeneous control points, as `tessellate.face._loop_arrays` builds them); kept per tuple when
-    `cache` (the tuple is the caller's own, e.g. `TrimmedFace.loops`)."""
-    hit = _PACKED.get(id(loops)) if cache else None
-    if hit is not None and hit[0] is loops:
-        return hit[1]
-    from ..geom.nurbs import read_only
-    from ..tessellate.trims import _pcurve_rows
-
-    segs = [s for loop in loops for s in loop.segments]
-    m = len(segs)
-    sf = np.array([(sg.t0, sg.t1) for sg in segs], dtype=np.float64).reshape(m, 2)
-    rows, ck, cpw = _pcurve_rows([sg.curve for sg in segs])
-    si = np.ascontiguousarray(rows[:, [0, 2, 3, 4, 5, 6, 1]])
-    packed = (si, sf, read_only(ck), read_only(cpw))     # si, sf writable: the meshing's specialization
-    if cache:
-        if len(_PACKED) >= _PACKED_SIZE:
-            _PACKED.pop(next(iter(_PACKED)))
-        _PACKED[id(loops)] = (loops, packed)
-    return packed
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -271,7 +197,7 @@ class TrimmedFace:
         uv = full
         if self.loops:
             with np.errstate(all="ignore"):
-                polys = loops_polylines(self.loops, n)
+                polys = [loop.polyline(n) for loop in self.loops]
                 polys = [np.clip(p, [u0, v0], [u1, v1]) for p in polys if np.all(np.isfinite(p)) and len(p) >= 3]
             if polys:
                 edge = np.concatenate(polys)
