@@ -200,3 +200,23 @@ def test_chunk_criteria_equal_numpy_criteria(shared_data, model):
             ref = [np.concatenate(r) for r in zip(*(fam.criteria(np.r_[a[i], b[i]], m - 2, None) for i in range(6)))]
             assert got[0].tobytes() == ref[0].tobytes() and got[1].tobytes() == ref[1].tobytes()
     assert n_rat >= 10 and n_two >= 10
+
+
+@pytest.mark.parametrize("model,rel_h", [("gmsh__t20_data.step", 0.03), ("occt__screw.step", 1.0)])
+def test_compiled_chunks_equal_numpy_iso_step(shared_data, monkeypatch, model, rel_h):
+    """The numpy path calls the chunk kernel's own iso step (`_chunk_kernels.chunk_iso_kernel`, one
+    implementation): here it takes numpy's (`trims._insert_iso_values_numpy`) instead, so the compiled
+    kernel's iso-values are checked against numpy on the shared (several-use) chunks too, bit for bit."""
+    from trimsurf.tessellate import trims
+
+    shell = read_shell(shared_data / "cad" / model)
+    d = shell.diagonal()
+    tol, h = 1e-3 * d, rel_h * d
+    chunks, degs = _chunks(shell, tol, h)
+    got = discretize_chunks(chunks, tolerance=tol, max_edge=h, degenerate=degs)
+    monkeypatch.setattr(trims, "_insert_iso_values", lambda evaluate, uses, s: trims._insert_iso_values_numpy(uses, s))
+    ref = [_discretize_chunk_numpy(u, tolerance=tol, max_edge=h, degenerate=g) for u, g in zip(chunks, degs)]
+    bad = [i for i, (a, b) in enumerate(zip(got, ref)) if not _same(a, b)]
+    assert not bad, f"{len(bad)} of {len(chunks)} chunks differ"
+    # shared chunks with grid-line crossings inside (not only their ends on iso-lines)
+    assert sum(len(c.uv) > 1 and c.is_iso[1:-1].any() for c in got) >= 5

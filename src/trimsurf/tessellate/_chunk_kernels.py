@@ -4,8 +4,8 @@ call (`discretize_chunks_kernel`).
 Each chunk goes through the steps of the numpy path with the same operations in the same order, so the
 output is the numpy path's bit for bit (`trims._discretize_chunk_numpy` is the reference the tests compare
 against): the start values (p-curve knots and 9 uniform values), the 33-point probe of the 3D extent,
-the placement (`_line_kernels.equidistributed_kernel`), the iso-values (`_chunk_iso`, a copy of
-`_line_kernels.chunk_iso_kernel` with the p-curve points of `_uv_batch`),
+the placement (`_line_kernels.equidistributed_kernel`), the iso-values (`_chunk_iso`, with the p-curve
+points of `_uv_batch`; the numpy path calls it too, through `chunk_iso_kernel`),
 the merge of nearly coincident points, the polygon reduction (`_reduce`), the even spacing between the
 grid-line crossings of a shared edge (`_even_spacing`) and the shared 3D points (mean over the uses).
 
@@ -555,8 +555,9 @@ def _shared_points(ci, cku, ckv, cpw4, j, uvs, o_pts, o_uv, w):
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _uv_batch(ci, cf, ck, cpw, j, s, out, w):
-    """`_line_kernels._use_uv` (uv of use j at the chunk parameters s into out (n, 2)) point by point with
-    `_curve_uv` (the same numbers; no allocation, call or array view per point), w a `_scratch`."""
+    """uv of use j at the chunk parameters s into out (n, 2) (as `ChunkUse.uv`: p(t(s)) clipped into the
+    grid box) point by point with `_curve_uv` (no allocation, call or array view per point), w a
+    `_scratch`."""
     for i in range(s.shape[0]):
         u, v = _curve_uv(ci, cf, ck, cpw, j, s[i], w)
         out[i, 0] = u
@@ -565,7 +566,8 @@ def _uv_batch(ci, cf, ck, cpw, j, s, out, w):
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _refine_crossing_w(ci, cf, ck, cpw, j, axis, ptol, s, value, lo, hi, w):
-    """`_line_kernels._refine_crossing` with `_uv_batch` (the same numbers)."""
+    """`trims._refine_crossing` (Illinois regula falsi, all crossings in lockstep until all converge),
+    the points by `_uv_batch`."""
     n = s.shape[0]
     buf = np.empty((n, 2))
     _uv_batch(ci, cf, ck, cpw, j, lo, buf, w)
@@ -614,8 +616,11 @@ def _refine_crossing_w(ci, cf, ck, cpw, j, axis, ptol, s, value, lo, hi, w):
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _chunk_iso(ci, cf, ck, cpw, G, gl, ptol, s, w):
-    """`_line_kernels.chunk_iso_kernel` with the p-curve points of `_uv_batch` (no call, allocation or
-    array view per point; the same numbers), w a `_scratch` of ci."""
+    """`trims.discretize_chunk` from the sampled s to the iso flags: every use's grid-line crossings
+    inserted (four rounds), near-duplicates dropped, each use's (u, v) snapped onto its grid lines and
+    the crossings set exactly onto theirs. G (L, 2, g) the uses' grids (us, vs) padded, gl their
+    lengths, ptol (L,) the uses' parameter tolerances, w a `_scratch` of ci (the p-curve points by
+    `_uv_batch`). Returns (s_all, uvs (L, k, 2), iso (k,))."""
     n_uses = G.shape[0]
     cap = 16
     f_sc = np.empty(cap)
@@ -727,6 +732,13 @@ def _chunk_iso(ci, cf, ck, cpw, G, gl, ptol, s, w):
     iso[0] = True
     iso[k_all - 1] = True
     return s_all, uvs, iso
+
+
+@njit(cache=True, nogil=True)
+def chunk_iso_kernel(ci, cf, ck, cpw, G, gl, ptol, s):
+    """`_chunk_iso` of one chunk from Python (`trims._insert_iso_values`, the numpy path): the iso step
+    the chunk kernel runs, with its own work array."""
+    return _chunk_iso(ci, cf, ck, cpw, G, gl, ptol, s, _scratch(ci))
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)

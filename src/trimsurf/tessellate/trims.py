@@ -695,8 +695,9 @@ def _insert_iso_values(evaluate, uses: list, s: np.ndarray):
     """The crossings of every use's u and v grid lines inserted into s (four rounds: a curve that dips
     across a line and back inside one interval shows up only on the new points), near-duplicates
     dropped, each use's (u, v) snapped onto its grid lines and the crossings set exactly onto theirs.
-    Returns (s_all, uvs: list of (k, 2) per use, iso (k,) bool); `_line_kernels.chunk_iso_kernel`."""
-    from ._line_kernels import chunk_iso_kernel
+    Returns (s_all, uvs: list of (k, 2) per use, iso (k,) bool); `_chunk_kernels.chunk_iso_kernel` (the
+    iso step of the chunk kernel itself)."""
+    from ._chunk_kernels import chunk_iso_kernel
 
     grids, gl, ptol = _grids(uses)
     s_all, uv, iso = chunk_iso_kernel(*evaluate.family()[10:14], grids, gl, ptol,
