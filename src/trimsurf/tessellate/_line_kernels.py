@@ -32,8 +32,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..geom._nurbs_kernels import (_chord_worst, _curve_point, _ders_basis, _moving_basis, _point_scratch, _span,
-                                   _surface_distance1, _surface_point01)
+from ..geom._nurbs_kernels import (_chord_worst, _curve_point, _moving_basis, _point_scratch, _surface_distance1,
+                                   _surface_point01)
 from ..geom.nurbs import read_only
 
 #: the other kind's members of a family tuple (one compiled signature for both kinds)
@@ -242,6 +242,38 @@ def _iso_point(axis, rational, pu, pv, pw, dimw, lspan, lbasis, mspan, mbasis, t
             pts[l, k, dd_] = pts[l, k, dd_] / w0
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _moving_point_basis(pm, km, nm, xs, k, left, right, mspan, mbasis):
+    """mspan[0, k] and mbasis[0, k] of the moving parameter xs[0, k]: `_nurbs_kernels._span` and
+    `_ders_basis` (nd = 0: A2.2, ndu[:, p]) written out (the same operations in the same order), the
+    basis built in place in mbasis[0, k] (no call with array arguments per sample)."""
+    x = xs[0, k]
+    if x >= km[nm]:
+        sk = nm - 1
+        while sk > pm and km[sk] >= km[nm]:
+            sk -= 1
+    else:
+        sk = pm
+        hi_ = nm
+        while hi_ - sk > 1:
+            mid_ = (sk + hi_) // 2
+            if x < km[mid_]:
+                hi_ = mid_
+            else:
+                sk = mid_
+    mspan[0, k] = sk
+    mbasis[0, k, 0] = 1.0
+    for j_ in range(1, pm + 1):
+        left[j_] = x - km[sk + 1 - j_]
+        right[j_] = km[sk + j_] - x
+        saved = 0.0
+        for r_ in range(j_):
+            temp = mbasis[0, k, r_] / (right[r_ + 1] + left[j_ - r_])
+            mbasis[0, k, r_] = saved + right[r_ + 1] * temp
+            saved = left[j_ - r_] * temp
+        mbasis[0, k, j_] = saved
+
+
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
 def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b, m, length, dev, max_len, max_dev,
                   stop):
@@ -275,11 +307,8 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
     mbasis = np.empty((1, m, pm + 1))
     pts = np.empty((n_lines, m, 3))
     tmp = np.empty((pu + 1, dimw))
-    ndu = np.empty((pm + 1, pm + 1))
-    aa = np.empty((2, pm + 1))
     left = np.empty(pm + 1)
     right = np.empty(pm + 1)
-    ders = np.empty((1, pm + 1))
     nr = dil.shape[0]
     lix = np.empty(n_lines, dtype=np.int64)         # the raster index of each line (its fixed parameter)
     if has_raster:
@@ -323,11 +352,7 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
             for k in range(m):
                 if straight and 0 < k < m - 1:
                     continue
-                sk = _span(pm, km, nm, xs[0, k])
-                _ders_basis(sk, xs[0, k], pm, km, np.int64(0), ndu, aa, left, right, ders)
-                mspan[0, k] = sk
-                for r in range(pm + 1):
-                    mbasis[0, k, r] = ders[0, r]
+                _moving_point_basis(pm, km, nm, xs, k, left, right, mspan, mbasis)
         same = xs[0, 0] == prev_x
         for l in range(n_lines):
             k0l[l] = 0
@@ -438,11 +463,7 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
         if straight and any_w and not (lmax >= thr and lmax < np.inf):
             # a short (or non-finite) interval: its interior samples after all
             for k in range(1, m - 1):
-                sk = _span(pm, km, nm, xs[0, k])
-                _ders_basis(sk, xs[0, k], pm, km, np.int64(0), ndu, aa, left, right, ders)
-                mspan[0, k] = sk
-                for r in range(pm + 1):
-                    mbasis[0, k, r] = ders[0, r]
+                _moving_point_basis(pm, km, nm, xs, k, left, right, mspan, mbasis)
             for l in range(n_lines):
                 if not w[l]:
                     continue
