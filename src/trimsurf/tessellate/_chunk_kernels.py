@@ -373,7 +373,7 @@ def _scratch(ci):
 
 @njit(cache=True, nogil=True, inline="always")
 def _curve_uv(ci, cf, ck, cpw, j, s, w):
-    """(u, v) of use j at the chunk parameter s: `_use_uv` of one value (`_curve_point` written out as
+    """(u, v) of use j at the chunk parameter s: `ChunkUse.uv` of one value (`_curve_point` written out as
     in `_chunk_criteria`: the same operations in the same order), w a `_scratch`. Only inside the
     loops of `_probe_extent` / `_even_spacing` (inline: the arrays are the caller's)."""
     cp, crat = ci[j, 0], ci[j, 1] != 0
@@ -898,7 +898,7 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
             # the 3D extent of the 33 probe points (per use, from its first point): only whether it is
             # <= 1e-3 x tolerance is read, so a forced chunk skips the probe, and the probe stops at the
             # first point that puts the extent above it (or NaN: the extent is then NaN, no degenerate);
-            # point by point (`_curve_uv`, `_surface_xyz`: the numbers of `_use_uv` and `_surface_point01`)
+            # point by point (`_curve_uv`, `_surface_xyz`: the numbers of `ChunkUse.uv` and `_surface_point01`)
             thr = 1e-3 * tolerance
             extent = 0.0
             n_use = L if forced[c] < 0 else 0
