@@ -124,6 +124,92 @@ def test_inside_grid_equals_points_in_polygons(t20):
     assert n > 100
 
 
+def _inside_rows_every_edge(xs, ys, a, b):
+    """The per-row test `_line_kernels._inside_rows` replaces: every edge tested on every row (as
+    `predicates._points_in_polygons_kernel` decides a crossing and its abscissa), searchsorted per point."""
+    ins = np.zeros((len(xs), len(ys)), dtype=bool)
+    with np.errstate(all="ignore"):
+        for j, y in enumerate(ys):
+            xc = [a[e, 0] + (y - a[e, 1]) * (b[e, 0] - a[e, 0]) / (b[e, 1] - a[e, 1])
+                  for e in range(len(a)) if (a[e, 1] > y) != (b[e, 1] > y)]
+            if not xc:
+                continue
+            xc = np.array(xc)
+            if not np.isnan(xc).any():
+                srt = np.sort(xc)
+                for i, x in enumerate(xs):
+                    if not np.isnan(x):
+                        ins[i, j] = (len(xc) - np.searchsorted(srt, x, side="right")) % 2 == 1
+            else:
+                for i, x in enumerate(xs):
+                    ins[i, j] = int(np.sum(x < xc)) % 2 == 1
+    return ins
+
+
+def test_inside_rows_equal_every_edge_rows(t20):
+    # `_inside_rows` gathers each row's crossings from the edges' row ranges (searchsorted of ys) and walks
+    # increasing xs: the same decisions as every edge tested on every row, on real polygons with rows and
+    # columns at their vertices' coordinates, and on edges with NaN / infinite / equal ends, horizontal
+    # edges, repeated and unsorted rows and columns, NaN rows and columns
+    from trimsurf.geom.predicates import PolygonIndex
+    from trimsurf.tessellate._line_kernels import _inside_rows, inside_grid_kernel, inside_grids_kernel
+
+    rng = np.random.default_rng(5)
+    cases = []
+    for face in _faces(t20):
+        if face.loops:
+            index = PolygonIndex(_loop_polys(face))
+            verts = index.a
+            lo, hi = grid_box(face)
+            cases.append((np.linspace(lo[0], hi[0], 23), np.linspace(lo[1], hi[1], 29), index.a, index.b))
+            cases.append((np.sort(rng.choice(verts[:, 0], 15)), np.sort(rng.choice(verts[:, 1], 17)), index.a, index.b))
+    g = np.array([0.0, 0.25, 0.5, 0.5, 0.75, 1.0])
+    for _ in range(60):
+        m = int(rng.integers(1, 12))
+        a = rng.choice(g, (m, 2)) + rng.choice([0.0, 0.1], (m, 2))
+        b = rng.choice(g, (m, 2))
+        for arr in (a, b):      # NaN / infinite / horizontal ends
+            k = rng.integers(0, 4)
+            if k == 1:
+                arr[rng.integers(m), 1] = np.nan
+            elif k == 2:
+                arr[rng.integers(m), rng.integers(2)] = rng.choice([np.inf, -np.inf])
+            elif k == 3:
+                e = rng.integers(m)
+                a[e, 1] = b[e, 1]
+        ys = np.sort(np.concatenate((rng.choice(g, 4), rng.random(5))))
+        xs = np.sort(np.concatenate((rng.choice(g, 3), rng.random(6))))
+        cases.append((xs, ys, a, b))
+        cases.append((xs[::-1].copy(), ys[::-1].copy(), a, b))          # decreasing: the per-edge rows
+        xs2, ys2 = xs.copy(), ys.copy()
+        xs2[2], ys2[3] = np.nan, np.nan
+        cases.append((xs2, ys2, a, b))
+    n_in = 0
+    for xs, ys, a, b in cases:
+        a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
+        ref = _inside_rows_every_edge(xs, ys, a, b)
+        assert np.array_equal(_inside_rows(xs, ys, a, b), ref)
+        n_in += int(ref.sum())
+        # the kernels around it: dilation and erosion of the same rows
+        dil, ero = np.empty(ref.shape, dtype=bool), np.empty(ref.shape, dtype=bool)
+        inside_grid_kernel(xs, ys, a, b, dil, ero)
+        p = np.pad(ref, 1, mode="edge")
+        nb = (p[1:-1, 1:-1], p[:-2, 1:-1], p[2:, 1:-1], p[1:-1, :-2], p[1:-1, 2:])
+        assert np.array_equal(dil, np.logical_or.reduce(nb)) and np.array_equal(ero, np.logical_and.reduce(nb))
+    assert n_in > 500
+    # inside_grids_kernel: the linspace grid of each box, the dilated rows
+    a, b = cases[0][2], cases[0][3]
+    lo = np.array([[a[:, 0].min(), a[:, 1].min()], [a[:, 0].min(), a[:, 1].min()]])
+    hi = np.array([[a[:, 0].max(), a[:, 1].max()], [0.5 * (a[:, 0].min() + a[:, 0].max()), a[:, 1].max()]])
+    dil = np.empty((2, 31, 31), dtype=bool)
+    inside_grids_kernel(lo, hi, a, b, np.array([[0, len(a)], [0, len(a)]], dtype=np.int64), dil)
+    for f in range(2):
+        ref = _inside_rows_every_edge(np.linspace(lo[f, 0], hi[f, 0], 31), np.linspace(lo[f, 1], hi[f, 1], 31), a, b)
+        p = np.pad(ref, 1, mode="edge")
+        assert np.array_equal(dil[f], p[1:-1, 1:-1] | p[:-2, 1:-1] | p[2:, 1:-1] | p[1:-1, :-2] | p[1:-1, 2:])
+        assert 0 < ref.sum() < ref.size
+
+
 @pytest.mark.parametrize("tol_scale, edge_scale", [(1e-3, 1.0), (1e-3, 0.01), (1e-9, 0.03)])
 def test_straight_lines_give_the_sampled_values(shared_data, tol_scale, edge_scale):
     # degree-1 directions (planes, the straight direction of cylinders) skip the interior samples of long

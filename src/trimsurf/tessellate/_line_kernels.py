@@ -292,6 +292,8 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
     # net: pw holds the lines' nets (`line_net_kernel`, axis 0), (L, nu, dimw)
     net = iso_i.shape[0] > 5 and iso_i[5] != 0
     nu_ctrl, nv_ctrl, dimw = ku.shape[0] - pu - 1, kv.shape[0] - pv - 1, pw.shape[2]
+    xyz_w = rational and dimw == 4          # the usual nets: the sums written out per coordinate
+    xyz = not rational and dimw == 3
     if axis == 0:
         pf, kf, nf, pm, km, nm = pv, kv, nv_ctrl, pu, ku, nu_ctrl
     else:
@@ -368,6 +370,25 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
                 for l in range(n_lines):
                     if not w[l] or k < k0l[l]:
                         continue
+                    if xyz_w:       # the four sums at once (each the same terms in the same order)
+                        c0 = c1 = c2 = c3 = 0.0
+                        for r in range(pu + 1):
+                            bb = mbasis[0, k, r]
+                            c0 += bb * pw[l, base + r, 0]
+                            c1 += bb * pw[l, base + r, 1]
+                            c2 += bb * pw[l, base + r, 2]
+                            c3 += bb * pw[l, base + r, 3]
+                        pts[l, k, 0], pts[l, k, 1], pts[l, k, 2] = c0 / c3, c1 / c3, c2 / c3
+                        continue
+                    if xyz:
+                        c0 = c1 = c2 = 0.0
+                        for r in range(pu + 1):
+                            bb = mbasis[0, k, r]
+                            c0 += bb * pw[l, base + r, 0]
+                            c1 += bb * pw[l, base + r, 1]
+                            c2 += bb * pw[l, base + r, 2]
+                        pts[l, k, 0], pts[l, k, 1], pts[l, k, 2] = c0, c1, c2
+                        continue
                     w0 = 1.0
                     for dd_ in range(dimw):
                         acc = 0.0
@@ -403,6 +424,19 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
                                         for dd_ in range(dimw):
                                             tk[su, k, r, dd_] += bb * pw[row, col, dd_]
                             stamp[su, k] = cur
+                        if xyz_w or xyz:    # the sums at once (each the same terms in the same order)
+                            c0 = c1 = c2 = c3 = 0.0
+                            for r in range(pu + 1):
+                                bb = lbasis[0, l, r]
+                                c0 += bb * tk[su, k, r, 0]
+                                c1 += bb * tk[su, k, r, 1]
+                                c2 += bb * tk[su, k, r, 2]
+                                if xyz_w:
+                                    c3 += bb * tk[su, k, r, 3]
+                            if xyz_w:
+                                c0, c1, c2 = c0 / c3, c1 / c3, c2 / c3
+                            pts[l, k, 0], pts[l, k, 1], pts[l, k, 2] = c0, c1, c2
+                            continue
                         w0 = 1.0
                         for dd_ in range(dimw):
                             acc = 0.0
@@ -1001,36 +1035,116 @@ def inside_grid_kernel(xs, ys, a, b, dil, ero):
     point and its four neighbours inside), by rows: the crossings of row y are computed once, with the
     crossing test and abscissa of `predicates._points_in_polygons_kernel`, so the same decisions as
     `points_in_polygons` (which counts the same crossings, edge by edge)."""
+    ins = _inside_rows(xs, ys, a, b)
+    nx, ny = ins.shape
+    for i in range(nx):     # (a missing neighbour at the border: the point itself; | and & of bools: no branches)
+        im, ip = max(i - 1, 0), min(i + 1, nx - 1)
+        for j in range(ny):
+            v, v0, v1 = ins[i, j], ins[im, j], ins[ip, j]
+            w0, w1 = ins[i, max(j - 1, 0)], ins[i, min(j + 1, ny - 1)]
+            dil[i, j] = v | v0 | v1 | w0 | w1
+            ero[i, j] = v & v0 & v1 & w0 & w1
+
+
+@njit(cache=True, nogil=True)
+def _inside_rows(xs, ys, a, b):
+    """ins[i, j]: (xs[i], ys[j]) inside the polygons (even-odd), row by row. An edge crosses row y when
+    (ay > y) != (by > y), i.e. lo <= y < hi for lo, hi = its ends' min and max (one end NaN: lo = -inf
+    and hi the other; both: never): with ys increasing (no NaN) the rows an edge crosses are the range
+    [searchsorted(ys, lo), searchsorted(ys, hi)), so each row's crossings are gathered from the edges'
+    ranges (counting sort) instead of testing every edge on every row. Each crossing's abscissa is the
+    same number, and a row's decisions do not depend on the order of its crossings (sorted, or counted)."""
     nx, ny, m = xs.shape[0], ys.shape[0], a.shape[0]
     ins = np.zeros((nx, ny), dtype=np.bool_)
-    xc = np.empty(max(m, 1))
+    if m == 0 or ny == 0:
+        return ins
+    sweep = not np.isnan(ys[0])
+    for j in range(1, ny):
+        if not ys[j] >= ys[j - 1]:
+            sweep = False
+            break
+    xinc = nx == 0 or not np.isnan(xs[0])
+    for i in range(1, nx):
+        if not xs[i] >= xs[i - 1]:
+            xinc = False
+            break
+    xc = np.empty(m)
+    if sweep:
+        j0 = np.empty(m, dtype=np.int64)
+        j1 = np.empty(m, dtype=np.int64)
+        cnt = np.zeros(ny + 1, dtype=np.int64)
+        for e in range(m):
+            ay, by = a[e, 1], b[e, 1]
+            if np.isnan(ay):
+                lo, hi = -np.inf, by
+            elif np.isnan(by):
+                lo, hi = -np.inf, ay
+            else:
+                lo, hi = min(ay, by), max(ay, by)
+            if np.isnan(hi):
+                j0[e], j1[e] = 0, 0
+                continue
+            r0, r1 = _ss_left(ys, lo), _ss_left(ys, hi)
+            j0[e], j1[e] = r0, r1
+            if r1 > r0:
+                cnt[r0] += 1
+                cnt[r1] -= 1
+        off = np.empty(ny + 1, dtype=np.int64)     # row j's edges: slots off[j]:off[j + 1]
+        off[0] = 0
+        run = 0
+        for j in range(ny):
+            run += cnt[j]
+            off[j + 1] = off[j] + run
+        fill = off[:ny].copy()
+        eid = np.empty(max(off[ny], 1), dtype=np.int64)
+        for e in range(m):
+            for j in range(j0[e], j1[e]):
+                eid[fill[j]] = e
+                fill[j] += 1
     for j in range(ny):
         y = ys[j]
         k = 0
         finite = True
-        for e in range(m):
-            ay, by = a[e, 1], b[e, 1]
-            if (ay > y) != (by > y):
+        if sweep:
+            for s in range(off[j], off[j + 1]):
+                e = eid[s]
+                ay, by = a[e, 1], b[e, 1]
                 c = a[e, 0] + (y - ay) * (b[e, 0] - a[e, 0]) / (by - ay)
                 xc[k] = c
                 k += 1
                 finite = finite and not np.isnan(c)
+        else:
+            for e in range(m):
+                ay, by = a[e, 1], b[e, 1]
+                if (ay > y) != (by > y):
+                    c = a[e, 0] + (y - ay) * (b[e, 0] - a[e, 0]) / (by - ay)
+                    xc[k] = c
+                    k += 1
+                    finite = finite and not np.isnan(c)
         if k == 0:
             continue
         if finite:
-            srt = xc[:k].copy()
             for q in range(1, k):       # insertion sort (a few crossings per row)
-                v = srt[q]
+                v = xc[q]
                 r = q - 1
-                while r >= 0 and srt[r] > v:
-                    srt[r + 1] = srt[r]
+                while r >= 0 and xc[r] > v:
+                    xc[r + 1] = xc[r]
                     r -= 1
-                srt[r + 1] = v
-            for i in range(nx):
-                x = xs[i]
-                if not np.isnan(x):
-                    # crossings with x < xc: those after the last xc <= x
-                    ins[i, j] = (k - _ss_right(srt, x)) % 2 == 1
+                xc[r + 1] = v
+            if xinc:    # xs increasing: the count of crossings <= x by a walk (searchsorted's, side right)
+                p = 0
+                for i in range(nx):
+                    x = xs[i]
+                    while p < k and xc[p] <= x:
+                        p += 1
+                    ins[i, j] = (k - p) % 2 == 1
+            else:
+                srt = xc[:k]
+                for i in range(nx):
+                    x = xs[i]
+                    if not np.isnan(x):
+                        # crossings with x < xc: those after the last xc <= x
+                        ins[i, j] = (k - _ss_right(srt, x)) % 2 == 1
         else:
             for i in range(nx):
                 x = xs[i]
@@ -1039,25 +1153,7 @@ def inside_grid_kernel(xs, ys, a, b, dil, ero):
                     if x < xc[q]:
                         c += 1
                 ins[i, j] = c % 2 == 1
-    for i in range(nx):
-        for j in range(ny):
-            v = ins[i, j]
-            lo_ = v
-            hi_ = v
-            if i > 0:
-                lo_ = lo_ or ins[i - 1, j]
-                hi_ = hi_ and ins[i - 1, j]
-            if i < nx - 1:
-                lo_ = lo_ or ins[i + 1, j]
-                hi_ = hi_ and ins[i + 1, j]
-            if j > 0:
-                lo_ = lo_ or ins[i, j - 1]
-                hi_ = hi_ and ins[i, j - 1]
-            if j < ny - 1:
-                lo_ = lo_ or ins[i, j + 1]
-                hi_ = hi_ and ins[i, j + 1]
-            dil[i, j] = lo_
-            ero[i, j] = hi_
+    return ins
 
 
 @njit(cache=True, nogil=True)
@@ -1526,11 +1622,10 @@ def refine_round_kernel(op, dev, diag, diag_max, side_u, side_v, near, interior,
 def inside_grids_kernel(lo, hi, a, b, rows, dil):
     """`face._inside_raster` of many faces: face f's raster dil[f] over the grid box lo[f], hi[f] (n x n
     points as `face._linspace` places them) of the polygon edges a[e] -> b[e], e in rows[f, 0]:rows[f, 1]
-    (`inside_grid_kernel`, dilated)."""
+    (`inside_grid_kernel`, dilated: its dil alone)."""
     n = dil.shape[1]
     gu = np.empty(n)
     gv = np.empty(n)
-    ero = np.empty((n, n), dtype=np.bool_)
     for f in range(lo.shape[0]):
         for axis in range(2):
             g = gu if axis == 0 else gv
@@ -1542,7 +1637,12 @@ def inside_grids_kernel(lo, hi, a, b, rows, dil):
                 else:
                     g[k] = k * step + x0
             g[n - 1] = x1
-        inside_grid_kernel(gu, gv, a[rows[f, 0]:rows[f, 1]], b[rows[f, 0]:rows[f, 1]], dil[f], ero)
+        ins = _inside_rows(gu, gv, a[rows[f, 0]:rows[f, 1]], b[rows[f, 0]:rows[f, 1]])
+        d = dil[f]
+        for i in range(n):      # (| of bools: no branches)
+            im, ip = max(i - 1, 0), min(i + 1, n - 1)
+            for j in range(n):
+                d[i, j] = ins[i, j] | ins[im, j] | ins[ip, j] | ins[i, max(j - 1, 0)] | ins[i, min(j + 1, n - 1)]
 
 
 @njit(cache=True, nogil=True)
