@@ -414,12 +414,27 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
                         if stamp[su, k] != cur:
                             sv = mspan[0, k]
                             for r in range(pu + 1):
+                                row = su - pu + r
+                                if xyz_w or xyz:    # the sums at once (the same terms in the same order)
+                                    c0 = c1 = c2 = c3 = 0.0
+                                    for s_ in range(pv + 1):
+                                        bb = mbasis[0, k, s_]
+                                        if bb != 0.0:
+                                            col = sv - pv + s_
+                                            c0 += bb * pw[row, col, 0]
+                                            c1 += bb * pw[row, col, 1]
+                                            c2 += bb * pw[row, col, 2]
+                                            if xyz_w:
+                                                c3 += bb * pw[row, col, 3]
+                                    tk[su, k, r, 0], tk[su, k, r, 1], tk[su, k, r, 2] = c0, c1, c2
+                                    if xyz_w:
+                                        tk[su, k, r, 3] = c3
+                                    continue
                                 for dd_ in range(dimw):
                                     tk[su, k, r, dd_] = 0.0
                                 for s_ in range(pv + 1):
                                     bb = mbasis[0, k, s_]
                                     if bb != 0.0:
-                                        row = su - pu + r
                                         col = sv - pv + s_
                                         for dd_ in range(dimw):
                                             tk[su, k, r, dd_] += bb * pw[row, col, dd_]
@@ -472,27 +487,28 @@ def _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b,
             ddl[l] = den if den > 0 else 1.0
             worst_l[l] = 0.0
         lmax = np.sqrt(lmax2)
-        if not straight:
-            for k in range(1, m - 1):
-                for l in range(n_lines):
-                    if not w[l]:
-                        continue
-                    a0, a1, a2 = pts[l, 0, 0], pts[l, 0, 1], pts[l, 0, 2]
-                    ab0, ab1, ab2 = abl[l, 0], abl[l, 1], abl[l, 2]
+        if not straight:    # line by line: its chord in registers (each line's samples in the same order)
+            dmax2 = 0.0
+            for l in range(n_lines):
+                if not w[l]:
+                    continue
+                a0, a1, a2 = pts[l, 0, 0], pts[l, 0, 1], pts[l, 0, 2]
+                ab0, ab1, ab2 = abl[l, 0], abl[l, 1], abl[l, 2]
+                dd = ddl[l]
+                worst = 0.0
+                for k in range(1, m - 1):
                     q0, q1, q2 = pts[l, k, 0] - a0, pts[l, k, 1] - a1, pts[l, k, 2] - a2
-                    tq = ((q0 * ab0 + q2 * ab2) + q1 * ab1) / ddl[l]
+                    tq = ((q0 * ab0 + q2 * ab2) + q1 * ab1) / dd
                     if tq < 0.0:
                         tq = 0.0
                     elif tq > 1.0:
                         tq = 1.0
                     r0, r1, r2 = q0 - tq * ab0, q1 - tq * ab1, q2 - tq * ab2
                     d2 = (r0 * r0 + r1 * r1) + r2 * r2
-                    if d2 > worst_l[l] or k == 1:
-                        worst_l[l] = d2
-            dmax2 = 0.0
-            for l in range(n_lines):
-                if w[l] and worst_l[l] > dmax2:
-                    dmax2 = worst_l[l]
+                    if d2 > worst or k == 1:
+                        worst = d2
+                if worst > dmax2:
+                    dmax2 = worst
             dmax = np.sqrt(dmax2)
         if straight and any_w and not (lmax >= thr and lmax < np.inf):
             # a short (or non-finite) interval: its interior samples after all
