@@ -90,7 +90,7 @@ def _loop_arrays_loop(faces):
 
 @pytest.mark.parametrize("model", ["trimesh__featuretype.STEP", "gmsh__U_Joint_2.stp", "occt__screw.step"])
 def test_loop_arrays_equal_segment_by_segment(shared_data, model):
-    """`face._loop_arrays` (the p-curves packed by `trims._pcurve_rows`) against the per-segment packing
+    """`face._loop_arrays` (the p-curves packed by `model.trim._pcurve_rows`) against the per-segment packing
     it replaces: the same arrays (bytes, dtype, shape, read-only flags) and bookkeeping; rational and
     polynomial p-curves both present."""
     from trimsurf.tessellate.face import _loop_arrays

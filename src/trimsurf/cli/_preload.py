@@ -3,7 +3,7 @@
 A STEP, IGES or BREP file is read by a child of the reader server (`trimsurf.io._occ._isolate`); the
 command itself only waits on a pipe, holding no lock and no CPU. Everything its first tessellation then
 needs on top of the work itself is the same for every file (`trimsurf.tessellate`'s modules, numba's own
-start -- its typing and target registries, the runtime it compiles once per process -- the 33 compiled
+start -- its typing and target registries, the runtime it compiles once per process -- the 32 compiled
 kernels every conforming tessellation with its report calls, `trimsurf.quality` and trimesh, which
 reads the written mesh back): `Preload` does it in a thread during that wait. The command joins the
 thread as soon as the read is done, before any work of its own, so that a forked worker (``--jobs``)
@@ -27,7 +27,7 @@ __all__ = ["KERNELS", "MODULES", "Preload"]
 MODULES = ("trimsurf.tessellate", "trimsurf.tessellate.measure", "trimsurf.quality", "trimsurf.io._meshfile")
 
 #: the compiled kernels (numba dispatchers) that ``trimsurf tessellate`` calls on every model with shared edges,
-#: with its report (measured: these 33 on each of occt__screw, trimesh__featuretype, gmsh__U_Joint_2, gmsh__t20_data,
+#: with its report (measured: these 32 on each of occt__screw, trimesh__featuretype, gmsh__U_Joint_2, gmsh__t20_data,
 #: gmsh__wrenchnut, occt__linkrods, one specialization each; `cell_surface_kernel`, called from Python only when
 #: cells must be split (3 of the 6), is left to its call; tests/cli/test_preload.py checks the list against what
 #: the command calls on the screw. s25-mesh: the face triangulation's kernels; `surface_distance_kernel` and
@@ -37,13 +37,16 @@ MODULES = ("trimsurf.tessellate", "trimsurf.tessellate.measure", "trimsurf.quali
 #: selection and its surface points of all faces in one call; s26-refine: refine_cells' rounds in one call,
 #: `refine_cells_kernel`, in place of the cell kernels it calls, which the command no longer calls itself;
 #: s26-seams: the seam reduction's flip and deviation tests (which call `_multi_derivatives_kernel` from compiled
-#: code: left to its Python callers, the numpy paths) and its seam edges)
+#: code: left to its Python callers, the numpy paths) and its seam edges); s28-polylines: `loop_polylines_kernel` moved
+#: to `geom._pcurve_kernels`, and the report's loop polygons sampled by it (`model.trim.loops_polylines`), so
+#: `curve_points_kernel` is no longer called (measured on the screw, featuretype, U_Joint_2, wrenchnut, linkrods)
 KERNELS = {
-    "trimsurf.geom._nurbs_kernels": ("curve_points_kernel", "surface_derivatives_kernel", "project_newton_kernel"),
+    "trimsurf.geom._nurbs_kernels": ("surface_derivatives_kernel", "project_newton_kernel"),
     "trimsurf.geom._seed_kernels": ("seed_grid_kernel", "retry_seeds_kernel"),
+    "trimsurf.geom._pcurve_kernels": ("loop_polylines_kernel",),
     "trimsurf.geom.predicates": ("_slab_index", "_points_in_polygons_kernel"),
-    "trimsurf.tessellate._line_kernels": ("loop_polylines_kernel", "inside_grids_kernel", "equidistributed_kernel",
-                                          "line_net_kernel", "refine_cells_kernel"),
+    "trimsurf.tessellate._line_kernels": ("inside_grids_kernel", "equidistributed_kernel", "line_net_kernel",
+                                          "refine_cells_kernel"),
     "trimsurf.tessellate._chunk_kernels": ("discretize_chunks_kernel", "pcurve_ends_kernel"),
     "trimsurf.tessellate.grid": ("_domain_prepare_kernel", "_domain_finish_kernel"),
     "trimsurf.tessellate._mesh_kernels": ("lift_kernel", "face_loops_kernel", "cell_main_kernel", "curved_kernel"),

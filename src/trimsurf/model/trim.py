@@ -105,12 +105,25 @@ class Loop:
         return bool(np.all(self.gaps() <= tol))
 
     def polyline(self, n_per_segment: int = 32) -> np.ndarray:
-        """Sampled loop in (u, v), shape (k * (n_per_segment - 1), 2), not repeating the first point."""
+        """Sampled loop in (u, v), shape (k * (n_per_segment - 1), 2), not repeating the first point.
+
+        All segments in one compiled call (`loops_polylines`); the points are those of
+        `_polyline_by_segment` (each segment's `evaluate(parameters(n))`), bit for bit."""
+        n = int(n_per_segment)
+        if n >= 2:
+            return loops_polylines([self], n)[0]    # (a list: not cached by `_packed_segments`)
+        return self._polyline_by_segment(n)
+
+    def _polyline_by_segment(self, n_per_segment: int = 32) -> np.ndarray:
+        """`polyline`, segment by segment (one curve evaluation each): the reference of the batched path."""
         parts = [s.evaluate(s.parameters(n_per_segment))[:-1] for s in self.segments]
         return np.concatenate(parts, axis=0)
 
     def polylines(self, *n_per_segment: int) -> tuple[np.ndarray, ...]:
         """`polyline(n)` for each n, every segment evaluated once for all of them (the same points)."""
+        return self._polylines_by_segment(*n_per_segment)
+
+    def _polylines_by_segment(self, *n_per_segment: int) -> tuple[np.ndarray, ...]:
         parts: list[list[np.ndarray]] = [[] for _ in n_per_segment]
         for s in self.segments:
             ts = [s.parameters(n) for n in n_per_segment]
@@ -126,6 +139,102 @@ class Loop:
         p = self.polyline(n_per_segment)
         q = np.roll(p, -1, axis=0)
         return 0.5 * float(np.sum(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]))
+
+
+def loops_polylines(loops, n_per_segment: int = 32) -> list[np.ndarray]:
+    """`[loop.polyline(n_per_segment) for loop in loops]`, every segment of every loop sampled in one
+    compiled call (`geom._pcurve_kernels.loop_polylines_kernel`, the meshing's: `PCurve.parameters`'
+    arithmetic, clamped into the curve's domain as `geom.nurbs.curve_derivatives` clamps, each point as
+    `curve_points_kernel` computes it), so the same points bit for bit as segment by segment.
+
+    Each loop's array is its own (not a view of a shared one). n_per_segment < 2, or a segment whose
+    parameter step is not finite, takes the segment-by-segment path (its results and errors)."""
+    given = loops
+    loops = tuple(loops)
+    n = int(n_per_segment)
+    if n < 2 or not any(loop.segments for loop in loops):
+        return [loop._polyline_by_segment(n) for loop in loops]
+    from ..geom._pcurve_kernels import loop_polylines_kernel
+
+    si, sf, ck, cpw = _packed_segments(loops, given is loops)
+    m = len(si)
+    with np.errstate(over="ignore", invalid="ignore"):
+        if not np.all(np.isfinite((sf[:, 1] - sf[:, 0]) / (n - 1))):
+            return [loop._polyline_by_segment(n) for loop in loops]
+    out = [np.empty((len(loop.segments) * (n - 1), 2)) for loop in loops]
+    flat = out[0] if len(loops) == 1 else np.empty((m * (n - 1), 2))
+    loop_polylines_kernel(si, sf, ck, cpw, np.int64(n), np.int64(2), flat,
+                          np.empty((m, 2)))
+    if len(loops) > 1:
+        o = 0
+        for a in out:
+            a[...] = flat[o:o + len(a)]
+            o += len(a)
+    return out
+
+
+def _pcurve_rows(curves: list) -> tuple:
+    """The 2D curves' arrays as the compiled kernels take them, in a few numpy passes: rows (n, 7) int64
+    (degree, rational, offset and count of the knots in ck, offset of the control points in cpw, their
+    rows, columns), ck (the knots one after the other), cpw (the control points, homogeneous (x w, w)
+    where rational, as `geom.nurbs._homogeneous` makes them, flat)."""
+    n = len(curves)
+    dim = 2                     # (p-curves are 2D: `PCurve` checks)
+    cps = [c.control_points for c in curves]
+    kcs = [c.knots for c in curves]
+    nkc = np.fromiter(map(len, kcs), dtype=np.int64, count=n)
+    rows = np.fromiter(map(len, cps), dtype=np.int64, count=n)
+    ws = [c.weights for c in curves]
+    rat = np.array([w is not None for w in ws], dtype=bool).reshape(n)
+    cp_all = np.concatenate(cps)
+    full = np.empty((len(cp_all), dim + 1))
+    full[:, :dim] = cp_all
+    row_rat = np.repeat(rat, rows)
+    if rat.any():
+        w_all = np.concatenate([w for w in ws if w is not None])
+        full[row_rat, :dim] = cp_all[row_rat] * w_all[:, None]
+        full[row_rat, dim] = w_all
+    mask = np.ones(full.shape, dtype=bool)
+    mask[~row_rat, dim] = False
+    cols = dim + rat.astype(np.int64)
+    sizes = rows * cols
+    out = np.empty((n, 7), dtype=np.int64)
+    out[:, 0] = [c.degree for c in curves]
+    out[:, 1] = rat
+    out[:, 2] = np.cumsum(nkc) - nkc
+    out[:, 3] = nkc
+    out[:, 4] = np.cumsum(sizes) - sizes
+    out[:, 5] = rows
+    out[:, 6] = cols
+    return out, np.concatenate(kcs), full[mask]
+
+
+#: `_packed_segments` of the last loop tuples asked for (a face's `loops`, kept alive in the entry so its
+#: id is not reused while cached): measuring a face asks for its polylines at several densities
+_PACKED: dict = {}
+_PACKED_SIZE = 2048
+
+
+def _packed_segments(loops: tuple, cache: bool) -> tuple:
+    """The segments of `loops` as `loop_polylines_kernel` takes them (si, sf and the flat read-only knots
+    and homogeneous control points, as `tessellate.face._loop_arrays` builds them); kept per tuple when
+    `cache` (the tuple is the caller's own, e.g. `TrimmedFace.loops`)."""
+    hit = _PACKED.get(id(loops)) if cache else None
+    if hit is not None and hit[0] is loops:
+        return hit[1]
+    from ..geom.nurbs import read_only
+
+    segs = [s for loop in loops for s in loop.segments]
+    m = len(segs)
+    sf = np.array([(sg.t0, sg.t1) for sg in segs], dtype=np.float64).reshape(m, 2)
+    rows, ck, cpw = _pcurve_rows([sg.curve for sg in segs])
+    si = np.ascontiguousarray(rows[:, [0, 2, 3, 4, 5, 6, 1]])
+    packed = (si, sf, read_only(ck), read_only(cpw))     # si, sf writable: the meshing's specialization
+    if cache:
+        if len(_PACKED) >= _PACKED_SIZE:
+            _PACKED.pop(next(iter(_PACKED)))
+        _PACKED[id(loops)] = (loops, packed)
+    return packed
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -197,7 +306,7 @@ class TrimmedFace:
         uv = full
         if self.loops:
             with np.errstate(all="ignore"):
-                polys = [loop.polyline(n) for loop in self.loops]
+                polys = loops_polylines(self.loops, n)
                 polys = [np.clip(p, [u0, v0], [u1, v1]) for p in polys if np.all(np.isfinite(p)) and len(p) >= 3]
             if polys:
                 edge = np.concatenate(polys)

@@ -22,6 +22,7 @@ import numpy as np
 from ..errors import InputError
 from ..geom.predicates import PolygonIndex, _points_in_polygons_kernel, points_in_polygons
 from ..model import NurbsSurface, TriMesh, TrimmedFace
+from ..model.trim import loops_polylines
 from ._kernels import segments_distance_kernel
 
 __all__ = ["TriangleSamples", "sample_triangles", "as_face", "loop_polygons", "inside_face",
@@ -178,7 +179,7 @@ def _loop_polygons(face: TrimmedFace, n_per_segment: int) -> tuple:
     if hit is not None and hit[0] is face:
         return hit[1]
     if face.loops:
-        polys = [loop.polyline(n_per_segment) for loop in face.loops]
+        polys = loops_polylines(face.loops, n_per_segment)      # one compiled call for all loops
     else:
         (u0, u1), (v0, v1) = face.surface.domain
         polys = [np.array([[u0, v0], [u1, v0], [u1, v1], [u0, v1]], dtype=np.float64)]

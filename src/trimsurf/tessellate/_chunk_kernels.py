@@ -990,7 +990,7 @@ def discretize_chunks_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, 
 @njit(cache=True, nogil=True)
 def pcurve_ends_kernel(rows, ck, cpw, t, out):
     """out[i, e] = C_i(clip(t[i, e], knots[p], knots[-p - 1])) for e = 0, 1: `repair._ends` of the 2D
-    curves in `trims._pcurve_rows`' layout (rows: degree, rational, knots offset and count in ck,
+    curves in `model.trim._pcurve_rows`' layout (rows: degree, rational, knots offset and count in ck,
     control points offset in cpw, rows, columns), with the same point code (`_curve_point`)."""
     for i in range(rows.shape[0]):
         p, rat = rows[i, 0], rows[i, 1] != 0

@@ -8,16 +8,18 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError, TrimLoopError
+from ..geom._pcurve_kernels import loop_polylines_kernel
 from ..geom.nurbs import _homogeneous, read_only
 from ..geom.predicates import PolygonIndex
 from ..model import TriMesh, TrimmedFace
+from ..model.trim import _pcurve_rows
 from .domain import MAX_VALUES, _clipped_values, _too_many, adaptive_values, unique_values
 from ._line_kernels import (DUMMY_1D, DUMMY_BOOL, DUMMY_CI, cell_deviation_kernel, cell_surface_kernel,
                             equidistributed_kernel, grid_cells_kernel, inside_grid_kernel, inside_grids_kernel,
-                            line_net_kernel, loop_polylines_kernel, refine_cells_kernel, refine_round_kernel)
+                            line_net_kernel, refine_cells_kernel, refine_round_kernel)
 from .grid import triangulate_domain
 from .repair import remove_polygon_loops, repair_face
-from .trims import ChunkUse, _pcurve_rows, discretize_chunk
+from .trims import ChunkUse, discretize_chunk
 
 __all__ = ["tessellate_face", "face_domain_values", "shell_domain_values", "grid_box", "FaceMesh",
            "mesh_face_from_chunks", "check_parameters"]
@@ -109,7 +111,7 @@ def _sample_loops(faces, n_a: int, n_b: int) -> tuple:
 def _loop_arrays(faces) -> tuple:
     """The trim segments of `faces` as `loop_polylines_kernel` takes them: si (m, 7) int64 per segment
     (degree, knots' offset and count, homogeneous control points' offset, rows, columns, rational), sf
-    (m, 2) its (t0, t1), the knots and control points flat and read-only (`trims._pcurve_rows`' arrays:
+    (m, 2) its (t0, t1), the knots and control points flat and read-only (`model.trim._pcurve_rows`' arrays:
     the points homogeneous as `geom.nurbs._homogeneous` makes them), loop_segs and face_loops."""
     segs: list = []
     loop_segs = []

@@ -472,7 +472,7 @@ def quick_repairs(faces: list, *, tolerance: float, g1_angle_deg: float = 1.0) -
     over all: `g1_defects`' numbers). Returns one FaceRepair or None per face.
     """
     from ._chunk_kernels import pcurve_ends_kernel
-    from .trims import _pcurve_rows
+    from ..model.trim import _pcurve_rows
 
     out: list = [None] * len(faces)
     cand, spans, seg_face, nxt = [], [], [], []

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..model import NurbsSurface, PCurve
+from ..model.trim import _pcurve_rows
 from .domain import adaptive_values, interval_criteria, unique_values
 
 __all__ = ["ChunkUse", "Chunk", "discretize_chunk", "discretize_chunks", "iso_crossings", "SHARED_CHORD"]
@@ -233,42 +234,6 @@ def discretize_chunk(uses: list, *, tolerance: float, max_edge: float, strategy:
     """
     return discretize_chunks([uses], tolerance=tolerance, max_edge=max_edge, strategy=strategy, reduce=reduce,
                              degenerate=[degenerate])[0]
-
-
-def _pcurve_rows(curves: list) -> tuple:
-    """The 2D curves' arrays as the compiled kernels take them, in a few numpy passes: rows (n, 7) int64
-    (degree, rational, offset and count of the knots in ck, offset of the control points in cpw, their
-    rows, columns), ck (the knots one after the other), cpw (the control points, homogeneous (x w, w)
-    where rational, as `geom.nurbs._homogeneous` makes them, flat)."""
-    n = len(curves)
-    dim = 2                     # (p-curves are 2D: `PCurve` checks)
-    cps = [c.control_points for c in curves]
-    kcs = [c.knots for c in curves]
-    nkc = np.fromiter(map(len, kcs), dtype=np.int64, count=n)
-    rows = np.fromiter(map(len, cps), dtype=np.int64, count=n)
-    ws = [c.weights for c in curves]
-    rat = np.array([w is not None for w in ws], dtype=bool).reshape(n)
-    cp_all = np.concatenate(cps)
-    full = np.empty((len(cp_all), dim + 1))
-    full[:, :dim] = cp_all
-    row_rat = np.repeat(rat, rows)
-    if rat.any():
-        w_all = np.concatenate([w for w in ws if w is not None])
-        full[row_rat, :dim] = cp_all[row_rat] * w_all[:, None]
-        full[row_rat, dim] = w_all
-    mask = np.ones(full.shape, dtype=bool)
-    mask[~row_rat, dim] = False
-    cols = dim + rat.astype(np.int64)
-    sizes = rows * cols
-    out = np.empty((n, 7), dtype=np.int64)
-    out[:, 0] = [c.degree for c in curves]
-    out[:, 1] = rat
-    out[:, 2] = np.cumsum(nkc) - nkc
-    out[:, 3] = nkc
-    out[:, 4] = np.cumsum(sizes) - sizes
-    out[:, 5] = rows
-    out[:, 6] = cols
-    return out, np.concatenate(kcs), full[mask]
 
 
 def _batch_arrays(chunks: list) -> tuple:
