@@ -39,7 +39,7 @@ MODULES = ("trimsurf.tessellate", "trimsurf.tessellate.measure", "trimsurf.quali
 #: s26-seams: the seam reduction's flip and deviation tests (which call `_multi_derivatives_kernel` from compiled
 #: code: left to its Python callers, the numpy paths) and its seam edges); s28-polylines: `loop_polylines_kernel` moved
 #: to `geom._pcurve_kernels`, and the report's loop polygons sampled by it (`model.trim.loops_polylines`), so
-#: `curve_points_kernel` is no longer called (measured on the screw, featuretype, U_Joint_2, wrenchnut, linkrods)
+#: `curve_points_kernel` is no longer called (measured on the six models above)
 KERNELS = {
     "trimsurf.geom._nurbs_kernels": ("surface_derivatives_kernel", "project_newton_kernel"),
     "trimsurf.geom._seed_kernels": ("seed_grid_kernel", "retry_seeds_kernel"),
