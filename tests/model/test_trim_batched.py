@@ -84,3 +84,46 @@ def test_packed_segments_cached_per_loops_tuple(faces):
     assert all(_bits_equal(a, b) for a, b in zip(first, loops_polylines(f.loops, 8)))
     f.loops[0].polyline(8)           # a single loop (a fresh list) is not cached
     assert len(trim._PACKED) == 1
+
+
+def _random_curve(rng, p):
+    # clamped knots with repeated interior knots (up to multiplicity p), integers and not, rational or not
+    n_int = int(rng.integers(0, 6))
+    inner = np.sort(np.concatenate([rng.random(n_int), np.repeat(rng.random(1), int(rng.integers(1, p + 1)))]))
+    lo, hi = float(rng.normal()), 0.0
+    hi = lo + float(rng.uniform(0.5, 5))
+    knots = np.concatenate([[lo] * (p + 1), lo + inner * (hi - lo), [hi] * (p + 1)])
+    n_ctrl = len(knots) - p - 1
+    w = rng.uniform(0.2, 3.0, n_ctrl) if rng.random() < 0.5 else None
+    return NurbsCurve(p, knots, rng.normal(size=(n_ctrl, 2)) * 10.0 ** rng.integers(-3, 4), w)
+
+
+def test_kernel_matches_curve_points_on_random_curves():
+    """`loop_polylines_kernel` (`_curve_point` written out) against `NurbsCurve.evaluate` (the compiled
+    `curve_points_kernel`) bit for bit: degrees 1-7, repeated interior knots, parameters on knots,
+    ranges run backwards, ranges reaching past the domain (clamped), tiny ranges."""
+    rng = np.random.default_rng(11)
+    segs = []
+    for i in range(300):
+        c = _random_curve(rng, int(rng.integers(1, 8)))
+        lo, hi = float(c.knots[0]), float(c.knots[-1])
+        kn = c.knots[c.degree + 1:-c.degree - 1]
+        kind = i % 5
+        if kind == 0:
+            t0, t1 = lo, hi
+        elif kind == 1:
+            t0, t1 = hi, lo
+        elif kind == 2 and len(kn):
+            t0, t1 = float(kn[0]), float(rng.choice([lo, hi]))
+        elif kind == 3:
+            t0, t1 = lo - 0.3, hi + 0.2            # clamped into the domain
+        else:
+            t0 = float(rng.uniform(lo, hi))
+            t1 = float(np.nextafter(t0, np.inf)) if i % 2 else t0 + 1e-300
+        if t0 == t1:
+            t1 = hi if t0 != hi else lo
+        segs.append(PCurve(c, t0, t1))
+    loops = [Loop(tuple(segs[i:i + 7])) for i in range(0, len(segs), 7)]
+    for n in (2, 3, 5, 33, 100):
+        for g, loop in zip(loops_polylines(loops, n), loops):
+            assert _bits_equal(g, loop._polyline_by_segment(n)), n

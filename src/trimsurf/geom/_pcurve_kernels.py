@@ -13,8 +13,6 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ._nurbs_kernels import _curve_point
-
 __all__ = ["loop_polylines_kernel"]
 
 
@@ -23,26 +21,24 @@ def loop_polylines_kernel(si, sf, ck, cpw, n_a, n_b, out_a, out_b):
     """`model.Loop.polylines(n_a, n_b)` of the segments (p-curves) of a face's loops at once: segment j
     (si[j] = (degree, knots offset, knots count, pw offset, control points, dimw, rational), sf[j] = (t0, t1),
     flat read-only knots ck and homogeneous points cpw) at `PCurve.parameters(n)` (np.linspace's
-    arithmetic), clamped into the curve's domain, evaluated as `curve_points_kernel` does; rows
+    arithmetic), clamped into the curve's domain, evaluated as `curve_points_kernel` does (its operations,
+    written out here: helper calls and array views cost reference counting per point); rows
     j (n - 1) to (j + 1) (n - 1) of out_a / out_b (the segment's last point left out)."""
     mp = 0
     for j in range(si.shape[0]):
         mp = max(mp, si[j, 0])
     ndu = np.empty((mp + 1, mp + 1))
-    aa = np.empty((2, mp + 1))
     left = np.empty(mp + 1)
     right = np.empty(mp + 1)
-    ders = np.empty((1, mp + 1))
-    row = np.empty(2)
     for j in range(si.shape[0]):
-        p = si[j, 0]
-        kc = ck[si[j, 1]:si[j, 1] + si[j, 2]]
-        pw = cpw[si[j, 3]:si[j, 3] + si[j, 4] * si[j, 5]].reshape((si[j, 4], si[j, 5]))
+        p, ko, nk, po, n_ctrl, dimw = si[j, 0], si[j, 1], si[j, 2], si[j, 3], si[j, 4], si[j, 5]
         rational = si[j, 6] != 0
-        lo, hi = kc[p], kc[kc.shape[0] - p - 1]
+        dim = dimw - 1 if rational else dimw
+        lo, hi = ck[ko + p], ck[ko + nk - p - 1]
         t0, t1 = sf[j, 0], sf[j, 1]
         for which in range(2):
             n = n_a if which == 0 else n_b
+            out = out_a if which == 0 else out_b
             step = (t1 - t0) / (n - 1)
             for k in range(n - 1):
                 if step == 0.0:
@@ -50,10 +46,39 @@ def loop_polylines_kernel(si, sf, ck, cpw, n_a, n_b, out_a, out_b):
                 else:
                     t = k * step + t0
                 t = min(max(t, lo), hi)
-                _curve_point(p, kc, pw, rational, t, ndu, aa, left, right, ders, row)
-                if which == 0:
-                    out_a[j * (n - 1) + k, 0] = row[0]
-                    out_a[j * (n - 1) + k, 1] = row[1]
+                # `_nurbs_kernels._curve_point` written out (its `_span`, `_ders_basis` with nd = 0, and sums:
+                # the same operations in the same order), with no helper call and no array view per point
+                if t >= ck[ko + n_ctrl]:
+                    s = n_ctrl - 1
+                    while s > p and ck[ko + s] >= ck[ko + n_ctrl]:
+                        s -= 1
                 else:
-                    out_b[j * (n - 1) + k, 0] = row[0]
-                    out_b[j * (n - 1) + k, 1] = row[1]
+                    s, hi_ = p, n_ctrl
+                    while hi_ - s > 1:
+                        mid = (s + hi_) // 2
+                        if t < ck[ko + mid]:
+                            hi_ = mid
+                        else:
+                            s = mid
+                ndu[0, 0] = 1.0
+                for jj in range(1, p + 1):
+                    left[jj] = t - ck[ko + s + 1 - jj]
+                    right[jj] = ck[ko + s + jj] - t
+                    saved = 0.0
+                    for r in range(jj):
+                        ndu[jj, r] = right[r + 1] + left[jj - r]
+                        temp = ndu[r, jj - 1] / ndu[jj, r]
+                        ndu[r, jj] = saved + right[r + 1] * temp
+                        saved = left[jj - r] * temp
+                    ndu[jj, jj] = saved
+                base = po + (s - p) * dimw
+                w = 1.0
+                if rational:
+                    w = 0.0
+                    for r in range(p + 1):
+                        w += ndu[r, p] * cpw[base + r * dimw + dim]
+                for d in range(dim):
+                    acc = 0.0
+                    for r in range(p + 1):
+                        acc += ndu[r, p] * cpw[base + r * dimw + d]
+                    out[j * (n - 1) + k, d] = acc / w if rational else acc
