@@ -66,4 +66,5 @@ def test_the_check_sees_function_body_imports():
     assert "tessellate" not in _imported_packages(src, "model")
     text = src.read_text() + "\n\ndef _f():\n    from ..tessellate._line_kernels import x\n    import trimsurf.io\n"
     assert _imported_packages(src, "model", text) >= {"tessellate", "io", "geom"}
-    assert _imported_packages(PKG / "geom" / "_pcurve_kernels.py", "geom") == {"geom"}
+    assert _imported_packages(PKG / "geom" / "_nurbs_kernels.py", "geom") == {"_numba_load"}
+    assert "geom" in _imported_packages(PKG / "model" / "nurbs.py", "model")     # `from .. import geom`
