@@ -39,10 +39,12 @@ MODULES = ("trimsurf.tessellate", "trimsurf.tessellate.measure", "trimsurf.quali
 #: s26-seams: the seam reduction's flip and deviation tests (which call `_multi_derivatives_kernel` from compiled
 #: code: left to its Python callers, the numpy paths) and its seam edges); s28-polylines: `loop_polylines_kernel` moved
 #: to `geom._pcurve_kernels`, and the report's loop polygons sampled by it (`model.trim.loops_polylines`), so
-#: `curve_points_kernel` is no longer called (measured on the six models above)
+#: `curve_points_kernel` is no longer called (measured on the six models above); s28-measure: `memo_points_kernel`,
+#: the measurement's seed grids and (u, v) grids, and no `segments_distance_kernel`: the report's measurement no
+#: longer computes the feet's distances outside the trim loops
 KERNELS = {
     "trimsurf.geom._nurbs_kernels": ("surface_derivatives_kernel", "project_newton_kernel"),
-    "trimsurf.geom._seed_kernels": ("seed_grid_kernel", "retry_seeds_kernel"),
+    "trimsurf.geom._seed_kernels": ("seed_grid_kernel", "retry_seeds_kernel", "memo_points_kernel"),
     "trimsurf.geom._pcurve_kernels": ("loop_polylines_kernel",),
     "trimsurf.geom.predicates": ("_slab_index", "_points_in_polygons_kernel"),
     "trimsurf.tessellate._line_kernels": ("inside_grids_kernel", "equidistributed_kernel", "line_net_kernel",
@@ -54,7 +56,7 @@ KERNELS = {
                                     "_corner_cosines", "_check_shape_kernel"),
     "trimsurf.tessellate.seams": ("_seam_select_kernel", "_dev_against_kernel", "_seam_edges_kernel"),
     "trimsurf.quality._kernels": ("grid_build_kernel", "grid_closest_kernel", "hint_closest_kernel",
-                                  "segments_distance_kernel", "uv_locate_kernel"),
+                                  "uv_locate_kernel"),
 }
 
 

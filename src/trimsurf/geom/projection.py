@@ -45,7 +45,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import GeometryError
 from ._nurbs_kernels import project_newton_kernel, surface_derivatives_kernel
-from ._seed_kernels import retry_seeds_kernel, seed_grid_kernel
+from ._seed_kernels import memo_points_kernel, retry_seeds_kernel, seed_grid_kernel
 from .nurbs import _homogeneous, curve_derivatives, read_only, surface_derivatives
 
 __all__ = ["Projection", "CurveProjection", "project_to_surface", "project_to_curve"]
@@ -216,44 +216,32 @@ class _Seeds(NamedTuple):
     ders: tuple             # derivative arrays at the samples (point first); see `lazy`
     radius: np.ndarray      # (ns,) largest distance from a sample to its grid neighbours
     tree: cKDTree
-    lazy: tuple | None = None   # (evaluate, done (ns,) bool): `ders` rows filled on first use (`_seed_state`)
 
 
-def _seed_state(seeds: _Seeds, idx: np.ndarray) -> tuple:
-    """The derivative arrays (point first) at the seed samples `idx`, as a Newton start state.
-
-    With ``seeds.lazy`` the seeds' derivatives are evaluated only for the samples that start a run, on
-    first use, by the same ``evaluate`` the whole grid was evaluated with before (point by point: the
-    same numbers for a sample whichever batch it is evaluated in)."""
-    if seeds.lazy is not None:
-        evaluate, done = seeds.lazy
-        miss = idx[~done[idx]]
-        if miss.size:
-            mark = np.zeros(len(done), dtype=bool)
-            mark[miss] = True
-            miss = np.flatnonzero(mark)
-            for store, val in zip(seeds.ders, evaluate(seeds.params[miss])):
-                store[miss] = val
-            done[miss] = True
+def _seed_state(seeds: _Seeds, idx: np.ndarray) -> tuple | None:
+    """The derivative arrays (point first) at the seed samples `idx`, as a Newton start state; None for
+    seeds built from their points alone (`_build_seeds` with ``points``): the Newton run then evaluates
+    its start itself (`project_newton_kernel` with ``eval_start``: the same `_eval_d2` at the same
+    parameters, so the same state bit for bit)."""
+    if seeds.ders is None:
+        return None
     return tuple(d[idx] for d in seeds.ders)
 
 
 def _build_seeds(axes: list, evaluate, diag: float, *, check_poles: bool = True, points=None) -> _Seeds:
     """The seed samples on the grid `axes`. ``evaluate(params)`` gives the derivative arrays (point
-    first); with ``points = (fn, row_shapes)``, ``fn(params)`` the same points as ``evaluate(params)[0]``
-    bit for bit and `row_shapes` the shapes of one sample's rows of ``evaluate``'s arrays, only the points
-    are computed here and the derivatives on first use (`_seed_state`)."""
+    first); with ``points``, ``points(params)`` the same points as ``evaluate(params)[0]`` bit for bit, only
+    the points are computed (no derivatives: ``ders`` is None, and each Newton run from a seed evaluates
+    its start, `_seed_state`)."""
     shape = tuple(a.shape[0] for a in axes)
     params = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(axes))
     if points is None:
-        ders, lazy = evaluate(params), None
+        ders = evaluate(params)
+        xyz = ders[0]
     else:
-        fn, row_shapes = points
-        xyz = fn(params)
-        # the start states' arrays (the point too: the tree and radii use `xyz`, not these rows)
-        ders = tuple(np.empty((len(params),) + tuple(r)) for r in row_shapes)
-        lazy = (evaluate, np.zeros(len(params), dtype=bool))
-    pts = (ders[0] if points is None else xyz).reshape(*shape, -1)
+        ders = None
+        xyz = points(params)
+    pts = xyz.reshape(*shape, -1)
     if len(axes) == 2 and pts.shape[2] == 3:
         # the neighbour radii and the boundary lines' spread in one compiled pass (the same numbers as the
         # numpy expressions below)
@@ -286,7 +274,7 @@ def _build_seeds(axes: list, evaluate, diag: float, *, check_poles: bool = True,
         for off in np.ndindex(*([3] * len(axes))):
             window = pad[tuple(slice(o, o + n) for o, n in zip(off, shape))]
             np.maximum(radius, np.linalg.norm(window - pts, axis=-1), out=radius)
-    return _Seeds(axes, params, ders, radius.ravel(), cKDTree(pts.reshape(len(params), -1)), lazy)
+    return _Seeds(axes, params, ders, radius.ravel(), cKDTree(pts.reshape(len(params), -1)))
 
 
 def _retry_seeds(seeds: _Seeds, nearest: np.ndarray, seed_dist: np.ndarray, foot_params: np.ndarray,
@@ -935,7 +923,8 @@ def project_to_surface(points, degree_u: int, degree_v: int, knots_u, knots_v, c
         surf = (pu, pv, read_only(ku), read_only(kv), pw, w is not None)
 
         def evaluate(uv):
-            # only the seed samples, once per surface (the Newton kernel evaluates its starts itself)
+            # not called on this path: the seeds are points alone, and every Newton run (from a seed too)
+            # evaluates its start itself
             return _surface_eval_compiled(surf, uv)
     else:
         def evaluate(uv):
@@ -946,14 +935,15 @@ def project_to_surface(points, degree_u: int, degree_v: int, knots_u, knots_v, c
         points = None
         if compiled:
             def seed_points(uv):
-                # the points alone (`surface_derivatives_kernel` with nd = 0: the same operations as
-                # `_eval_d2`'s point, so the same numbers); the derivatives of the samples that start a run
-                # are evaluated on first use (most samples never do: U_Joint 17K of 54K)
-                out = np.zeros((1, 1, len(uv), 3))
-                surface_derivatives_kernel(*surf, np.ascontiguousarray(np.clip(uv[:, 0], lo[0], hi[0])),
-                                           np.ascontiguousarray(np.clip(uv[:, 1], lo[1], hi[1])), 0, out)
-                return out[0, 0]
-            points = (seed_points, ((3,), (2, 3), (2, 2, 3)))
+                # the points alone (`surface_derivatives_kernel`'s numbers with nd = 0: the same operations
+                # as `_eval_d2`'s point, so the same numbers; computed by `memo_points_kernel`, each grid
+                # line's basis once); a run from a sample evaluates its derivatives in the Newton kernel
+                # (`_seed_state` gives None)
+                out = np.empty((len(uv), 3))
+                memo_points_kernel(*surf, np.ascontiguousarray(np.clip(uv[:, 0], lo[0], hi[0])),
+                                   np.ascontiguousarray(np.clip(uv[:, 1], lo[1], hi[1])), out)
+                return out
+            points = seed_points
         seeds = _build_seeds(axes, evaluate, tol / tol_rel, points=points)
         if len(_SEED_CACHE) >= _SEED_CACHE_SIZE:
             _SEED_CACHE.pop(next(iter(_SEED_CACHE)))

@@ -20,6 +20,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import InputError, MeshError
+from ..geom._seed_kernels import memo_points_kernel
+from ..geom.nurbs import _clamp, _homogeneous, read_only
 from ..geom.projection import _SETTLED_FRACTION, project_to_surface
 from ..model import Shell, TriMesh
 from ._results import ResultMixin
@@ -63,9 +65,10 @@ class Deviation(ResultMixin):
         Projections that did not meet the tolerance (their distance is an upper bound).
     n_outside_trim : int
         Mesh samples whose closest surface point lies outside the face's trim loops
-        by more than `trim_tol_uv` (in (u, v)).
+        by more than `trim_tol_uv` (in (u, v)); -1 where not computed (the report's measurement).
     max_outside_trim_uv : float
-        Largest (u, v) distance of such a foot from the trimmed region (0 when all inside).
+        Largest (u, v) distance of such a foot from the trimmed region (0 when all inside; NaN where not
+        computed).
     per_triangle_max : (m,) float64
         Largest mesh -> target distance among each triangle's samples (its corners and edges included).
     max_bound : float
@@ -242,7 +245,9 @@ def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, tw
     `prune` (`_shell_deviation` with ``skip``): without `pre`'s footprint hints, the (u, v) grids' exact
     distances to the mesh are searched by `_closest_from` with the larger of this face's largest mesh ->
     surface sample and `t2m_at` (the faces measured before: their largest surface -> mesh value) as the
-    value to beat: the same distances, most found within that radius.
+    value to beat: the same distances, most found within that radius. The feet's distances outside the
+    trim loops are not computed (``n_outside_trim`` -1, ``max_outside_trim_uv`` NaN): the report
+    (`tessellate.measure.measure_mesh`, the only caller with ``skip``) has no such field.
     """
     _check_mesh(mesh, "surface_deviation")
     face = as_face(target)
@@ -277,19 +282,23 @@ def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, tw
         n_conv = int(np.count_nonzero(~pre.vproj.converged) + np.count_nonzero(~pr.converged))
     if sel is None:
         mx, rms, where = _stats(d, samples.points)
-        out_uv = distance_outside_face(face, puv)
         n_mesh = len(d)
     else:
         mx, rms, where = _stats(d[sel], samples.points[sel])
-        out_uv = distance_outside_face(face, puv[sel])
         n_mesh = len(sel)
-    if trim_tol_uv is None:
-        (u0, u1), (v0, v1) = face.surface.domain
-        box = np.array([[u0, v0], [u1, v1]]) if not face.loops else np.array(
-            [loop_polygons(face, n_per_segment=8)[0].min(axis=0),
-             loop_polygons(face, n_per_segment=8)[0].max(axis=0)])
-        trim_tol_uv = 1e-3 * float(np.linalg.norm(box[1] - box[0]))
-    outside = int(np.count_nonzero(out_uv > trim_tol_uv))
+    if prune:
+        # the report's measurement (`_shell_deviation` with ``skip``) reports no trim figures: not computed
+        outside, out_max = -1, float("nan")
+    else:
+        out_uv = distance_outside_face(face, puv if sel is None else puv[sel])
+        if trim_tol_uv is None:
+            (u0, u1), (v0, v1) = face.surface.domain
+            box = np.array([[u0, v0], [u1, v1]]) if not face.loops else np.array(
+                [loop_polygons(face, n_per_segment=8)[0].min(axis=0),
+                 loop_polygons(face, n_per_segment=8)[0].max(axis=0)])
+            trim_tol_uv = 1e-3 * float(np.linalg.norm(box[1] - box[0]))
+        outside = int(np.count_nonzero(out_uv > trim_tol_uv))
+        out_max = float(out_uv.max(initial=0.0))
     mx2, rms2, where2, n2 = float("nan"), float("nan"), np.full(3, np.nan), 0
     state = None
     vert_uv = None
@@ -310,7 +319,7 @@ def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, tw
             hint, ins = _locate_uv(uv, vert_uv[mesh.triangles], skip)
             if ins.any():
                 uv, hint = uv[~ins], hint[~ins]
-        pts = face.surface.evaluate(uv)
+        pts = _grid_points(face.surface, uv)
         if adaptive and np.all(np.isfinite(pts)):
             # the refinement measures to the same mesh again: its triangle search structure is kept
             loc = _TriangleLocator(mesh.vertices, mesh.triangles)
@@ -341,9 +350,28 @@ def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, tw
                 cuv[samples.element[cen]] = puv[cen]
                 state.centroid_uv = cuv
     dev = Deviation(mx, rms, where, n_mesh, mx2, rms2, where2, n2,
-                    float(np.nanmax([mx, mx2])), n_conv, outside,
-                    float(out_uv.max(initial=0.0)), per_tri)
+                    float(np.nanmax([mx, mx2])), n_conv, outside, out_max, per_tri)
     return dev, state
+
+
+def _grid_points(surface, uv: np.ndarray) -> np.ndarray:
+    """``surface.evaluate(uv)`` bit for bit (the same clamping, the same kernel arithmetic) for (u, v) points
+    that share parameter values, as the (u, v) grids of `sample_face_domain` do (32 x 32 or the footprint
+    grid's, plus the loop polylines): `geom._seed_kernels.memo_points_kernel` computes each distinct u and v
+    value's span and basis functions once instead of per point (U_Joint tolerance-only: 165K grid points,
+    ~130 distinct values per direction and face). Anything but finite (n, 2) points goes to
+    ``surface.evaluate`` (its checks and errors)."""
+    uv = np.asarray(uv, dtype=np.float64)
+    if uv.ndim != 2 or uv.shape[1] != 2 or not len(uv) or not np.all(np.isfinite(uv)):
+        return surface.evaluate(uv)
+    pu, pv, ku, kv, cp, w = surface._args()
+    ku = np.asarray(ku, dtype=np.float64)
+    kv = np.asarray(kv, dtype=np.float64)
+    out = np.empty((len(uv), 3))
+    memo_points_kernel(int(pu), int(pv), read_only(ku), read_only(kv), np.ascontiguousarray(_homogeneous(cp, w)),
+                       w is not None, np.ascontiguousarray(_clamp(uv[:, 0], ku, pu)),
+                       np.ascontiguousarray(_clamp(uv[:, 1], kv, pv)), out)
+    return out
 
 
 #: faces with at least this many triangles take `_first_pass_lazy` (`_shell_deviation` with ``skip``): below,
