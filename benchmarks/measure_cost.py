@@ -7,7 +7,8 @@ report's figures, as ``--report`` writes them), with the seed-grid cache of ``ge
 before each measurement (a fresh process measures each face's surface for the first time), and the
 figures measured: ``max_deviation`` and ``max_deviation_bound`` (x eps), flipped triangles. ``kern s``: the CPU
 of the compiled kernels (Newton, surface evaluation, seed grids and their k-d queries, mesh search, point in
-polygon, (u, v) location) within one more measurement, timed per call; ``floor`` = kern s / mesh s, what
+polygon, (u, v) location, grid points of `memo_points_kernel` where the checkout has it) within one more
+measurement, timed per call; ``floor`` = kern s / mesh s, what
 the measurement would cost against the meshing with no Python around the kernels at all.
 
 ``--reference SRC`` times another checkout's ``src`` in a child process on the same meshes (pickled; ``ref s``,
@@ -57,12 +58,12 @@ def _timed(f):
             acc[0] += time.process_time() - t0
     return g
 for mod, names in (("trimsurf.geom.projection", ("project_newton_kernel", "surface_derivatives_kernel",
-                                                 "seed_grid_kernel", "_nearest_seeds")),
+                                                 "seed_grid_kernel", "_nearest_seeds", "memo_points_kernel")),
                    ("trimsurf.geom._nurbs_kernels", ("surface_derivatives_kernel", "curve_points_kernel")),
                    ("trimsurf.quality.closest_point", ("grid_build_kernel", "grid_closest_kernel",
                                                       "hint_closest_kernel", "packed_closest_kernel")),
                    ("trimsurf.quality.sampling", ("_points_in_polygons_kernel", "segments_distance_kernel")),
-                   ("trimsurf.quality.deviation", ("uv_locate_kernel",))):
+                   ("trimsurf.quality.deviation", ("uv_locate_kernel", "memo_points_kernel"))):
     mm = importlib.import_module(mod)
     for n in names:
         if hasattr(mm, n):

@@ -4,7 +4,9 @@
 largest distance to its 8 grid neighbours (the grid edge-padded) and the spread
 of the four boundary grid lines (pole test) with the same operations as the
 numpy expressions it replaces (``norm`` of a 3-vector as ``sqrt((x0^2 + x1^2) + x2^2)``,
-``np.maximum`` propagating NaN), so the numbers are the same.
+``np.maximum`` propagating NaN), so the numbers are the same. `memo_points_kernel` evaluates the
+points of grids (the seed grids, the measurement's (u, v) grids) with the numbers of
+`_nurbs_kernels.surface_derivatives_kernel` (nd = 0), each grid line's basis functions once.
 """
 
 from __future__ import annotations
@@ -115,7 +117,8 @@ def retry_seeds_kernel(axis_u, axis_v, radius, nearest, seed_dist, foot_params, 
     return count
 
 
-#: slots of each parameter direction's table in `memo_points_kernel` (a power of 2; at most half are filled)
+#: slots of each parameter direction's table in `memo_points_kernel` (a power of 2, read when the kernel compiles;
+#: at most half are filled; the hash keeps its top 11 bits, any power of 2 up to 2^11 works with the mask)
 MEMO_SLOTS = 2048
 
 

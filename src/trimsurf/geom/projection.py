@@ -213,7 +213,7 @@ class _Seeds(NamedTuple):
 
     axes: list              # 1-D sample parameters per direction
     params: np.ndarray      # (ns, d) sample parameters, C order over the grid
-    ders: tuple             # derivative arrays at the samples (point first); see `lazy`
+    ders: tuple | None      # derivative arrays at the samples (point first); None: points only (`_seed_state`)
     radius: np.ndarray      # (ns,) largest distance from a sample to its grid neighbours
     tree: cKDTree
 
