@@ -136,7 +136,8 @@ def _reduce(ci, cf, ck, cpw, cku, ckv, cpw4, G, gl, s, uvs, must, flags, toleran
         for q in range(nc):
             a[q] = s[idx[cand[q] - 1]]
             b[q] = s[idx[cand[q] + 1]]
-        _, ln, dv = _crit(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m9, np.inf, np.inf, no)
+        # (with the limits: a chord over one after its first use skips the others, as the test below reads)
+        _, ln, dv = _crit(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m9, max_edge, tolerance, no)
         for q in range(nc):
             if not (ln[q] <= max_edge and dv[q] <= tolerance):
                 continue

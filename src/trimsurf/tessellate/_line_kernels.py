@@ -551,7 +551,10 @@ def _use_arrays(ci, ck, cpw, cku, ckv, cpw4, j):
 def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop):
     """`_ChunkLines.criteria` (`pcurve_surface_kernel` then `chord_criteria_kernel`) over the intervals
     [a_i, b_i]: a point at the previous interval's last parameter is taken from it; with `stop`,
-    returns False at the first interval over max_len or max_dev.
+    returns False at the first interval over max_len or max_dev. The uses are taken in turn, and an
+    interval over max_len or max_dev after some of them skips the rest: its length and dev are then
+    those of the uses taken (over the limit all the same; the maxima only grow), and exact otherwise
+    (np.inf limits: always exact).
 
     The points as `_curve_point` and `_surface_point01` (nd = 0) compute them (the same operations in
     the same order), their span searches (`_nurbs_kernels._span`) and bases (A2.2, `_ders_basis` with
@@ -576,15 +579,19 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
     w = np.empty(opt + m * n_uses * 3)
     step = 1.0 / (m - 1)            # `_linspace01`: t_k = k * step, t_(m-1) = 1
     prev_s = np.nan
+    prev_done = 0                   # the uses whose points the previous interval evaluated
     for i in range(a.shape[0]):
         d = b[i] - a[i]
-        k0 = 0
-        if a[i] + d * 0.0 == prev_s:
-            for j in range(n_uses):
+        reuse = a[i] + d * 0.0 == prev_s
+        lmax2 = 0.0
+        dmax2 = 0.0
+        done = n_uses
+        for j in range(n_uses):
+            k0 = 0
+            if reuse and j < prev_done:
                 for q in range(3):
                     w[opt + j * 3 + q] = w[opt + ((m - 1) * n_uses + j) * 3 + q]
-            k0 = 1
-        for j in range(n_uses):
+                k0 = 1
             cp, crat, pu, pv, srat = ci[j, 0], ci[j, 1] != 0, ci[j, 2], ci[j, 3], ci[j, 4] != 0
             # `_use_arrays`' views, indexed in the flat arrays (a view costs a reference count pair)
             okc, ocw, ncw, cdimw = ci[j, 5], ci[j, 7], ci[j, 8], ci[j, 9]
@@ -718,15 +725,11 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
                     for r in range(pu + 1):
                         acc += w[onu + r] * w[otm + r * mdw + dd]
                     w[o + dd] = acc / w0 if srat else acc
-        prev_s = a[i] + d * 1.0
-        # as chord_criteria_kernel, the maxima taken of the squares with one square root each: sqrt is
-        # correctly rounded and monotone, so sqrt(max x) = max sqrt(x) bit for bit (0 = sqrt(0) the start),
-        # and a NaN fails the comparison either way
-        lmax2 = 0.0
-        dmax2 = 0.0
-        for l in range(n_uses):
-            o0 = opt + l * 3
-            o1 = opt + ((m - 1) * n_uses + l) * 3
+            # as chord_criteria_kernel, the maxima taken of the squares with one square root each: sqrt is
+            # correctly rounded and monotone, so sqrt(max x) = max sqrt(x) bit for bit (0 = sqrt(0) the
+            # start), and a NaN fails the comparison either way; use by use, in the order of the uses
+            o0 = opt + j * 3
+            o1 = opt + ((m - 1) * n_uses + j) * 3
             a0, a1, a2 = w[o0], w[o0 + 1], w[o0 + 2]
             ab0, ab1, ab2 = w[o1] - a0, w[o1 + 1] - a1, w[o1 + 2] - a2
             den = ab0 * ab0 + ab1 * ab1 + ab2 * ab2
@@ -734,7 +737,7 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
                 lmax2 = den
             dd = den if den > 0 else 1.0
             for k in range(1, m - 1):
-                ok_ = opt + (k * n_uses + l) * 3
+                ok_ = opt + (k * n_uses + j) * 3
                 q0, q1, q2 = w[ok_] - a0, w[ok_ + 1] - a1, w[ok_ + 2] - a2
                 tq = (q0 * ab0 + q1 * ab1 + q2 * ab2) / dd
                 if tq < 0.0:
@@ -745,6 +748,13 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
                 d2 = r0 * r0 + r1 * r1 + r2 * r2
                 if d2 > dmax2:
                     dmax2 = d2
+            # over a limit already (the maxima only grow, NaNs never enter them): the other uses cannot
+            # bring the interval back within both, so they are skipped
+            if j < n_uses - 1 and not (np.sqrt(lmax2) <= max_len and np.sqrt(dmax2) <= max_dev):
+                done = j + 1
+                break
+        prev_s = a[i] + d * 1.0
+        prev_done = done
         lmax = np.sqrt(lmax2)
         dmax = np.sqrt(dmax2)
         length[i] = lmax
