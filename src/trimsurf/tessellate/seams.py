@@ -271,11 +271,13 @@ def _derivatives(surface, uv: np.ndarray, nd: int) -> np.ndarray:
 
 
 @njit(cache=True, nogil=True)
-def _multi_derivatives_kernel(deg, kofs, knots, pofs, pshape, pw_flat, rational, dom, surf, u, v, order, out):
+def _multi_derivatives_kernel(deg, kofs, knots, pofs, pshape, pw_flat, rational, dom, surf, u, v, order, n0, out):
     """out[0, i] = S, out[1, i] = S_u, out[2, i] = S_v of surface surf[i] (packed by `_packed`) at
     (u[i], v[i]) clipped to its domain as np.clip does: `surface_derivatives_kernel` with nd = 1 per point
-    (the same `_surface_point01`), the points taken in `order` (grouped by surface)."""
+    (the same `_surface_point01`), the points taken in `order` (grouped by surface). Points i < n0: S alone
+    (nd = 0; `_surface_point01` computes S with the same operations either way), out[1:, i] not written."""
     cur = -1
+    zero = np.int64(0)
     one = np.int64(1)
     pu = pv = one
     ku = knots[0:0]
@@ -303,6 +305,12 @@ def _multi_derivatives_kernel(deg, kofs, knots, pofs, pshape, pw_flat, rational,
         y = v[i]
         y = y if y > v0 else v0
         y = y if y < v1 else v1
+        if i < n0:
+            _surface_point01(pu, pv, ku, kv, pw, rat, x, y, zero, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu,
+                             bv, tmp, skl, res)
+            for d in range(3):
+                out[0, i, d] = res[0, d]
+            continue
         _surface_point01(pu, pv, ku, kv, pw, rat, x, y, one, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv,
                          tmp, skl, res)
         for d in range(3):
@@ -342,7 +350,8 @@ def _dev_against_kernel(face_of, uv3, x3, tn, corners, use_corners, dbary, obary
     the corner corners[r, b - 1] alone (obary row b a unit row), a vertex's normal on one face at
     bit-equal parameters is evaluated once (a pure function of face and parameters: the same numbers).
     Every surface point in one `_multi_derivatives_kernel` call, grouped by face (as `_derivatives01`
-    computes them; evaluating inside the bookkeeping loop ran 2x slower per point).
+    computes them; evaluating inside the bookkeeping loop ran 2x slower per point), the deviation's
+    points with S alone (the same S: nd = 0 skips only the derivatives' operations).
 
     Returns (dev (r,), against (r,), ok): ok False when a sample point is not finite (the caller's
     numpy path then runs, as `_fast` sends it to the faces' own methods): every deviation point, and
@@ -377,6 +386,7 @@ def _dev_against_kernel(face_of, uv3, x3, tn, corners, use_corners, dbary, obary
             eu[n] = y0
             ev[n] = y1
             n += 1
+    n_dev = n                   # (their S alone: the deviation reads no derivative)
     nvert = 0
     if use_corners:
         for r in range(m):
@@ -429,7 +439,7 @@ def _dev_against_kernel(face_of, uv3, x3, tn, corners, use_corners, dbary, obary
     eorder = _grouped_order(ef, n, nf)
     d = np.empty((3, n, 3))
     _multi_derivatives_kernel(deg, kofs, knots, pofs, pshape, pw_flat, rational, dom, ef[:n], eu[:n], ev[:n],
-                              eorder, d)
+                              eorder, n_dev, d)
     i = 0
     for r in range(m):
         mx = 0.0
@@ -537,7 +547,7 @@ def _derivatives01(faces, face_of, pts) -> np.ndarray:
         face_of = np.asarray(face_of, dtype=np.int64)
         _multi_derivatives_kernel(*_packed(faces)[0], face_of, np.ascontiguousarray(pts[:, 0], dtype=np.float64),
                                   np.ascontiguousarray(pts[:, 1], dtype=np.float64),
-                                  np.argsort(face_of), out)       # (grouped by face; any order within)
+                                  np.argsort(face_of), np.int64(0), out)    # (grouped by face; any order within)
     return out
 
 
