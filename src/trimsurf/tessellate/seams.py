@@ -386,7 +386,7 @@ def _dev_against_kernel(face_of, uv3, x3, tn, corners, use_corners, dbary, obary
             eu[n] = y0
             ev[n] = y1
             n += 1
-    n_dev = n                   # (their S alone: the deviation reads no derivative)
+    n_dev = m * nd              # (= n: their S alone, the deviation reads no derivative; not a literal)
     nvert = 0
     if use_corners:
         for r in range(m):
