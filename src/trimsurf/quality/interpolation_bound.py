@@ -35,6 +35,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._bound_kernels import span_bounds_kernel
+
 __all__ = ["SpanBounds", "span_bounds", "triangle_bounds", "domain_bound", "MARGIN"]
 
 #: relative margin added to every bound for the rounding of its own arithmetic (sums of a few dozen
@@ -120,6 +122,27 @@ def _cell_max(arr: np.ndarray, su: np.ndarray, sv: np.ndarray, lo_u: int, n_u: i
 
 def span_bounds(surface) -> SpanBounds:
     """`SpanBounds` of a `NurbsSurface` (see the module's notes for what they bound).
+
+    One compiled call (`_bound_kernels.span_bounds_kernel`, the arithmetic of `_span_bounds_numpy` in the
+    same order: the same numbers bit for bit); control points of another dimension than 3 take
+    `_span_bounds_numpy`."""
+    cp = np.ascontiguousarray(surface.control_points, dtype=np.float64)
+    if cp.ndim != 3 or cp.shape[2] != 3:
+        return _span_bounds_numpy(surface)
+    ku = np.ascontiguousarray(surface.knots_u, dtype=np.float64)
+    kv = np.ascontiguousarray(surface.knots_v, dtype=np.float64)
+    w = surface.weights
+    wa = _NO_WEIGHTS if w is None else np.ascontiguousarray(w, dtype=np.float64)
+    bu, bv, cu, cv, m = span_bounds_kernel(np.int64(surface.degree_u), np.int64(surface.degree_v), ku, kv, cp,
+                                           wa, np.bool_(w is not None))
+    return SpanBounds(bu, bv, cu, cv, m)
+
+
+_NO_WEIGHTS = np.zeros((0, 0))
+
+
+def _span_bounds_numpy(surface) -> SpanBounds:
+    """`span_bounds` in numpy (session 27; the reference of its tests).
 
     A rational surface's points and weights are differenced together (one (nu, nv, 4) array: the same
     elementwise differences and factors), and each cell's block of them gathered once; the numbers are
