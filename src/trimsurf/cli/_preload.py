@@ -3,7 +3,7 @@
 A STEP, IGES or BREP file is read by a child of the reader server (`trimsurf.io._occ._isolate`); the
 command itself only waits on a pipe, holding no lock and no CPU. Everything its first tessellation then
 needs on top of the work itself is the same for every file (`trimsurf.tessellate`'s modules, numba's own
-start -- its typing and target registries, the runtime it compiles once per process -- the 32 compiled
+start -- its typing and target registries, the runtime it compiles once per process -- the 33 compiled
 kernels every conforming tessellation with its report calls, `trimsurf.quality` and trimesh, which
 reads the written mesh back): `Preload` does it in a thread during that wait. The command joins the
 thread as soon as the read is done, before any work of its own, so that a forked worker (``--jobs``)
@@ -41,7 +41,8 @@ MODULES = ("trimsurf.tessellate", "trimsurf.tessellate.measure", "trimsurf.quali
 #: to `geom._pcurve_kernels`, and the report's loop polygons sampled by it (`model.trim.loops_polylines`), so
 #: `curve_points_kernel` is no longer called (measured on the six models above); s28-measure: `memo_points_kernel`,
 #: the measurement's seed grids and (u, v) grids, and no `segments_distance_kernel`: the report's measurement no
-#: longer computes the feet's distances outside the trim loops
+#: longer computes the feet's distances outside the trim loops; s28-span: `span_bounds_kernel`, the report's
+#: per-cell derivative bounds of each surface (`quality.interpolation_bound.span_bounds`)
 KERNELS = {
     "trimsurf.geom._nurbs_kernels": ("surface_derivatives_kernel", "project_newton_kernel"),
     "trimsurf.geom._seed_kernels": ("seed_grid_kernel", "retry_seeds_kernel", "memo_points_kernel"),
@@ -57,6 +58,7 @@ KERNELS = {
     "trimsurf.tessellate.seams": ("_seam_select_kernel", "_dev_against_kernel", "_seam_edges_kernel"),
     "trimsurf.quality._kernels": ("grid_build_kernel", "grid_closest_kernel", "hint_closest_kernel",
                                   "uv_locate_kernel"),
+    "trimsurf.quality._bound_kernels": ("span_bounds_kernel",),
 }
 
 

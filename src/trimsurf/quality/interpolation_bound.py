@@ -138,7 +138,9 @@ def span_bounds(surface) -> SpanBounds:
     return SpanBounds(bu, bv, cu, cv, m)
 
 
+#: the weights argument of a polynomial surface: read-only like a `NurbsSurface`'s arrays (one specialization)
 _NO_WEIGHTS = np.zeros((0, 0))
+_NO_WEIGHTS.flags.writeable = False
 
 
 def _span_bounds_numpy(surface) -> SpanBounds:
