@@ -27,7 +27,7 @@ __all__ = ["KERNELS", "MODULES", "Preload"]
 MODULES = ("trimsurf.tessellate", "trimsurf.tessellate.measure", "trimsurf.quality", "trimsurf.io._meshfile")
 
 #: the compiled kernels (numba dispatchers) that ``trimsurf tessellate`` calls on every model with shared edges,
-#: with its report (measured: these 32 on each of occt__screw, trimesh__featuretype, gmsh__U_Joint_2, gmsh__t20_data,
+#: with its report (measured: these 33 on each of occt__screw, trimesh__featuretype, gmsh__U_Joint_2, gmsh__t20_data,
 #: gmsh__wrenchnut, occt__linkrods, one specialization each; `cell_surface_kernel`, called from Python only when
 #: cells must be split (3 of the 6), is left to its call; tests/cli/test_preload.py checks the list against what
 #: the command calls on the screw. s25-mesh: the face triangulation's kernels; `surface_distance_kernel` and
