@@ -1315,6 +1315,7 @@ def cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, us, vs, ia, ib, flags,
         return
     su = np.empty((2 * nb, 2))
     sx = np.empty((2 * nb, 3))
+    sub = su.view(np.int64)
     # the two triangles share the split diagonal: its midpoint's sample in the second triangle (kd) is
     # the first's (ko) where their parameters and points have the same bits (the same sample: the same
     # distance, which the maxima below already hold): per split, the bary rows of the midpoints of the
@@ -1327,6 +1328,31 @@ def cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, us, vs, ia, ib, flags,
             e02 = b
         elif bary[b, 0] == 0.0 and bary[b, 1] == 0.5 and bary[b, 2] == 0.5:
             e12 = b
+    # the other edge midpoints are the midpoints of the cell's sides, samples of the neighbour cell too:
+    # each (parameters and point, bit for bit) evaluated once per call, its start distance and distance
+    # kept in a hash table (keys: the parameters' bits; the point's bits compared too); hs bit 1: hv[t, 0]
+    # the start distance, bit 2: hv[t, 1] the distance, 4: in use
+    side = np.zeros(2 * nb, dtype=np.bool_)
+    cap = 16
+    while cap < 8 * n:
+        cap *= 2
+    hk = np.empty((cap, 2), dtype=np.int64)
+    hx = np.empty((cap, 3))
+    hv = np.empty((cap, 2))
+    hs = np.zeros(cap, dtype=np.int64)
+    # the spans and bases (nd = 0) of the u (row 0) and v (row 1) values met, direct-mapped (bss -1: empty)
+    nbs = 256
+    pm = pu if pu >= pv else pv
+    bss = np.full((2, nbs), -1, dtype=np.int64)
+    bsx = np.empty((2, nbs))
+    bsb = np.empty((2, nbs, pm + 1))
+    wn = np.empty((pm + 1, pm + 1))
+    wl = np.empty(pm + 1)
+    wr = np.empty(pm + 1)
+    dimw = pw.shape[2]
+    tw = np.empty((pu + 1, dimw))
+    sk = np.empty(dimw)
+    s_u = s_v = 0
     for c in range(n):
         r = ia[c]
         ko, kd = (e02, e01) if flags[c] else (e12, e02)
@@ -1334,6 +1360,12 @@ def cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, us, vs, ia, ib, flags,
             kd += nb
         else:
             ko = kd = -1
+        for k in range(2 * nb):
+            side[k] = False
+        for s in range(2):
+            for b in (e01, e12, e02):
+                if b >= 0 and s * nb + b != ko and s * nb + b != kd:
+                    side[s * nb + b] = True
         for s in range(2):
             if flags[c]:
                 t0, t1, t2 = (0, 1, 2) if s == 0 else (0, 2, 3)
@@ -1356,17 +1388,113 @@ def cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, us, vs, ia, ib, flags,
         for k in range(2 * nb):
             if skip and k == kd:
                 continue
+            t = -1
+            if side[k]:
+                ub, vb = sub[k, 0], sub[k, 1]
+                t = _pair_hash(ub, vb) & (cap - 1)
+                while hs[t] != 0:
+                    if (hk[t, 0] == ub and hk[t, 1] == vb and _same_bits(hx[t, 0], sx[k, 0])
+                            and _same_bits(hx[t, 1], sx[k, 1]) and _same_bits(hx[t, 2], sx[k, 2])):
+                        break
+                    t = (t + 1) & (cap - 1)
+                if hs[t] == 0:
+                    hk[t, 0], hk[t, 1] = ub, vb
+                    hx[t, 0], hx[t, 1], hx[t, 2] = sx[k, 0], sx[k, 1], sx[k, 2]
+                    hs[t] = 4
             if screen > 0:
-                d0 = _surface_distance1(pu, pv, ku, kv, pw, rational, su[k, 0], su[k, 1], sx[k, 0], sx[k, 1],
-                                        sx[k, 2], zero, u_lo, u_hi, v_lo, v_hi, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v,
-                                        r_v, bu, bv, tmp, skl, res)
+                if t >= 0 and hs[t] & 1:
+                    d0 = hv[t, 0]
+                elif (k == ko or k == kd) and _same_bits(su[k, 0], uv[r, 4, 0]) and _same_bits(su[k, 1], uv[r, 4, 1]):
+                    # the diagonal's midpoint at the centre's parameters (bit for bit): the surface point
+                    # there is the centre's, p[r, 4] (op 0 evaluated it at the same clipped parameters;
+                    # the position nd = 1 computes is nd = 0's): its start distance as `_surface_distance1`
+                    # (steps = 0) computes it
+                    r0, r1, r2 = sx[k, 0] - p[r, 4, 0], sx[k, 1] - p[r, 4, 1], sx[k, 2] - p[r, 4, 2]
+                    d0 = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+                else:
+                    # `_surface_distance1` with steps = 0 written out (the same operations in the same order:
+                    # `_span`, `_ders_basis` with nd = 0, `_surface_point01`'s sums), the span and basis of a
+                    # parameter value taken from the direct-mapped stores bsu / bsv where the same value
+                    # (bit for bit) was there (samples of cells in a column share their u values, of a row their v)
+                    for ax in range(2):
+                        x_ = su[k, ax]
+                        kn = ku if ax == 0 else kv
+                        pp = pu if ax == 0 else pv
+                        slot = _pair_hash(sub[k, ax], ax) & (nbs - 1)
+                        if not (bss[ax, slot] >= 0 and _same_bits(bsx[ax, slot], x_)):
+                            t_ = min(max(x_, u_lo), u_hi) if ax == 0 else min(max(x_, v_lo), v_hi)
+                            nc = kn.shape[0] - pp - 1
+                            if t_ >= kn[nc]:
+                                spn = nc - 1
+                                while spn > pp and kn[spn] >= kn[nc]:
+                                    spn -= 1
+                            else:
+                                lo, hi = pp, nc
+                                while hi - lo > 1:
+                                    mid = (lo + hi) // 2
+                                    if t_ < kn[mid]:
+                                        hi = mid
+                                    else:
+                                        lo = mid
+                                spn = lo
+                            wn[0, 0] = 1.0
+                            for j in range(1, pp + 1):
+                                wl[j] = t_ - kn[spn + 1 - j]
+                                wr[j] = kn[spn + j] - t_
+                                saved = 0.0
+                                for rr in range(j):
+                                    wn[j, rr] = wr[rr + 1] + wl[j - rr]
+                                    temp = wn[rr, j - 1] / wn[j, rr]
+                                    wn[rr, j] = saved + wr[rr + 1] * temp
+                                    saved = wl[j - rr] * temp
+                                wn[j, j] = saved
+                            for j in range(pp + 1):
+                                bsb[ax, slot, j] = wn[j, pp]
+                            bss[ax, slot] = spn
+                            bsx[ax, slot] = x_
+                        if ax == 0:
+                            s_u = slot
+                        else:
+                            s_v = slot
+                    spu, spv = bss[0, s_u], bss[1, s_v]
+                    for rr in range(pu + 1):
+                        for dd_ in range(dimw):
+                            tw[rr, dd_] = 0.0
+                        for ss in range(pv + 1):
+                            bb_ = bsb[1, s_v, ss]
+                            if bb_ != 0.0:
+                                row = spu - pu + rr
+                                col = spv - pv + ss
+                                for dd_ in range(dimw):
+                                    tw[rr, dd_] += bb_ * pw[row, col, dd_]
+                    for dd_ in range(dimw):
+                        acc = 0.0
+                        for rr in range(pu + 1):
+                            acc += bsb[0, s_u, rr] * tw[rr, dd_]
+                        sk[dd_] = acc
+                    if rational:
+                        w0 = sk[dimw - 1]
+                        q0, q1, q2 = sk[0] / w0, sk[1] / w0, sk[2] / w0
+                    else:
+                        q0, q1, q2 = sk[0], sk[1], sk[2]
+                    r0, r1, r2 = sx[k, 0] - q0, sx[k, 1] - q1, sx[k, 2] - q2
+                    d0 = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+                if t >= 0:
+                    hv[t, 0] = d0
+                    hs[t] |= 1
                 if d0 <= screen:
                     if d0 > bnd:
                         bnd = d0
                     continue
-            dk = _surface_distance1(pu, pv, ku, kv, pw, rational, su[k, 0], su[k, 1], sx[k, 0], sx[k, 1],
-                                    sx[k, 2], two, u_lo, u_hi, v_lo, v_hi, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
-                                    bu, bv, tmp, skl, res)
+            if t >= 0 and hs[t] & 2:
+                dk = hv[t, 1]
+            else:
+                dk = _surface_distance1(pu, pv, ku, kv, pw, rational, su[k, 0], su[k, 1], sx[k, 0], sx[k, 1],
+                                        sx[k, 2], two, u_lo, u_hi, v_lo, v_hi, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v,
+                                        r_v, bu, bv, tmp, skl, res)
+                if t >= 0:
+                    hv[t, 1] = dk
+                    hs[t] |= 2
             if np.isnan(dk) or np.isnan(ex):
                 ex = np.nan
             elif k == 0 or dk > ex:
