@@ -1216,11 +1216,11 @@ def cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, us, vs, ia, ib, flags,
     nb = bary.shape[0]
     n = ia.shape[0]
     if op == 0:
-        # the grid's nodes are corners of up to four cells: each evaluated once (the same point each time)
-        node = np.empty((us.shape[0], vs.shape[0], 3))
-        have = np.zeros((us.shape[0], vs.shape[0]), dtype=np.bool_)
-        gi = 0
-        gj = 0
+        # the grid's nodes are corners of up to four cells: each evaluated once (the same point each time),
+        # all in one `_points0` call (as `_surface_distance1` with steps = 0 computes them)
+        gid = np.full((us.shape[0], vs.shape[0]), -1, dtype=np.int64)
+        q = np.empty((4 * n, 2))
+        m = 0
         for c in range(n):
             u0, u1, v0, v1 = us[ia[c]], us[ia[c] + 1], vs[ib[c]], vs[ib[c] + 1]
             uv[c, 0, 0], uv[c, 0, 1] = u0, v0
@@ -1231,22 +1231,24 @@ def cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, us, vs, ia, ib, flags,
             for k in range(4):
                 gi = ia[c] + (1 if k == 1 or k == 2 else 0)
                 gj = ib[c] + (1 if k >= 2 else 0)
-                if have[gi, gj]:
-                    for q in range(3):
-                        p[c, k, q] = node[gi, gj, q]
-                    continue
-                _surface_distance1(pu, pv, ku, kv, pw, rational, uv[c, k, 0], uv[c, k, 1], 0.0, 0.0, 0.0, zero,
-                                   u_lo, u_hi, v_lo, v_hi, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp,
-                                   skl, res)
-                for q in range(3):
-                    p[c, k, q] = res[0, q]
-                have[gi, gj] = True
-                for q in range(3):
-                    node[gi, gj, q] = res[0, q]
-            # the centre once with its derivatives: its point (the position `_surface_point01` computes
-            # with nd = 1 is nd = 0's, the same operations) and the first step of both diagonals' distances,
-            # `_surface_distance1` (one step) from there with the same operations: the start evaluation each
-            # of the two calls made (and the centre's own) done once
+                if gid[gi, gj] < 0:
+                    gid[gi, gj] = m
+                    q[m, 0], q[m, 1] = uv[c, k, 0], uv[c, k, 1]
+                    m += 1
+        node = np.empty((m, 3))
+        _points0(pu, pv, ku, kv, pw, rational, q[:m], node)
+        for c in range(n):
+            for k in range(4):
+                g = gid[ia[c] + (1 if k == 1 or k == 2 else 0), ib[c] + (1 if k >= 2 else 0)]
+                for q_ in range(3):
+                    p[c, k, q_] = node[g, q_]
+        # the centre once with its derivatives: its point (the position `_surface_point01` computes
+        # with nd = 1 is nd = 0's, the same operations) and the first step of both diagonals' distances,
+        # `_surface_distance1` (one step) from there with the same operations: the start evaluation each
+        # of the two calls made (and the centre's own) done once; the steps' ends in one `_points0` call
+        st = np.empty((2 * n, 2))
+        sxd = np.empty((2 * n, 4))
+        for c in range(n):
             uc0, vc0 = uv[c, 4, 0], uv[c, 4, 1]
             _surface_point01(pu, pv, ku, kv, pw, rational, min(max(uc0, u_lo), u_hi), min(max(vc0, v_lo), v_hi),
                              one, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
@@ -1274,10 +1276,16 @@ def cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, us, vs, ia, ib, flags,
                 else:
                     un = min(max(uc0, u_lo), u_hi)
                     vn = min(max(vc0, v_lo), v_hi)
-                _surface_point01(pu, pv, ku, kv, pw, rational, min(max(un, u_lo), u_hi), min(max(vn, v_lo), v_hi),
-                                 zero, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl, res)
-                r0, r1, r2 = x0 - res[0, 0], x1 - res[0, 1], x2 - res[0, 2]
+                st[2 * c + h, 0], st[2 * c + h, 1] = un, vn
+                sxd[2 * c + h, 0], sxd[2 * c + h, 1], sxd[2 * c + h, 2], sxd[2 * c + h, 3] = x0, x1, x2, bd
+        ends = np.empty((2 * n, 3))
+        _points0(pu, pv, ku, kv, pw, rational, st, ends)
+        for c in range(n):
+            for h in range(2):
+                e = 2 * c + h
+                r0, r1, r2 = sxd[e, 0] - ends[e, 0], sxd[e, 1] - ends[e, 1], sxd[e, 2] - ends[e, 2]
                 dist = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+                bd = sxd[e, 3]
                 out_d[c, h] = dist if dist < bd else bd
         return
     if op == 2:
@@ -2023,3 +2031,89 @@ def refine_cells_kernel(hk_u, he_u, hk_v, he_v, nid, table, pu, pv, ku, kv, pw, 
             status, rounds = 2, round_ + 1
             break
     return hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, n, us, vs, status, rounds, dev0, diag0, rows
+
+
+@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+def _points0(pu, pv, ku, kv, pw, rational, q, out):
+    """out[i] = the surface point at q[i] (clipped to the domain) as `_surface_distance1` with steps = 0
+    computes it (`_span`, `_ders_basis` with nd = 0 and `_surface_point01`'s sums written out: the same
+    operations in the same order), each parameter value's span and basis taken from a direct-mapped store
+    where the same value (bit for bit) was met before in this call (a grid's nodes share their u and v
+    values)."""
+    u_lo, u_hi = ku[pu], ku[ku.shape[0] - pu - 1]
+    v_lo, v_hi = kv[pv], kv[kv.shape[0] - pv - 1]
+    nbs = 256
+    pm = pu if pu >= pv else pv
+    bss = np.full((2, nbs), -1, dtype=np.int64)
+    bsx = np.empty((2, nbs))
+    bsb = np.empty((2, nbs, pm + 1))
+    wn = np.empty((pm + 1, pm + 1))
+    wl = np.empty(pm + 1)
+    wr = np.empty(pm + 1)
+    dimw = pw.shape[2]
+    tw = np.empty((pu + 1, dimw))
+    sk = np.empty(dimw)
+    qb = q.view(np.int64)
+    s_u = s_v = 0
+    for i in range(q.shape[0]):
+        for ax in range(2):
+            x_ = q[i, ax]
+            kn = ku if ax == 0 else kv
+            pp = pu if ax == 0 else pv
+            slot = _pair_hash(qb[i, ax], ax) & (nbs - 1)
+            if not (bss[ax, slot] >= 0 and _same_bits(bsx[ax, slot], x_)):
+                t_ = min(max(x_, u_lo), u_hi) if ax == 0 else min(max(x_, v_lo), v_hi)
+                nc = kn.shape[0] - pp - 1
+                if t_ >= kn[nc]:
+                    spn = nc - 1
+                    while spn > pp and kn[spn] >= kn[nc]:
+                        spn -= 1
+                else:
+                    lo, hi = pp, nc
+                    while hi - lo > 1:
+                        mid = (lo + hi) // 2
+                        if t_ < kn[mid]:
+                            hi = mid
+                        else:
+                            lo = mid
+                    spn = lo
+                wn[0, 0] = 1.0
+                for j in range(1, pp + 1):
+                    wl[j] = t_ - kn[spn + 1 - j]
+                    wr[j] = kn[spn + j] - t_
+                    saved = 0.0
+                    for rr in range(j):
+                        wn[j, rr] = wr[rr + 1] + wl[j - rr]
+                        temp = wn[rr, j - 1] / wn[j, rr]
+                        wn[rr, j] = saved + wr[rr + 1] * temp
+                        saved = wl[j - rr] * temp
+                    wn[j, j] = saved
+                for j in range(pp + 1):
+                    bsb[ax, slot, j] = wn[j, pp]
+                bss[ax, slot] = spn
+                bsx[ax, slot] = x_
+            if ax == 0:
+                s_u = slot
+            else:
+                s_v = slot
+        spu, spv = bss[0, s_u], bss[1, s_v]
+        for rr in range(pu + 1):
+            for dd_ in range(dimw):
+                tw[rr, dd_] = 0.0
+            for ss in range(pv + 1):
+                bb_ = bsb[1, s_v, ss]
+                if bb_ != 0.0:
+                    row = spu - pu + rr
+                    col = spv - pv + ss
+                    for dd_ in range(dimw):
+                        tw[rr, dd_] += bb_ * pw[row, col, dd_]
+        for dd_ in range(dimw):
+            acc = 0.0
+            for rr in range(pu + 1):
+                acc += bsb[0, s_u, rr] * tw[rr, dd_]
+            sk[dd_] = acc
+        if rational:
+            w0 = sk[dimw - 1]
+            out[i, 0], out[i, 1], out[i, 2] = sk[0] / w0, sk[1] / w0, sk[2] / w0
+        else:
+            out[i, 0], out[i, 1], out[i, 2] = sk[0], sk[1], sk[2]
