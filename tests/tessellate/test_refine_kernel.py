@@ -150,3 +150,101 @@ def test_bilinear_bound_is_the_numpy_one(shared_data):
         assert np.array_equal(got, ref), (got, ref)
         planes += got[0] >= 0
     assert planes > 200
+
+
+def _surfaces(faces):
+    """The faces' surfaces (rational and polynomial) and a rational quarter cone with a collapsed row."""
+    from trimsurf.model.nurbs import NurbsSurface
+
+    r = np.sqrt(0.5)
+    cp = np.array([[[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]], [[1.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+                   [[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]])
+    cone = NurbsSurface(2, 1, [0, 0, 0, 1, 1, 1], [0, 0, 1, 1], cp, np.array([[1.0, 1.0], [r, r], [1.0, 1.0]]))
+    return [f.surface for f in faces[:8]] + [faces[-1].surface, cone]
+
+
+def test_points0_is_the_per_point_evaluation(faces):
+    """`_points0` (the written-out nd = 0 point with its direct-mapped span / basis stores) is
+    `NurbsSurface.evaluate` of the clipped parameters bit for bit: many distinct values (more than the
+    stores' 256 slots: evictions and collisions), repeated values, values beyond the domain (clipped to its
+    ends, the last span's search)."""
+    from trimsurf.tessellate._line_kernels import _points0
+
+    rng = np.random.default_rng(11)
+    n = 0
+    for s in _surfaces(faces):
+        (u0, u1), (v0, v1) = s.domain
+        du, dv = u1 - u0, v1 - v0
+        u = np.r_[rng.uniform(u0 - 0.2 * du, u1 + 0.2 * du, 700), np.linspace(u0, u1, 9), u0, u1]
+        v = np.r_[rng.uniform(v0 - 0.2 * dv, v1 + 0.2 * dv, 700), np.linspace(v0, v1, 9), v1, v0]
+        q = np.column_stack([u, v])
+        q = np.r_[q, q[::-1], np.column_stack([u, v[::-1]])]          # the same values again, other pairs
+        out = np.empty((len(q), 3))
+        _points0(*F._CellCache(s)._surf, q, out)
+        ref = s.evaluate(np.clip(q, [u0, v0], [u1, v1]))
+        assert np.array_equal(out, ref)
+        n += len(q)
+    assert n > 15000
+
+
+def _split_reference(s, uv, p, rows, flags, screen):
+    """op 1 of `cell_surface_kernel` per sample from `surface_distance` (the numpy wrapper of the per-point
+    kernel): every one of the 2 x 7 samples of each cell, its start distance (steps = 0) and, over the
+    screen (or screen 0), its distance (2 steps)."""
+    out_f, out_b = np.empty(len(rows)), np.empty(len(rows), dtype=bool)
+    for c, (r, m) in enumerate(zip(rows, flags)):
+        tris = ((0, 1, 2), (0, 2, 3)) if m else ((0, 1, 3), (1, 2, 3))
+        tuv = np.concatenate([(F._BARY[:, :1] * uv[r, t0] + F._BARY[:, 1:2] * uv[r, t1]) + F._BARY[:, 2:] * uv[r, t2]
+                              for t0, t1, t2 in tris])
+        tx = np.concatenate([(F._BARY[:, :1] * p[r, t0] + F._BARY[:, 1:2] * p[r, t1]) + F._BARY[:, 2:] * p[r, t2]
+                             for t0, t1, t2 in tris])
+        d0 = F.surface_distance(s, tuv, tx, steps=0)
+        full = ~(d0 <= screen) if screen > 0 else np.ones(len(d0), dtype=bool)
+        dk = F.surface_distance(s, tuv[full], tx[full], steps=2)
+        ex = np.nan if np.isnan(dk).any() else float(np.max(dk, initial=0.0))
+        bnd = float(np.max(d0[~full], initial=0.0))
+        if screen > 0 and not (np.isnan(ex) or ex > screen):
+            out_f[c], out_b[c] = max(bnd, ex), True
+        else:
+            out_f[c], out_b[c] = ex, False
+    return out_f, out_b
+
+
+def test_split_deviation_shortcuts_equal_the_per_sample_path(faces):
+    """op 1 of `cell_surface_kernel` shares work between samples: a side's midpoint with the neighbour cell
+    (same parameters and point bit for bit: one evaluation), the diagonal's midpoint start distance from the
+    centre's point p[r, 4] (where its parameters are the centre's bit for bit), the spans and bases of
+    repeated parameter values. Its values are the per-sample path's bit for bit, screened and exact, with
+    either split per cell; also where the shortcuts must not apply: cells whose corner points differ from
+    their neighbours' at the shared sides (every other cell moved), cells whose stored centre is not the
+    centre of their corners."""
+    from trimsurf.tessellate._line_kernels import cell_surface_kernel
+
+    rng = np.random.default_rng(5)
+    n_cells = n_bounded = n_exact = 0
+    for s in _surfaces(faces):
+        surf = F._CellCache(s)._surf
+        (u0, u1), (v0, v1) = s.domain
+        us, vs = np.linspace(u0, u1, 7), np.linspace(v0, v1, 6)
+        ia, ib = (a.ravel() for a in np.meshgrid(np.arange(len(us) - 1), np.arange(len(vs) - 1), indexing="ij"))
+        k = len(ia)
+        uv, p, d = np.empty((k, 5, 2)), np.empty((k, 5, 3)), np.empty((k, 2))
+        cell_surface_kernel(0, *surf, us, vs, ia, ib, F._NO_B, F._BARY, uv, p, 0.0, F._NO_F, F._NO_B, F._NO_B, d)
+        flags = rng.random(k) < 0.5
+        moved_p = p.copy()
+        moved_p[::2, :4] += 0.05 * float(np.ptp(p))     # every other cell's corners: not the neighbours'
+        moved_uv, moved_pc = uv.copy(), p.copy()
+        moved_uv[1::3, 4] = uv[1::3, 0]                            # a stored "centre" at the first corner
+        moved_pc[1::3, 4] = moved_pc[1::3, 0]
+        for cuv, cp in ((uv, p), (uv, moved_p), (moved_uv, moved_pc)):
+            rows = np.arange(k)
+            for screen in (0.0, float(np.median(d[:, 0])), 1e-12, 1e300):
+                got_f, got_b = np.empty(k), np.empty(k, dtype=bool)
+                cell_surface_kernel(1, *surf, F._NO_F, F._NO_F, rows, F._NO_I, flags, F._BARY, cuv, cp, screen,
+                                    got_f, got_b, F._NO_B, F._NO_D)
+                ref_f, ref_b = _split_reference(s, cuv, cp, rows, flags, screen)
+                assert np.array_equal(got_f, ref_f, equal_nan=True) and np.array_equal(got_b, ref_b)
+                n_cells += k
+                n_bounded += int(got_b.sum())
+                n_exact += int((~got_b).sum())
+    assert n_cells > 1000 and n_bounded > 300 and n_exact > 300

@@ -2033,7 +2033,7 @@ def refine_cells_kernel(hk_u, he_u, hk_v, he_v, nid, table, pu, pv, ku, kv, pw, 
     return hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, n, us, vs, status, rounds, dev0, diag0, rows
 
 
-@njit(cache=True, nogil=True, no_cpython_wrapper=True)
+@njit(cache=True, nogil=True)
 def _points0(pu, pv, ku, kv, pw, rational, q, out):
     """out[i] = the surface point at q[i] (clipped to the domain) as `_surface_distance1` with steps = 0
     computes it (`_span`, `_ders_basis` with nd = 0 and `_surface_point01`'s sums written out: the same
