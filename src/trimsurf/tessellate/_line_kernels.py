@@ -1361,6 +1361,9 @@ def cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, us, vs, ia, ib, flags,
     tw = np.empty((pu + 1, dimw))
     sk = np.empty(dimw)
     s_u = s_v = 0
+    kk = np.empty(ku.shape[0] + kv.shape[0])      # both knot vectors (no array variable per sample)
+    kk[:ku.shape[0]] = ku
+    kk[ku.shape[0]:] = kv
     for c in range(n):
         r = ia[c]
         ko, kd = (e02, e01) if flags[c] else (e12, e02)
@@ -1426,29 +1429,29 @@ def cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, us, vs, ia, ib, flags,
                     # (bit for bit) was there (samples of cells in a column share their u values, of a row their v)
                     for ax in range(2):
                         x_ = su[k, ax]
-                        kn = ku if ax == 0 else kv
-                        pp = pu if ax == 0 else pv
+                        o_ = 0 if ax == 0 else ku.shape[0]     # the knots kk[o_:] (no array variable: no
+                        pp = pu if ax == 0 else pv             # reference count per sample)
                         slot = _pair_hash(sub[k, ax], ax) & (nbs - 1)
                         if not (bss[ax, slot] >= 0 and _same_bits(bsx[ax, slot], x_)):
                             t_ = min(max(x_, u_lo), u_hi) if ax == 0 else min(max(x_, v_lo), v_hi)
-                            nc = kn.shape[0] - pp - 1
-                            if t_ >= kn[nc]:
+                            nc = (ku.shape[0] if ax == 0 else kv.shape[0]) - pp - 1
+                            if t_ >= kk[o_ + nc]:
                                 spn = nc - 1
-                                while spn > pp and kn[spn] >= kn[nc]:
+                                while spn > pp and kk[o_ + spn] >= kk[o_ + nc]:
                                     spn -= 1
                             else:
                                 lo, hi = pp, nc
                                 while hi - lo > 1:
                                     mid = (lo + hi) // 2
-                                    if t_ < kn[mid]:
+                                    if t_ < kk[o_ + mid]:
                                         hi = mid
                                     else:
                                         lo = mid
                                 spn = lo
                             wn[0, 0] = 1.0
                             for j in range(1, pp + 1):
-                                wl[j] = t_ - kn[spn + 1 - j]
-                                wr[j] = kn[spn + j] - t_
+                                wl[j] = t_ - kk[o_ + spn + 1 - j]
+                                wr[j] = kk[o_ + spn + j] - t_
                                 saved = 0.0
                                 for rr in range(j):
                                     wn[j, rr] = wr[rr + 1] + wl[j - rr]
@@ -2055,32 +2058,35 @@ def _points0(pu, pv, ku, kv, pw, rational, q, out):
     sk = np.empty(dimw)
     qb = q.view(np.int64)
     s_u = s_v = 0
+    kk = np.empty(ku.shape[0] + kv.shape[0])      # both knot vectors (no array variable per value)
+    kk[:ku.shape[0]] = ku
+    kk[ku.shape[0]:] = kv
     for i in range(q.shape[0]):
         for ax in range(2):
             x_ = q[i, ax]
-            kn = ku if ax == 0 else kv
+            o_ = 0 if ax == 0 else ku.shape[0]
             pp = pu if ax == 0 else pv
             slot = _pair_hash(qb[i, ax], ax) & (nbs - 1)
             if not (bss[ax, slot] >= 0 and _same_bits(bsx[ax, slot], x_)):
                 t_ = min(max(x_, u_lo), u_hi) if ax == 0 else min(max(x_, v_lo), v_hi)
-                nc = kn.shape[0] - pp - 1
-                if t_ >= kn[nc]:
+                nc = (ku.shape[0] if ax == 0 else kv.shape[0]) - pp - 1
+                if t_ >= kk[o_ + nc]:
                     spn = nc - 1
-                    while spn > pp and kn[spn] >= kn[nc]:
+                    while spn > pp and kk[o_ + spn] >= kk[o_ + nc]:
                         spn -= 1
                 else:
                     lo, hi = pp, nc
                     while hi - lo > 1:
                         mid = (lo + hi) // 2
-                        if t_ < kn[mid]:
+                        if t_ < kk[o_ + mid]:
                             hi = mid
                         else:
                             lo = mid
                     spn = lo
                 wn[0, 0] = 1.0
                 for j in range(1, pp + 1):
-                    wl[j] = t_ - kn[spn + 1 - j]
-                    wr[j] = kn[spn + j] - t_
+                    wl[j] = t_ - kk[o_ + spn + 1 - j]
+                    wr[j] = kk[o_ + spn + j] - t_
                     saved = 0.0
                     for rr in range(j):
                         wn[j, rr] = wr[rr + 1] + wl[j - rr]
