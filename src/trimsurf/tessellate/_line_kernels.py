@@ -1361,6 +1361,11 @@ def cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, us, vs, ia, ib, flags,
     tw = np.empty((pu + 1, dimw))
     sk = np.empty(dimw)
     s_u = s_v = 0
+    b2 = np.empty((2, 2, pm + 1))
+    sp2 = np.empty(2, dtype=np.int64)
+    tw2 = np.empty((2, pu + 1, dimw))
+    sk3 = np.empty((3, dimw))
+    rs3 = np.empty((3, 3))
     kk = np.empty(ku.shape[0] + kv.shape[0])      # both knot vectors (no array variable per sample)
     kk[:ku.shape[0]] = ku
     kk[ku.shape[0]:] = kv
@@ -1500,9 +1505,122 @@ def cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, us, vs, ia, ib, flags,
             if t >= 0 and hs[t] & 2:
                 dk = hv[t, 1]
             else:
-                dk = _surface_distance1(pu, pv, ku, kv, pw, rational, su[k, 0], su[k, 1], sx[k, 0], sx[k, 1],
-                                        sx[k, 2], two, u_lo, u_hi, v_lo, v_hi, ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v,
-                                        r_v, bu, bv, tmp, skl, res)
+                # `_surface_distance1` with steps = 2 written out (the same operations in the same order:
+                # `_span`, `_ders_basis` with nd = 1 / 0, `_surface_point01`'s sums, the Gauss-Newton steps)
+                x0_, x1_, x2_ = sx[k, 0], sx[k, 1], sx[k, 2]
+                gu_, gv_ = su[k, 0], su[k, 1]
+                dk = np.inf
+                for it in range(3):
+                    nd = 1 if it < 2 else 0
+                    for ax in range(2):
+                        t_ = min(max(gu_, u_lo), u_hi) if ax == 0 else min(max(gv_, v_lo), v_hi)
+                        o_ = 0 if ax == 0 else ku.shape[0]
+                        pp = pu if ax == 0 else pv
+                        nc = (ku.shape[0] if ax == 0 else kv.shape[0]) - pp - 1
+                        if t_ >= kk[o_ + nc]:
+                            spn = nc - 1
+                            while spn > pp and kk[o_ + spn] >= kk[o_ + nc]:
+                                spn -= 1
+                        else:
+                            lo, hi = pp, nc
+                            while hi - lo > 1:
+                                mid = (lo + hi) // 2
+                                if t_ < kk[o_ + mid]:
+                                    hi = mid
+                                else:
+                                    lo = mid
+                            spn = lo
+                        wn[0, 0] = 1.0
+                        for j in range(1, pp + 1):
+                            wl[j] = t_ - kk[o_ + spn + 1 - j]
+                            wr[j] = kk[o_ + spn + j] - t_
+                            saved = 0.0
+                            for rr in range(j):
+                                wn[j, rr] = wr[rr + 1] + wl[j - rr]
+                                temp = wn[rr, j - 1] / wn[j, rr]
+                                wn[rr, j] = saved + wr[rr + 1] * temp
+                                saved = wl[j - rr] * temp
+                            wn[j, j] = saved
+                        for j in range(pp + 1):
+                            b2[ax, 0, j] = wn[j, pp]
+                        if nd == 1:
+                            for rr in range(pp + 1):
+                                if pp == 0:
+                                    b2[ax, 1, rr] = 0.0
+                                    continue
+                                d_ = 0.0
+                                if rr >= 1:
+                                    d_ = (1.0 / wn[pp, rr - 1]) * wn[rr - 1, pp - 1]
+                                if rr <= pp - 1:
+                                    d_ += ((-1.0) / wn[pp, rr]) * wn[rr, pp - 1]
+                                b2[ax, 1, rr] = d_ * pp
+                        sp2[ax] = spn
+                    spu, spv = sp2[0], sp2[1]
+                    for l_ in range(nd + 1):
+                        for rr in range(pu + 1):
+                            for dd_ in range(dimw):
+                                tw2[l_, rr, dd_] = 0.0
+                            for ss in range(pv + 1):
+                                bb_ = b2[1, l_, ss]
+                                if bb_ != 0.0:
+                                    row = spu - pu + rr
+                                    col = spv - pv + ss
+                                    for dd_ in range(dimw):
+                                        tw2[l_, rr, dd_] += bb_ * pw[row, col, dd_]
+                    for dd_ in range(dimw):
+                        acc = 0.0
+                        for rr in range(pu + 1):
+                            acc += b2[0, 0, rr] * tw2[0, rr, dd_]
+                        sk3[0, dd_] = acc
+                    if nd == 1:
+                        for dd_ in range(dimw):
+                            acc = 0.0
+                            for rr in range(pu + 1):
+                                acc += b2[0, 0, rr] * tw2[1, rr, dd_]
+                            sk3[2, dd_] = acc
+                            acc = 0.0
+                            for rr in range(pu + 1):
+                                acc += b2[0, 1, rr] * tw2[0, rr, dd_]
+                            sk3[1, dd_] = acc
+                    if rational:
+                        w0 = sk3[0, dimw - 1]
+                        for dd_ in range(3):
+                            rs3[0, dd_] = sk3[0, dd_] / w0
+                        if nd == 1:
+                            for dd_ in range(3):
+                                val = sk3[2, dd_]
+                                val -= 1.0 * sk3[2, dimw - 1] * rs3[0, dd_]
+                                rs3[2, dd_] = val / w0
+                                val = sk3[1, dd_]
+                                val -= 1.0 * sk3[1, dimw - 1] * rs3[0, dd_]
+                                val -= 1.0 * 0.0
+                                rs3[1, dd_] = val / w0
+                    else:
+                        for dd_ in range(3):
+                            rs3[0, dd_] = sk3[0, dd_]
+                            if nd == 1:
+                                rs3[2, dd_] = sk3[2, dd_]
+                                rs3[1, dd_] = sk3[1, dd_]
+                    r0, r1, r2 = x0_ - rs3[0, 0], x1_ - rs3[0, 1], x2_ - rs3[0, 2]
+                    dist = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+                    if it == 0 or dist < dk:
+                        dk = dist
+                    if it == 2:
+                        break
+                    g0, g1, g2 = rs3[1, 0], rs3[1, 1], rs3[1, 2]
+                    h0, h1, h2 = rs3[2, 0], rs3[2, 1], rs3[2, 2]
+                    a_ = g0 * g0 + g1 * g1 + g2 * g2
+                    bq = g0 * h0 + g1 * h1 + g2 * h2
+                    c_ = h0 * h0 + h1 * h1 + h2 * h2
+                    ru = g0 * r0 + g1 * r1 + g2 * r2
+                    rv = h0 * r0 + h1 * r1 + h2 * r2
+                    det = a_ * c_ - bq * bq
+                    if np.isfinite(det) and det > 1e-12 * max(a_ * c_, 1e-300):
+                        gu_ = min(max(gu_ + (c_ * ru - bq * rv) / det, u_lo), u_hi)
+                        gv_ = min(max(gv_ + (a_ * rv - bq * ru) / det, v_lo), v_hi)
+                    else:
+                        gu_ = min(max(gu_, u_lo), u_hi)
+                        gv_ = min(max(gv_, v_lo), v_hi)
                 if t >= 0:
                     hv[t, 1] = dk
                     hs[t] |= 2
