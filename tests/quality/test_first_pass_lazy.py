@@ -117,7 +117,9 @@ def test_completion_rule(shared_data, monkeypatch, name, edge):
     be refined nor raise the reported bound. Without the completion (G taken as inf) triangles are left out that break it."""
     shell, res = _tessellate(shared_data, name, edge)
     left = _left_pending(res.mesh, shell, monkeypatch)
-    assert sum(len(b) for b, _ in left) > 50
+    # (the screw at tol-only leaves 35 since the shared-edge chord tolerance is the faces' own, SHARED_CHORD
+    # = 0.97: 862 triangles, 906 before, fewer thin ones at its arcs)
+    assert sum(len(b) for b, _ in left) > 25
     assert all(np.all(b <= g) for b, g in left)
 
 

@@ -109,7 +109,9 @@ def test_refinement_shortcuts_change_no_figure(screw, monkeypatch):
     assert fast["deviation_samples"] < slow["deviation_samples"]
     # the refinement ran (nodes were projected again), so the comparison covers the shortcuts
     assert fast["deviation_samples"] > 10 * res.mesh.n_triangles
-    assert sum(calls) > 20_000
+    # (15,093 projected points since the shared-edge chord tolerance is the faces' own, SHARED_CHORD = 0.97:
+    # the screw's tol-only mesh has 862 triangles, 906 before, and fewer thin ones at its arcs)
+    assert sum(calls) > 10_000
 
 
 def test_cached_surface_data_follow_in_place_changes():
