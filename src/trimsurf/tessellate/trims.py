@@ -29,8 +29,8 @@ __all__ = ["ChunkUse", "Chunk", "discretize_chunk", "discretize_chunks", "iso_cr
 #: model of ../shared/data/cad and the samples, but still split every interval between the iso-line
 #: crossings of an arc whose face placed its lines at its own tolerance (`shell.SAMPLING_MARGIN` = 0.97:
 #: crossing chords at 0.90-0.97 x tolerance got a midpoint each; featuretype 1746 -> 2158 triangles
-#: tolerance-only). 0.97, the faces' own tolerance, measured within the tolerance on all 17 models at
-#: both settings (session 28, benchmarks/RESULTS.md "shared edges' chord tolerance").
+#: tolerance-only). 0.97, the faces' own tolerance, measured within the tolerance on every model there
+#: and the 4 samples at both settings (session 28, benchmarks/RESULTS.md "shared edges' chord tolerance").
 SHARED_CHORD = 0.97
 
 
