@@ -65,7 +65,8 @@ def main(argv=None) -> int:
     ours = np.bincount(res.mesh.face_id, minlength=nf)
     occ = np.bincount(om.face_id, minlength=nf)
     order = np.argsort(occ - ours, kind="stable")
-    print(f"{'face':>4s} {'ours':>5s} {'OCCT':>5s} {'excess':>6s} {'degrees':>7s} {'grid':>9s} {'crossed':>7s} {'loops':>5s}")
+    print(f"{'face':>4s} {'ours':>5s} {'OCCT':>5s} {'excess':>6s} {'degrees':>7s} {'grid':>9s} {'crossed':>7s} "
+          f"{'loops':>5s}")
     for i in order[:args.top].tolist():
         f, st = shell.faces[i], res.faces[i]
         print(f"{i:4d} {ours[i]:5d} {occ[i]:5d} {ours[i] - occ[i]:6d} {f.surface.degree_u:3d},{f.surface.degree_v:<3d} "
