@@ -164,10 +164,69 @@ def _criteria_caller():
     def call(fam, a, b, m):
         length, dev = np.empty(a.shape[0]), np.empty(a.shape[0])
         _chunk_criteria(fam[10], fam[11], fam[12], fam[13], fam[14], fam[15], fam[16], a, b, m, length, dev,
-                        np.inf, np.inf, False)
+                        np.inf, np.inf, False, np.empty(0), np.empty(0))
         return length, dev
 
     return call
+
+
+def _halves_caller():
+    """`_chunk_criteria` over the intervals x (their points kept), then over the halves of some of them
+    with (pin) and without the parents' points."""
+    from numba import njit
+
+    from trimsurf.tessellate._line_kernels import _chunk_criteria
+
+    @njit
+    def call(fam, x, sel, m, spoil):
+        n, npt = x.shape[0] - 1, m * fam[10].shape[0] * 3
+        ln, dv, P = np.empty(n), np.empty(n), np.empty(n * npt)
+        _chunk_criteria(fam[10], fam[11], fam[12], fam[13], fam[14], fam[15], fam[16], x[:-1], x[1:], m, ln, dv,
+                        np.inf, np.inf, False, np.empty(0), P)
+        k = sel.shape[0]
+        sa, sb, pin = np.empty(2 * k), np.empty(2 * k), np.empty(k * npt)
+        for q in range(k):
+            i = sel[q]
+            mid = 0.5 * (x[i] + x[i + 1])
+            sa[2 * q], sb[2 * q], sa[2 * q + 1], sb[2 * q + 1] = x[i], mid, mid, x[i + 1]
+            for r in range(npt):
+                pin[q * npt + r] = P[i * npt + r] + spoil
+        out = []
+        for use in range(2):
+            ln, dv, po = np.empty(2 * k), np.empty(2 * k), np.empty(2 * k * npt)
+            _chunk_criteria(fam[10], fam[11], fam[12], fam[13], fam[14], fam[15], fam[16], sa, sb, m, ln, dv,
+                            np.inf, np.inf, False, pin if use else np.empty(0), po)
+            out.append((ln, dv, po))
+        return out
+
+    return call
+
+
+@pytest.mark.parametrize("model", ["trimesh__featuretype.STEP", "gmsh__t20_data.step"])
+def test_chunk_criteria_halves_take_the_parents_points(shared_data, model):
+    # the bisection rounds' halves take the points they share with their parent interval (same parameter
+    # bits) from its stored points (pin) instead of evaluating them: lengths, deviations and the points
+    # themselves bit for bit those of the evaluation, for 5 and 9 points per interval, on every chunk; and
+    # the parents' points ARE read (spoiled by 1e-3 they change the results), so a reuse of the wrong
+    # point, or of one whose parameter differs, fails here
+    from trimsurf.tessellate.trims import _ChunkLines
+
+    shell = read_shell(shared_data / "cad" / model)
+    d = shell.diagonal()
+    chunks, _ = _chunks(shell, 1e-3 * d, d)
+    call = _halves_caller()
+    rng = np.random.default_rng(7)
+    n_spoiled = 0
+    for uses in chunks:
+        f = _ChunkLines(uses).family()
+        x = np.unique(np.r_[0.0, rng.random(9), 1.0])
+        sel = np.sort(rng.choice(len(x) - 1, 5, replace=False))
+        for m in (5, 9):
+            (l0, d0, p0), (l1, d1, p1) = call(f, x, sel, np.int64(m), 0.0)
+            assert l0.tobytes() == l1.tobytes() and d0.tobytes() == d1.tobytes() and p0.tobytes() == p1.tobytes()
+            (_, _, _), (l2, d2, p2) = call(f, x, sel, np.int64(m), 1e-3 * d)
+            n_spoiled += p2.tobytes() != p0.tobytes()
+    assert n_spoiled >= len(chunks)
 
 
 @pytest.mark.parametrize("model", ["trimesh__featuretype.STEP", "gmsh__t20_data.step"])

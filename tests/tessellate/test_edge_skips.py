@@ -39,7 +39,7 @@ def _caller():
     def call(fam, a, b, m, max_len, max_dev, stop):
         length, dev = np.full(a.shape[0], -1.0), np.full(a.shape[0], -1.0)
         ok = _chunk_criteria(fam[10], fam[11], fam[12], fam[13], fam[14], fam[15], fam[16], a, b, m, length, dev,
-                             max_len, max_dev, stop)
+                             max_len, max_dev, stop, np.empty(0), np.empty(0))
         return ok, length, dev
 
     return call

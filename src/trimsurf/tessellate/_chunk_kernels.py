@@ -99,7 +99,8 @@ def _crit(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, max_len, max_dev, stop):
     indexes the flat arrays and writes its span searches and bases out: no reference counting per point)."""
     length = np.empty(a.shape[0])
     dev = np.empty(a.shape[0])
-    ok = _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop)
+    e0 = np.empty(0)
+    ok = _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop, e0, e0)
     return ok, length, dev
 
 

@@ -548,7 +548,7 @@ def _use_arrays(ci, ck, cpw, cku, ckv, cpw4, j):
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
-def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop):
+def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop, pin, pout):
     """`_ChunkLines.criteria` (`pcurve_surface_kernel` then `chord_criteria_kernel`) over the intervals
     [a_i, b_i]: a point at the previous interval's last parameter is taken from it; with `stop`,
     returns False at the first interval over max_len or max_dev. The uses are taken in turn, and an
@@ -560,7 +560,14 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
     the same order), their span searches (`_nurbs_kernels._span`) and bases (A2.2, `_ders_basis` with
     nd = 0) written out here: no compiled call per point, and no IR-inlined helper either (each array
     argument of one costs an atomic reference count pair per call). The work arrays are parts of one
-    scratch array; the chord maxima are taken of the squares, one square root each."""
+    scratch array; the chord maxima are taken of the squares, one square root each.
+
+    pout (a.shape[0] * m * n_uses * 3 long, else empty): the intervals' points (xyz), written there (all
+    uses: only with np.inf limits). pin (same layout, one row per pair of intervals, else empty): the
+    intervals come in halves (a[2q], b[2q]), (a[2q + 1], b[2q + 1]) of a parent [a[2q], b[2q + 1]] whose
+    points are row q (`equidistributed_kernel`'s bisection rounds): a point k = 2k' of a half is the
+    parent's point k' (first half) or (m - 1) / 2 + k' (second) when its parameter has the same bits
+    as the parent's (the same s, the same code: the same point); else it is evaluated."""
     n_uses = ci.shape[0]
     mcp, mpu, mpv, mdw = 0, np.int64(0), np.int64(0), np.int64(0)
     for j in range(n_uses):
@@ -576,21 +583,31 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
     onv = onu + mpu + 1
     otm = onv + mpv + 1             # tmp (pu + 1, dimw)
     opt = otm + (mpu + 1) * mdw     # pts (m, n_uses, 3)
-    w = np.empty(opt + m * n_uses * 3)
+    npt = m * n_uses * 3
+    store = pout.shape[0] >= a.shape[0] * npt
+    par = a.shape[0] % 2 == 0 and pin.shape[0] >= (a.shape[0] // 2) * npt
+    w = np.empty(opt + (0 if store else npt))
+    pts = pout if store else w
+    half = (m - 1) // 2
     step = 1.0 / (m - 1)            # `_linspace01`: t_k = k * step, t_(m-1) = 1
     prev_s = np.nan
     prev_done = 0                   # the uses whose points the previous interval evaluated
+    prev_base = 0 if store else opt
     for i in range(a.shape[0]):
+        base = i * npt if store else opt
         d = b[i] - a[i]
         reuse = a[i] + d * 0.0 == prev_s
         lmax2 = 0.0
         dmax2 = 0.0
         done = n_uses
+        h = i % 2
+        pa = a[i - h] if par else 0.0
+        pd = b[i - h + 1] - pa if par else 0.0
         for j in range(n_uses):
             k0 = 0
             if reuse and j < prev_done:
                 for q in range(3):
-                    w[opt + j * 3 + q] = w[opt + ((m - 1) * n_uses + j) * 3 + q]
+                    pts[base + j * 3 + q] = pts[prev_base + ((m - 1) * n_uses + j) * 3 + q]
                 k0 = 1
             cp, crat, pu, pv, srat = ci[j, 0], ci[j, 1] != 0, ci[j, 2], ci[j, 3], ci[j, 4] != 0
             # `_use_arrays`' views, indexed in the flat arrays (a view costs a reference count pair)
@@ -606,6 +623,14 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
             for k in range(k0, m):
                 tk = 1.0 if k == m - 1 else k * step
                 s = a[i] + d * tk
+                if par and k % 2 == 0:
+                    kp = h * half + k // 2
+                    sp = pa + pd * (1.0 if kp == m - 1 else kp * step)
+                    if _same_bits(s, sp):
+                        o = base + (k * n_uses + j) * 3
+                        op = (i // 2) * npt + (kp * n_uses + j) * 3
+                        pts[o], pts[o + 1], pts[o + 2] = pin[op], pin[op + 1], pin[op + 2]
+                        continue
                 tt = lo + s * (hi - lo)
                 tt = min(max(tt, t0), t1)
                 # _curve_point
@@ -719,26 +744,26 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
                     w0 = 0.0
                     for r in range(pu + 1):
                         w0 += w[onu + r] * w[otm + r * mdw + dim]
-                o = opt + (k * n_uses + j) * 3
+                o = base + (k * n_uses + j) * 3
                 for dd in range(dim):
                     acc = 0.0
                     for r in range(pu + 1):
                         acc += w[onu + r] * w[otm + r * mdw + dd]
-                    w[o + dd] = acc / w0 if srat else acc
+                    pts[o + dd] = acc / w0 if srat else acc
             # as chord_criteria_kernel, the maxima taken of the squares with one square root each: sqrt is
             # correctly rounded and monotone, so sqrt(max x) = max sqrt(x) bit for bit (0 = sqrt(0) the
             # start), and a NaN fails the comparison either way; use by use, in the order of the uses
-            o0 = opt + j * 3
-            o1 = opt + ((m - 1) * n_uses + j) * 3
-            a0, a1, a2 = w[o0], w[o0 + 1], w[o0 + 2]
-            ab0, ab1, ab2 = w[o1] - a0, w[o1 + 1] - a1, w[o1 + 2] - a2
+            o0 = base + j * 3
+            o1 = base + ((m - 1) * n_uses + j) * 3
+            a0, a1, a2 = pts[o0], pts[o0 + 1], pts[o0 + 2]
+            ab0, ab1, ab2 = pts[o1] - a0, pts[o1 + 1] - a1, pts[o1 + 2] - a2
             den = ab0 * ab0 + ab1 * ab1 + ab2 * ab2
             if den > lmax2:
                 lmax2 = den
             dd = den if den > 0 else 1.0
             for k in range(1, m - 1):
-                ok_ = opt + (k * n_uses + j) * 3
-                q0, q1, q2 = w[ok_] - a0, w[ok_ + 1] - a1, w[ok_ + 2] - a2
+                ok_ = base + (k * n_uses + j) * 3
+                q0, q1, q2 = pts[ok_] - a0, pts[ok_ + 1] - a1, pts[ok_ + 2] - a2
                 tq = (q0 * ab0 + q1 * ab1 + q2 * ab2) / dd
                 if tq < 0.0:
                     tq = 0.0
@@ -755,6 +780,7 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
                 break
         prev_s = a[i] + d * 1.0
         prev_done = done
+        prev_base = base
         lmax = np.sqrt(lmax2)
         dmax = np.sqrt(dmax2)
         length[i] = lmax
@@ -774,11 +800,11 @@ def _rt():
 
 @njit(cache=True, nogil=True, inline="always")
 def _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
-              ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop):
+              ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop, pin, pout):
     if kind == 0:
         return _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b, m, length, dev, max_len,
                              max_dev, stop)
-    return _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop)
+    return _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop, pin, pout)
 
 
 @njit(cache=True, nogil=True, no_cpython_wrapper=True)
@@ -823,29 +849,36 @@ def _same_bits(p, q):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _halves(x, bad, nbad):
-    """The two halves (sa, sb) of every bad interval of x."""
+def _halves(x, bad, nbad, P, npt):
+    """The two halves (sa, sb) of every bad interval of x, and the bad intervals' rows of their points P
+    (npt each; none with npt = 0)."""
     n = x.shape[0] - 1
     sa = np.empty(2 * nbad)
     sb = np.empty(2 * nbad)
+    pin = np.empty(nbad * npt)
     k = 0
     for i in range(n):
         if bad[i]:
             mid = 0.5 * (x[i] + x[i + 1])
             sa[k], sb[k] = x[i], mid
             sa[k + 1], sb[k + 1] = mid, x[i + 1]
+            o = (k >> 1) * npt
+            for q in range(npt):
+                pin[o + q] = P[i * npt + q]
             k += 2
-    return sa, sb
+    return sa, sb, pin
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _merge(x, length, dev, bad, nbad, sb, sl, sd):
+def _merge(x, length, dev, bad, nbad, sb, sl, sd, P, po, npt):
     """x with the midpoints of the bad intervals inserted, and the criteria of the new intervals
-    (sl, sd of the halves; those of the kept intervals copied)."""
+    (sl, sd of the halves; those of the kept intervals copied), and their points (po of the halves, P
+    of the kept intervals; npt each, none with npt = 0)."""
     n = x.shape[0] - 1
     nx = np.empty(n + 1 + nbad)
     nl = np.empty(n + nbad)
     nd = np.empty(n + nbad)
+    nP = np.empty((n + nbad) * npt)
     k = 0
     q = 0
     for i in range(n):
@@ -854,13 +887,17 @@ def _merge(x, length, dev, bad, nbad, sb, sl, sd):
             nx[k + 1] = sb[q]
             nl[k], nd[k] = sl[q], sd[q]
             nl[k + 1], nd[k + 1] = sl[q + 1], sd[q + 1]
+            for r in range(2 * npt):
+                nP[k * npt + r] = po[q * npt + r]
             q += 2
             k += 2
         else:
             nl[k], nd[k] = length[i], dev[i]
+            for r in range(npt):
+                nP[k * npt + r] = P[i * npt + r]
             k += 1
     nx[k] = x[n]
-    return nx, nl, nd
+    return nx, nl, nd, nP
 
 
 @njit(cache=True, nogil=True)
@@ -877,7 +914,10 @@ def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku
     every caller, and IR-inlines an inline="always" one at every call site, so the big criteria bodies
     are inlined here once and compiled only once. States: 0 the fine sampling's criteria, 1 a
     fine bisection round's, 2 the check of n0 - 1 placed values, 3 the check of nn placed values,
-    4 the placed values' criteria, 5 a bisection round's (adaptive_values')."""
+    4 the placed values' criteria, 5 a bisection round's (adaptive_values').
+    A chunk family (kind 1) keeps the points of every interval of x in states 0, 1, 4, 5 (P; no limits
+    there, so all uses are evaluated), and a bisection round's halves take the points they share with
+    their interval from it (`_chunk_criteria`'s pin: the same parameter bits, the same point)."""
     m5, m9, no, yes = _rt()
     inf = np.inf
     if kind == 0 and iso_f.shape[0] > 2:
@@ -898,6 +938,12 @@ def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku
     dev = np.empty(n)
     ra, rb, rm, rl, rd, rml, rmd, rst = x[:-1], x[1:], m5, length, dev, inf, inf, no
     state = 0
+    e0 = np.empty(0)
+    L3 = ci.shape[0] * 3 if kind != 0 else 0
+    npt = m5 * L3
+    P = e0
+    rpi = e0
+    rpo = np.empty(n * npt)
     rounds = 0
     bad = np.empty(0, dtype=np.bool_)
     nbad = 0
@@ -926,14 +972,16 @@ def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku
             ok = True
         else:
             ok = _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
-                           ci, cf, ck, cpw, cku, ckv, cpw4, ra, rb, rm, rl, rd, rml, rmd, rst)
+                           ci, cf, ck, cpw, cku, ckv, cpw4, ra, rb, rm, rl, rd, rml, rmd, rst, rpi, rpo)
             if state == 0 and rec:
                 for i in range(n):
                     cf[i + 1, 0], cf[i + 1, 1] = x[i], x[i + 1]
                     cf[i + 1, 2], cf[i + 1, 3] = length[i], dev[i]
                 cf[0, 0] = n
+        if state == 0 or state == 4:
+            P = rpo
         if state == 1 or state == 5:
-            x, length, dev = _merge(x, length, dev, bad, nbad, sb, rl, rd)
+            x, length, dev, P = _merge(x, length, dev, bad, nbad, sb, rl, rd, P, rpo, npt)
             if state == 5 and x.shape[0] - 1 > max_values:
                 return x, float(x.shape[0] - 1)
         phase2 = False
@@ -949,7 +997,8 @@ def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku
                 more = not (nbad == 0 or x.shape[0] > 20000)
             if more:
                 rounds += 1
-                sa, sb = _halves(x, bad, nbad)
+                sa, sb, rpi = _halves(x, bad, nbad, P, npt)
+                rpo = np.empty(2 * nbad * npt)
                 ra, rb, rm, rl, rd, rml, rmd, rst = sa, sb, m5, np.empty(2 * nbad), np.empty(2 * nbad), inf, inf, no
                 state = 1
                 continue
@@ -979,6 +1028,7 @@ def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku
                     state = 3
                 ra, rb, rm, rl, rd, rml, rmd, rst = (v[:-1], v[1:], m9, np.empty(v.shape[0] - 1),
                                                      np.empty(v.shape[0] - 1), max_edge, tolerance, yes)
+                rpi, rpo = e0, e0
                 continue
             phase2 = True
         elif state == 2 or state == 3:
@@ -992,6 +1042,7 @@ def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku
                 v = _place(cum, x, a, b, nn)
                 ra, rb, rm, rl, rd, rml, rmd, rst = (v[:-1], v[1:], m9, np.empty(v.shape[0] - 1),
                                                      np.empty(v.shape[0] - 1), max_edge, tolerance, yes)
+                rpi, rpo = e0, e0
                 state = 3
                 continue
             v = _place(cum, x, a, b, n0)
@@ -1003,6 +1054,8 @@ def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku
             length = np.empty(n)
             dev = np.empty(n)
             ra, rb, rm, rl, rd, rml, rmd, rst = x[:-1], x[1:], m9, length, dev, inf, inf, no
+            npt = m9 * L3
+            rpi, rpo = e0, np.empty(n * npt)
             state = 4
             rounds = 0
             continue
@@ -1018,7 +1071,8 @@ def equidistributed_kernel(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku
                 nbad += bad[i]
             if nbad != 0:
                 rounds += 1
-                sa, sb = _halves(x, bad, nbad)
+                sa, sb, rpi = _halves(x, bad, nbad, P, npt)
+                rpo = np.empty(2 * nbad * npt)
                 ra, rb, rm, rl, rd, rml, rmd, rst = sa, sb, m9, np.empty(2 * nbad), np.empty(2 * nbad), inf, inf, no
                 state = 5
                 continue
