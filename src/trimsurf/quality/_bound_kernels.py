@@ -147,19 +147,23 @@ def span_bounds_kernel(pu, pv, ku, kv, cp, w, rational):
     """`interpolation_bound.span_bounds` of the surface (degrees pu, pv; knots ku, kv; control points cp
     (nu, nv, 3); weights w (nu, nv) if `rational`, else unused): bu, bv, crease_u, crease_v, m (3, cu, cv)."""
     nu, nv = cp.shape[0], cp.shape[1]
+    # offsets and rows as int64 values, not literals: one specialization per helper (a literal 0, 1 or 2
+    # compiled _diff_u/_diff_v/_cell_max_k once per value)
+    i0 = np.int64(0)
+    i1, i2 = i0 + 1, i0 + 2
     bu, su, cru = _breaks_k(ku, pu, nu)
     bv, sv, crv = _breaks_k(kv, pv, nv)
     cu, cv = len(su), len(sv)
     m = np.empty((3, cu, cv))
     if not rational:
-        xu = _diff_u(cp, ku, 0, pu)
-        xuu = _diff_u(xu, ku, 1, pu - 1)
-        xv = _diff_v(cp, kv, 0, pv)
-        xvv = _diff_v(xv, kv, 1, pv - 1)
-        xuv = _diff_v(xu, kv, 0, pv)
-        _cell_max_k(xuu, su, sv, pu, pu - 1, pv, pv + 1, m, 0)
-        _cell_max_k(xvv, su, sv, pu, pu + 1, pv, pv - 1, m, 2)
-        _cell_max_k(xuv, su, sv, pu, pu, pv, pv, m, 1)
+        xu = _diff_u(cp, ku, i0, pu)
+        xuu = _diff_u(xu, ku, i1, pu - 1)
+        xv = _diff_v(cp, kv, i0, pv)
+        xvv = _diff_v(xv, kv, i1, pv - 1)
+        xuv = _diff_v(xu, kv, i0, pv)
+        _cell_max_k(xuu, su, sv, pu, pu - 1, pv, pv + 1, m, i0)
+        _cell_max_k(xvv, su, sv, pu, pu + 1, pv, pv - 1, m, i2)
+        _cell_max_k(xuv, su, sv, pu, pu, pv, pv, m, i1)
         return bu, bv, cru, crv, m
     hw = np.empty((nu, nv, 4))
     for i in range(nu):
@@ -169,11 +173,11 @@ def span_bounds_kernel(pu, pv, ku, kv, cp, w, rational):
             hw[i, j, 1] = cp[i, j, 1] * wt
             hw[i, j, 2] = cp[i, j, 2] * wt
             hw[i, j, 3] = wt
-    hu = _diff_u(hw, ku, 0, pu)
-    huu = _diff_u(hu, ku, 1, pu - 1)
-    hv = _diff_v(hw, kv, 0, pv)
-    hvv = _diff_v(hv, kv, 1, pv - 1)
-    huv = _diff_v(hu, kv, 0, pv)
+    hu = _diff_u(hw, ku, i0, pu)
+    huu = _diff_u(hu, ku, i1, pu - 1)
+    hv = _diff_v(hw, kv, i0, pv)
+    hvv = _diff_v(hv, kv, i1, pv - 1)
+    huv = _diff_v(hu, kv, i0, pv)
     centre = np.empty((cu, cv, 3))
     rmax = np.empty((cu, cv))
     wmin = np.empty((cu, cv))
