@@ -337,7 +337,7 @@ def _reference_paths(monkeypatch):
     monkeypatch.setattr(face_mod, "trim_loop_kernel", loop_always_checked)
     monkeypatch.setattr(face_mod._TriangleDeviations, "start_bound",
                         lambda self, uv, xyz, t: np.full(len(t), np.inf))
-    monkeypatch.setattr(face_mod, "_lift_points", face_mod._lift_points_from_numpy)
+    monkeypatch.setattr(face_mod, "_lift_points", face_mod._lift_points_numpy)
     monkeypatch.setattr(face_mod, "_face_loops", face_mod._face_loops_numpy)
     monkeypatch.setattr(face_mod, "_cell_main", face_mod._split_from_fits)
 
@@ -405,14 +405,11 @@ def test_min_angles_compiled_cosines_equal_numpy():
 
 
 def test_lift_points_equal_numpy(shared_data, monkeypatch):
-    """`_lift_points` (one compiled pass: surface points, the triangles whose start bound exceeds the
-    tolerance, the trim offsets of their trim corners) equals `_lift_points_numpy` (`evaluate`, `start_bound`,
-    every trim offset) bit for bit in every call of t20's and the screw's tessellations (planar and curved
-    faces), and for the curved ones also at tolerances near the start bounds (the boundary: a bound equal to
-    the tolerance is not "maybe") and with trim points off the surface: the offsets of exactly the maybe
-    triangles' trim corners are computed (the others stay -1), and `_trim_offsets` fills those of other
-    triangles' corners (the later rounds') alike; (u, v) that are not finite take the numpy path (which
-    raises)."""
+    """`_lift_points` (one compiled pass: surface points, trim offsets, the triangles whose start bound
+    exceeds the tolerance) equals `_lift_points_numpy` (`evaluate`, `start_bound`) bit for bit in every
+    call of t20's and the screw's tessellations (planar and curved faces), and for the curved ones also at
+    tolerances near the start bounds (the boundary: a bound equal to the tolerance is not "maybe") and with
+    trim points off the surface; (u, v) that are not finite take the numpy path (which raises)."""
     import trimsurf.tessellate.face as face_mod
     from trimsurf.errors import GeometryError
     from trimsurf.io import read_shell
@@ -422,7 +419,7 @@ def test_lift_points_equal_numpy(shared_data, monkeypatch):
     real = face_mod._lift_points
 
     def rec(*a):
-        calls.append(a[:6])
+        calls.append(a)
         return real(*a)
 
     monkeypatch.setattr(face_mod, "_lift_points", rec)
@@ -431,10 +428,9 @@ def test_lift_points_equal_numpy(shared_data, monkeypatch):
         d = shell.diagonal()
         for mode in ("tol", "paper"):
             tessellate_shell(shell, tolerance=1e-3 * d, max_edge=d if mode == "tol" else 3e-2 * d, measure=False)
-    n_cmp = n_maybe = n_flat = n_off = n_fill = 0
+    n_cmp = n_maybe = n_flat = 0
     rng = np.random.default_rng(3)
     for s, uv, trim_xyz, *rest in calls:
-        nt = len(trim_xyz)
         variants = [(trim_xyz, *rest)]
         if rest and rest[0] is not None:
             tris, tol, known = rest
@@ -445,77 +441,17 @@ def test_lift_points_equal_numpy(shared_data, monkeypatch):
         else:
             n_flat += 1
         for v in variants:
-            xyz_n, off_n, maybe_n = face_mod._lift_points_numpy(s, uv, *v)
-            if len(v) == 1 or v[1] is None:
-                xyz, maybe = real(s, uv, *v)
-                assert np.array_equal(xyz, xyz_n) and maybe is None and maybe_n is None
-                n_cmp += 1
-                continue
-            off = np.full(nt, -1.0)
-            xyz, maybe = real(s, uv, *v, off)
-            assert np.array_equal(xyz, xyz_n) and np.array_equal(maybe, maybe_n)
-            corners = np.unique(v[1][maybe])
-            need = np.zeros(nt, dtype=bool)
-            need[corners[corners < nt]] = True
-            assert np.array_equal(off[need], off_n[need], equal_nan=True)
-            assert np.all(off[~need] == -1.0)
-            n_off += need.sum()
-            # the later rounds' offsets: other triangles' corners, some already known (kept as they are)
-            pick = v[1][rng.random(len(v[1])) < 0.3]
-            off2 = off.copy()
-            face_mod._trim_offsets(s, uv, v[0], off2, pick)
-            need2 = need.copy()
-            need2[pick[pick < nt]] = True
-            assert np.array_equal(off2[need2], off_n[need2], equal_nan=True)
-            assert np.all(off2[~need2] == -1.0)
-            n_fill += need2.sum() - need.sum()
+            a, b = real(s, uv, *v), face_mod._lift_points_numpy(s, uv, *v)
+            for x, y in zip(a, b):
+                assert (x is None and y is None) or np.array_equal(x, y)
             n_cmp += 1
-            n_maybe += 0 < len(maybe) < len(v[1])
-    assert n_cmp > 100 and n_maybe > 20 and n_flat > 10 and n_off > 500 and n_fill > 500, \
-        (n_cmp, n_maybe, n_flat, n_off, n_fill)
+            n_maybe += a[2] is not None and 0 < len(a[2]) < len(v[1])
+    assert n_cmp > 100 and n_maybe > 20 and n_flat > 10, (n_cmp, n_maybe, n_flat)
     s, uv, trim_xyz, tris, tol, known = next(c for c in calls if len(c) > 3 and c[3] is not None)
     uv = uv.copy()
     uv[-1, 0] = np.nan
     with pytest.raises(GeometryError):
-        real(s, uv, trim_xyz, tris, tol, known, np.full(len(trim_xyz), -1.0))
-
-
-def test_corner_offsets_of_the_rounds_equal_numpy(shared_data, monkeypatch):
-    """The trim offsets the extra-point rounds of `mesh_face_from_chunks` read (`_corner_offsets`: per maybe
-    triangle the largest of its trim corners') equal those of `_lift_points_numpy` (every trim point's) bit
-    for bit on the wing's faces (with extra-point rounds) and t20's, as the rounds call it and with none of the
-    offsets computed before (a later round's triangles whose corners the first round did not need)."""
-    import trimsurf.tessellate.face as face_mod
-    from trimsurf.io import read_shell
-    from trimsurf.tessellate import tessellate_shell
-
-    real = face_mod._corner_offsets
-    seen = []
-
-    def rec(s, uv, trim_xyz, trim_off, tm):
-        out = real(s, uv, trim_xyz, trim_off, tm)
-        seen.append((s, uv, trim_xyz, tm, out))
-        return out
-
-    monkeypatch.setattr(face_mod, "_corner_offsets", rec)
-    for name, rel in (("gmsh__wing_fuselage.step", 3e-2), ("gmsh__t20_data.step", 1.0)):
-        shell = read_shell(shared_data / "cad" / name)
-        d = shell.diagonal()
-        tessellate_shell(shell, tolerance=1e-3 * d, max_edge=rel * d, measure=False)
-    n_new = 0
-    for s, uv, trim_xyz, tm, out in seen:
-        nt = len(trim_xyz)
-        off_n = face_mod._lift_points_numpy(s, uv, trim_xyz, np.zeros((0, 3), dtype=np.int64), 0.0,
-                                            face_mod._TriangleDeviations(s))[1]
-        full = np.zeros(len(uv))
-        full[:nt] = off_n
-        want = full[tm].max(axis=1)
-        assert np.array_equal(out, want, equal_nan=True)
-        # a later round's corners whose offsets are not computed yet (here: none known)
-        fresh = np.full(nt, -1.0)
-        assert np.array_equal(real(s, uv, trim_xyz, fresh, tm), want, equal_nan=True)
-        n_new += int(np.count_nonzero(tm < nt))
-    assert len(seen) > 10 and n_new > 100, (len(seen), n_new)
+        real(s, uv, trim_xyz, tris, tol, known)
 
 
 def test_face_loops_and_cell_splits_equal_numpy(shared_data, monkeypatch):

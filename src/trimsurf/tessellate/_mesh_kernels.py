@@ -157,39 +157,39 @@ def deviation_start_bound(bary, uv, xyz, tris, pu, pv, ku, kv, pw, rational):
 
 
 @njit(cache=True, nogil=True)
-def lift_kernel(bary, uv, trim_xyz, tris, pu, pv, ku, kv, pw, rational, with_tris, tol, off, rows):
+def lift_kernel(bary, uv, trim_xyz, tris, pu, pv, ku, kv, pw, rational, all_points, tol):
     """The points of a face's triangulation (`trimsurf.tessellate.face.mesh_face_from_chunks`) in one pass:
-    S(uv) (uv clipped to the domain, as `NurbsSurface.evaluate`) for the points after the trim points, the
-    trim points' rows set to `trim_xyz`.
+    S(uv) (uv clipped to the domain, as `NurbsSurface.evaluate`) for the points after the trim points
+    (all_points: for the trim points too), the trim points' rows then set to `trim_xyz`.
 
-    With with_tris: also the triangles of `tris` whose `deviation_start_bound` is not at most `tol` (`maybe`,
-    in order; the start bound reads the trim points' rows `trim_xyz`, never S at a vertex).
+    With all_points: also each trim point's distance |S(uv) - trim_xyz| (`trim_off`) and, for tris of
+    length > 0, the triangles whose `deviation_start_bound` is not at most `tol` (`maybe`, in order).
 
-    `off` (len(trim_xyz),) the caller's trim offsets |S(uv) - trim_xyz| so far, -1 where not computed: those of
-    the trim points among `rows` and the corners of the `maybe` triangles (the only ones the caller reads) that
-    are still -1 are computed in it (S at every other trim point is never needed: their rows are `trim_xyz`).
-
-    Returns (status, xyz, maybe): status 1 where a (u, v) is not finite (nothing computed: the caller's numpy
-    path raises as `evaluate` does), else 0."""
+    Returns (status, xyz, trim_off, maybe): status 1 where a (u, v) is not finite (nothing computed: the
+    caller's numpy path raises as `evaluate` does), else 0."""
     n, nt = uv.shape[0], trim_xyz.shape[0]
     xyz = np.empty((n, 3))
+    off = np.zeros(nt if all_points else 0)
     maybe = np.zeros(0, dtype=np.int64)
     for i in range(n):
         if not (np.isfinite(uv[i, 0]) and np.isfinite(uv[i, 1])):
-            return 1, xyz, maybe
+            return 1, xyz, off, maybe
     u0, u1 = ku[pu], ku[ku.shape[0] - pu - 1]
     v0, v1 = kv[pv], kv[kv.shape[0] - pv - 1]
     ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(pu, pv, pw.shape[2])
     res = np.empty((3, 3))
-    for i in range(nt, n):
+    for i in range(0 if all_points else nt, n):
         uc = min(max(uv[i, 0], u0), u1)
         vc = min(max(uv[i, 1], v0), v1)
         _surface_point01(pu, pv, ku, kv, pw, rational, uc, vc, np.int64(0), ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
                          bu, bv, tmp, skl, res)
         xyz[i, 0], xyz[i, 1], xyz[i, 2] = res[0, 0], res[0, 1], res[0, 2]
     for i in range(nt):
+        if all_points:
+            r0, r1, r2 = xyz[i, 0] - trim_xyz[i, 0], xyz[i, 1] - trim_xyz[i, 1], xyz[i, 2] - trim_xyz[i, 2]
+            off[i] = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
         xyz[i, 0], xyz[i, 1], xyz[i, 2] = trim_xyz[i, 0], trim_xyz[i, 1], trim_xyz[i, 2]
-    if with_tris and tris.shape[0]:
+    if all_points and tris.shape[0]:
         sb = deviation_start_bound(bary, uv, xyz, tris, pu, pv, ku, kv, pw, rational)
         k = 0
         for t in range(sb.shape[0]):
@@ -201,18 +201,7 @@ def lift_kernel(bary, uv, trim_xyz, tris, pu, pv, ku, kv, pw, rational, with_tri
             if not sb[t] <= tol:
                 maybe[k] = t
                 k += 1
-    # the trim offsets asked for: per point the operations of the all-points pass (S(uv), then the norm)
-    for r in range(rows.shape[0] + 3 * maybe.shape[0]):
-        i = rows[r] if r < rows.shape[0] else tris[maybe[(r - rows.shape[0]) // 3], (r - rows.shape[0]) % 3]
-        if i >= nt or off[i] >= 0 or off[i] != off[i]:
-            continue
-        uc = min(max(uv[i, 0], u0), u1)
-        vc = min(max(uv[i, 1], v0), v1)
-        _surface_point01(pu, pv, ku, kv, pw, rational, uc, vc, np.int64(0), ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
-                         bu, bv, tmp, skl, res)
-        r0, r1, r2 = res[0, 0] - trim_xyz[i, 0], res[0, 1] - trim_xyz[i, 1], res[0, 2] - trim_xyz[i, 2]
-        off[i] = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
-    return 0, xyz, maybe
+    return 0, xyz, off, maybe
 
 
 @njit(cache=True, nogil=True)

@@ -1479,11 +1479,10 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
         extra = np.zeros((0, 2))
         # a trim point off the surface (the mean of two faces' curves, a gap in the model) makes its
         # triangles deviate by its own offset, which no interior point can remove (the surface at the
-        # trim points only where a triangle that may be bad reads it: per point the same numbers as `lift`);
+        # trim points and at the other vertices in one evaluation: per point the same numbers as `lift`);
         # only a triangle whose samples' first distances (an upper bound of its deviation) exceed the
         # tolerance may be bad: the deviation of those alone (the others' is computed when read)
-        trim_off = np.full(len(trim_xyz), -1.0)
-        xyz, maybe = _lift_points(s, dt.uv, trim_xyz, dt.triangles, tol, known, trim_off)
+        xyz, trim_off, maybe = _lift_points(s, dt.uv, trim_xyz, dt.triangles, tol, known)
         for it in range(4):
             if it:
                 maybe = np.flatnonzero(~(known.start_bound(dt.uv, xyz, dt.triangles) <= tol))
@@ -1491,8 +1490,10 @@ def mesh_face_from_chunks(face: TrimmedFace, us: np.ndarray, vs: np.ndarray, loo
                 break
             tm = dt.triangles[maybe]
             dev_m = known.deviation(dt.uv, xyz, tm)
+            off = np.zeros(len(dt.uv))
+            off[:dt.n_trim] = trim_off
             bad = np.zeros(len(dt.triangles), dtype=bool)
-            bad[maybe] = (dev_m > tol) & (dev_m > _corner_offsets(s, dt.uv, trim_xyz, trim_off, tm) + 0.05 * tol)
+            bad[maybe] = (dev_m > tol) & (dev_m > off[tm].max(axis=1) + 0.05 * tol)
             if not bad.any():
                 break
             extra = np.concatenate([extra, dt.uv[dt.triangles[bad]].mean(axis=1)])
@@ -1544,62 +1545,24 @@ def _cell_main(fits: np.ndarray, tol: float | None, prefer: bool | None) -> np.n
     return cell_main_kernel(d, np.bool_(tol is not None), 0.0 if tol is None else float(tol), np.bool_(bool(prefer)))
 
 
-def _lift_points(s, uv, trim_xyz, tris=None, tol=None, known=None, trim_off=None):
-    """The points of a triangulation whose first len(trim_xyz) vertices are the trim points: (xyz, maybe), xyz
-    S(uv) with the trim points' rows `trim_xyz`; with `tris` also the triangles whose start bound
-    (`_TriangleDeviations.start_bound`) is not at most `tol` (else None), and `trim_off` (the caller's, -1
-    where not computed) gets each trim corner's distance |S(uv) - trim_xyz| of those triangles. One
-    compiled pass (`_mesh_kernels.lift_kernel`); `_lift_points_numpy` is its reference (every trim offset), and
-    its path for (u, v) that are not finite."""
+def _lift_points(s, uv, trim_xyz, tris=None, tol=None, known=None):
+    """The points of a triangulation whose first len(trim_xyz) vertices are the trim points: (xyz, trim_off,
+    maybe), xyz S(uv) with the trim points' rows `trim_xyz`; with `tris` also each trim point's distance
+    |S(uv) - trim_xyz| and the triangles whose start bound (`_TriangleDeviations.start_bound`) is not at
+    most `tol` (else None, None). One compiled pass (`_mesh_kernels.lift_kernel`); `_lift_points_numpy` is
+    its reference, and its path for (u, v) that are not finite."""
     nt = len(trim_xyz)
     if nt > len(uv):
-        return _lift_points_from_numpy(s, uv, trim_xyz, tris, tol, known, trim_off)
+        return _lift_points_numpy(s, uv, trim_xyz, tris, tol, known)
     with_tris = tris is not None
-    status, xyz, maybe = lift_kernel(
+    status, xyz, off, maybe = lift_kernel(
         _BARY, _contiguous(uv, np.float64), _contiguous(trim_xyz, np.float64),
-        _contiguous(tris, np.int64) if with_tris else _NO_TRIS, *_surface_args(s),
-        np.bool_(with_tris), float(tol) if with_tris else 0.0, trim_off if with_tris else _NO_OFF, _NO_IDS)
+        _contiguous(tris, np.int64) if with_tris else _NO_TRIS, s.degree_u, s.degree_v,
+        read_only(s.knots_u), read_only(s.knots_v), _homogeneous(s.control_points, s.weights), s.weights is not None,
+        np.bool_(with_tris), float(tol) if with_tris else 0.0)
     if status:
-        return _lift_points_from_numpy(s, uv, trim_xyz, tris, tol, known, trim_off)
-    return (xyz, maybe) if with_tris else (xyz, None)
-
-
-def _lift_points_from_numpy(s, uv, trim_xyz, tris=None, tol=None, known=None, trim_off=None):
-    """`_lift_points` by `_lift_points_numpy` (every trim offset written into `trim_off`): its reference path."""
-    xyz, off, maybe = _lift_points_numpy(s, uv, trim_xyz, tris, tol, known)
-    if off is not None:
-        trim_off[:] = off
-    return xyz, maybe
-
-
-def _trim_offsets(s, uv, trim_xyz, trim_off, tm) -> None:
-    """trim_off[i] = |S(uv[i]) - trim_xyz[i]| for the trim points i among the corners `tm` where it is still -1
-    (`lift_kernel`'s offsets: the same numbers as `_lift_points_numpy`'s)."""
-    nt = len(trim_xyz)
-    rows = np.ascontiguousarray(tm, dtype=np.int64).reshape(-1)
-    status = lift_kernel(_BARY, _contiguous(uv[:nt], np.float64), _contiguous(trim_xyz, np.float64), _NO_TRIS,
-                         *_surface_args(s), np.bool_(False), 0.0, trim_off, rows)[0]
-    if status:      # (not finite: `evaluate` raises)
-        trim_off[:] = np.linalg.norm(s.evaluate(uv[:nt]) - trim_xyz, axis=1)
-
-
-def _corner_offsets(s, uv, trim_xyz, trim_off, tm) -> np.ndarray:
-    """Per triangle of `tm` the largest trim offset |S(uv) - trim_xyz| of its corners (0 for a corner that is no
-    trim point), `trim_off` (the caller's, -1 where not computed) completed for its corners first."""
-    _trim_offsets(s, uv, trim_xyz, trim_off, tm)
-    off = np.zeros(len(uv))
-    off[:len(trim_xyz)] = trim_off
-    return off[tm].max(axis=1)
-
-
-def _surface_args(s) -> tuple:
-    """(degree_u, degree_v, knots_u, knots_v, homogeneous control points, rational) of a surface for the
-    compiled kernels."""
-    return (s.degree_u, s.degree_v, read_only(s.knots_u), read_only(s.knots_v),
-            _homogeneous(s.control_points, s.weights), s.weights is not None)
-
-
-_NO_OFF = np.zeros(0)
+        return _lift_points_numpy(s, uv, trim_xyz, tris, tol, known)
+    return (xyz, off, maybe) if with_tris else (xyz, None, None)
 
 
 _NO_TRIS = np.zeros((0, 3), dtype=np.int64)
