@@ -249,6 +249,18 @@ def test_parser_lists_every_subcommand():
         assert name in text
 
 
+def test_every_help_text_is_formatted():
+    """argparse %-formats argument help but not descriptions: '%%' there shows up doubled."""
+    import argparse
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    assert len(sub.choices) >= 10
+    for name, p in sub.choices.items():
+        text = p.format_help()
+        assert "%%" not in text and "%(" not in text, name
+
+
 def test_jsonable_and_table():
     value = {"a": np.float64(np.nan), "b": np.arange(3), "c": (np.int64(2), np.bool_(True)), "d": float("inf")}
     assert _common.jsonable(value) == {"a": None, "b": [0, 1, 2], "c": [2, True], "d": None}

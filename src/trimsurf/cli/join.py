@@ -41,7 +41,7 @@ names the faces.
 
 Accuracy: the strip Triangle re-meshes is refined until every triangle's
 sampled deviation from its face is within the deflection D (--deflection;
-default 0.1%% of the diagonal when meshing here, the input meshes' own
+default 0.1% of the diagonal when meshing here, the input meshes' own
 measured deviation with --meshes). The report gives the output's
 max_deviation and p99_deviation measured inside the triangles (barycentric
 samples, 6 per edge, projected exactly onto the faces) beside the paper's
