@@ -1,0 +1,234 @@
+"""One kernel's calls replayed under one or two source trees (issue 17): capture what a compiled kernel (or any
+trimsurf function the meshing calls from Python) is given while the shared models are meshed, then replay it.
+
+    python benchmarks/kernel_replay.py capture refine --src /tmp/main29/src [--models a,b] [--modes tol,paper]
+    python benchmarks/kernel_replay.py replay refine --src /tmp/main29/src --src src [--runs 20] [--rounds 2]
+
+KERNEL is a name of ENTRIES below (refine, place, chunks, loop_polylines, span_bounds, mesh_faces, ...) or
+`module:function`. capture: per model (a part of a file name in ../shared/data/cad) and mode (max edge: tol =
+the diagonal, paper = 3 % of it; tolerance 1e-3 of it) one warm `tessellate_shell` (`measure` per ENTRIES, or
+`--measure`) of another copy of the shell, then one during which every trimsurf module's name for the kernel records each call's arguments
+(arrays copied before the call) and outputs, pickled to DIR/KERNEL/MODEL_MODE.pkl. replay: each call once, its
+outputs compared bit for bit with the capture's (`same`), then `--runs` times with fresh copies of the array
+arguments (kernels write into some): `per-call` = the sum over the calls of each one's best (perf counter),
+`total` = the best of max(3, runs // 4) passes over all calls (process CPU). Without `--src` both run in this
+process (the trimsurf on PYTHONPATH); with `--src` each in a child process with that tree first on PYTHONPATH,
+the trees of a replay old then new, `--rounds` times (best of the rounds), each tree with its own fresh
+NUMBA_CACHE_DIR (numba's cache index of a kernel keys on its own file only: a stale cache replays old helpers),
+and a table of new/old ratios with their geometric mean.
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import importlib
+import json
+import os
+import pickle
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "cad"
+if not DATA.exists():
+    DATA = Path("/work/shared/data/cad")
+
+
+def _refine_outputs(res) -> list:
+    """refine_cells_kernel's outputs that must be the same: the cache's arrays up to their used rows (n), the hash
+    tables' used entries, the rest as returned (the rows past n are left uninitialized)."""
+    (hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, n, us, vs, status, rounds, dev0, diag0, rows) = res
+    n = int(n)
+    ids = [np.sort(he[he[:, 0] >= 0, 0]) for he in (he_u, he_v)]
+    keys = [hk[np.argsort(he[:, 0])][(he[np.argsort(he[:, 0]), 0] >= 0)] for hk, he in ((hk_u, he_u), (hk_v, he_v))]
+    used = table[:max(1, table.shape[0]), :]
+    return [*ids, *keys, used[used >= 0], uv[:n], p[:n], d[:n], devs[:n], bounds[:n], np.int64(n), us, vs,
+            np.int64(status), np.int64(rounds), np.float64(dev0), np.float64(diag0), rows]
+
+
+#: name -> (module:function, measure during the capture, the outputs to compare (None: all, flattened))
+ENTRIES = {
+    "refine": ("trimsurf.tessellate._line_kernels:refine_cells_kernel", False, _refine_outputs),
+    "cell_surface": ("trimsurf.tessellate._line_kernels:cell_surface_kernel", False, None),
+    "place": ("trimsurf.tessellate._line_kernels:equidistributed_kernel", False, None),
+    "chunks": ("trimsurf.tessellate._chunk_kernels:discretize_chunks_kernel", False, None),
+    "loop_polylines": ("trimsurf.geom._pcurve_kernels:loop_polylines_kernel", True, None),
+    "span_bounds": ("trimsurf.quality.interpolation_bound:span_bounds", True, None),
+    "mesh_faces": ("trimsurf.tessellate.face:mesh_face_from_chunks", False, None),
+}
+MODES = {"tol": 1.0, "paper": 3e-2}      # max edge / diagonal
+
+
+def _flat(x) -> list:
+    """The arrays (and scalars as 0-d arrays) of a call's outputs, in order, for bit comparison."""
+    if x is None:
+        return []
+    if isinstance(x, (tuple, list)):
+        return [a for v in x for a in _flat(v)]
+    if isinstance(x, dict):
+        return [a for k in sorted(x) for a in _flat(x[k])]
+    if isinstance(x, np.ndarray) or np.isscalar(x):
+        return [np.array(x, copy=True)]
+    if hasattr(x, "__dict__"):
+        return _flat(vars(x))
+    return [np.array(x, copy=True)]
+
+
+def _copy(args: tuple) -> list:
+    return [a.copy() if isinstance(a, np.ndarray) else a for a in args]
+
+
+def _same(a: list, b: list) -> bool:
+    return len(a) == len(b) and all(np.shape(x) == np.shape(y) and np.asarray(x).dtype == np.asarray(y).dtype
+                                    and np.asarray(x).tobytes() == np.asarray(y).tobytes() for x, y in zip(a, b))
+
+
+def _resolve(kernel: str):
+    """(module, function name, measure, outputs) of a name of ENTRIES or a `module:function`."""
+    spec, measure, outputs = ENTRIES.get(kernel, (kernel, False, None))
+    mod, _, name = spec.partition(":")
+    return importlib.import_module(mod), name, measure, outputs or _flat
+
+
+def _models(keys: str) -> list[Path]:
+    files = sorted(p for p in DATA.iterdir() if p.suffix.lower() in (".step", ".stp", ".iges", ".igs"))
+    return [next(p for p in files if k in p.name) for k in keys.split(",")]
+
+
+def capture(args) -> None:
+    from trimsurf.io import read_shell
+    from trimsurf.tessellate import tessellate_shell
+
+    mod, name, measure, outputs = _resolve(args.kernel)
+    measure = measure or args.measure
+    out = Path(args.dir) / args.kernel.replace(":", "_")
+    out.mkdir(parents=True, exist_ok=True)
+    for path, key in zip(_models(args.models), args.models.split(",")):
+        shell = read_shell(path)
+        d = shell.diagonal()
+        for mode in args.modes.split(","):
+            kw = dict(tolerance=1e-3 * d, max_edge=MODES[mode] * d, measure=measure)
+            tessellate_shell(read_shell(path), **kw)     # warm: everything imported and compiled before the swap
+            real, calls = getattr(mod, name), []
+
+            def rec(*a, _real=real, _calls=calls, **k):
+                before = _copy(a)
+                res = _real(*a, **k)
+                _calls.append((before, k, [np.copy(o) for o in outputs(res)]))
+                return res
+
+            spots = [(m, v) for m in list(sys.modules.values()) if getattr(m, "__name__", "").startswith("trimsurf")
+                     for v, f in list(vars(m).items()) if f is real]
+            for m, v in spots:
+                setattr(m, v, rec)
+            try:
+                tessellate_shell(shell, **kw)
+            finally:
+                for m, v in spots:
+                    setattr(m, v, real)
+            dest = out / f"{key}_{mode}.pkl"
+            dest.write_bytes(pickle.dumps(calls))
+            print(f"{key}: {len(calls)} calls captured -> {dest}", flush=True)
+
+
+def replay(args) -> dict:
+    """{model_mode: {calls, per_call, total (s), same}} in this process; printed unless --json."""
+    mod, name, _, outputs = _resolve(args.kernel)
+    kernel = getattr(mod, name)
+    res = {}
+    for key in args.models.split(","):
+        for mode in args.modes.split(","):
+            calls = pickle.loads((Path(args.dir) / args.kernel.replace(":", "_") / f"{key}_{mode}.pkl").read_bytes())
+            same = all([_same(outputs(kernel(*_copy(a), **k)), ref) for a, k, ref in calls])
+            gc.disable()
+            best = np.full(len(calls), np.inf)
+            for _ in range(args.runs):
+                copies = [_copy(a) for a, _, _ in calls]
+                for i, (c, (_, k, _)) in enumerate(zip(copies, calls)):
+                    t = time.perf_counter()
+                    kernel(*c, **k)
+                    best[i] = min(best[i], time.perf_counter() - t)
+            total = np.inf
+            for _ in range(max(3, args.runs // 4)):
+                copies = [_copy(a) for a, _, _ in calls]
+                t = time.process_time()
+                for c, (_, k, _) in zip(copies, calls):
+                    kernel(*c, **k)
+                total = min(total, time.process_time() - t)
+            gc.enable()
+            r = res[f"{key}_{mode}"] = {"calls": len(calls), "per_call": float(best.sum()), "total": total,
+                                        "same": bool(same)}
+            if not args.json:
+                print(f"{key:12s} {mode:5s} calls {len(calls):5d}  per-call {r['per_call'] * 1e3:8.2f} ms  "
+                      f"total {total * 1e3:8.2f} ms  same {same}", flush=True)
+    if args.json:
+        print(json.dumps(res))
+    return res
+
+
+def _child(argv: list, src: Path, cache: str | None) -> str:
+    env = dict(os.environ, PYTHONPATH=str(src.resolve()) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    if cache:
+        env["NUMBA_CACHE_DIR"] = cache
+    done = subprocess.run([sys.executable, __file__, *argv], env=env, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise SystemExit(f"kernel_replay: {' '.join(argv[:2])} under {src} failed:\n{done.stderr[-3000:]}")
+    return done.stdout
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
+    ap.add_argument("what", choices=["capture", "replay"])
+    ap.add_argument("kernel", help="a name of ENTRIES (" + ", ".join(ENTRIES) + ") or module:function")
+    ap.add_argument("--src", type=Path, action="append", default=[],
+                    help="a source tree (capture: one; replay: one or more, old first)")
+    ap.add_argument("--models", default="featuretype,t20,screw,U_Joint")
+    ap.add_argument("--modes", default="tol", help="tol, paper or tol,paper")
+    ap.add_argument("--measure", action="store_true", help="capture with the measurement on")
+    ap.add_argument("--runs", type=int, default=20)
+    ap.add_argument("--rounds", type=int, default=2, help="with --src: each tree's replays, interleaved")
+    ap.add_argument("--dir", default="/tmp/kernel_replay")
+    ap.add_argument("--keep-cache", action="store_true", help="with --src: the environment's NUMBA_CACHE_DIR")
+    ap.add_argument("--json", action="store_true", help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    if not args.src:
+        (capture if args.what == "capture" else replay)(args)
+        return
+    argv = [args.what, args.kernel, "--models", args.models, "--modes", args.modes, "--runs", str(args.runs),
+            "--dir", args.dir] + (["--measure"] if args.measure else [])
+    if args.what == "capture":
+        print(_child(argv, args.src[0], None), end="")
+        return
+    with tempfile.TemporaryDirectory(prefix="kernel_replay_numba_") as tmp:
+        caches = [None if args.keep_cache else f"{tmp}/{i}" for i in range(len(args.src))]
+        runs = [[] for _ in args.src]
+        for r in range(args.rounds):
+            for i, src in enumerate(args.src):
+                runs[i].append(json.loads(_child(argv + ["--json"], src, caches[i]).splitlines()[-1]))
+                print(f"round {r + 1} tree {i} ({src}) done", file=sys.stderr, flush=True)
+    best = [{m: {c: min(x[m][c] for x in tree) for c in ("per_call", "total")} | {
+        "calls": tree[0][m]["calls"], "same": all(x[m]["same"] for x in tree)} for m in tree[0]} for tree in runs]
+    names = [f"tree {i}" for i in range(len(args.src))]
+    print(f"{args.kernel}: best of {args.rounds} rounds x {args.runs} runs, ms; ratio = tree {len(names) - 1} / "
+          "tree 0; " + "; ".join(f"{n} = {s}" for n, s in zip(names, args.src)))
+    ratios = {"per_call": [], "total": []}
+    for m in best[0]:
+        cells = []
+        for c in ("per_call", "total"):
+            cells.append(" ".join(f"{b[m][c] * 1e3:8.2f}" for b in best))
+            ratios[c].append(best[-1][m][c] / best[0][m][c])
+            cells[-1] += f"  ratio {ratios[c][-1]:.3f}"
+        print(f"{m:18s} calls {best[0][m]['calls']:5d}  per-call {cells[0]}  total {cells[1]}  same "
+              + "/".join(str(b[m]["same"]) for b in best))
+    print("geometric mean of the ratios: " + "  ".join(
+        f"{c} {float(np.exp(np.mean(np.log(v)))):.3f}" for c, v in ratios.items()))
+
+
+if __name__ == "__main__":
+    main()
