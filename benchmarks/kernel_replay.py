@@ -3,19 +3,28 @@ trimsurf function the meshing calls from Python) is given while the shared model
 
     python benchmarks/kernel_replay.py capture refine --src /tmp/main29/src [--models a,b] [--modes tol,paper]
     python benchmarks/kernel_replay.py replay refine --src /tmp/main29/src --src src [--runs 20] [--rounds 2]
+    python benchmarks/kernel_replay.py replay span_bounds --src src [--use MODULE:FUNCTION]   (another function,
+        e.g. trimsurf.quality.interpolation_bound:_span_bounds_numpy, given the captured calls)
 
-KERNEL is a name of ENTRIES below (refine, place, chunks, loop_polylines, span_bounds, mesh_faces, ...) or
-`module:function`. capture: per model (a part of a file name in ../shared/data/cad) and mode (max edge: tol =
-the diagonal, paper = 3 % of it; tolerance 1e-3 of it) one warm `tessellate_shell` (`measure` per ENTRIES, or
-`--measure`) of another copy of the shell, then one during which every trimsurf module's name for the kernel records each call's arguments
-(arrays copied before the call) and outputs, pickled to DIR/KERNEL/MODEL_MODE.pkl. replay: each call once, its
-outputs compared bit for bit with the capture's (`same`), then `--runs` times with fresh copies of the array
-arguments (kernels write into some): `per-call` = the sum over the calls of each one's best (perf counter),
-`total` = the best of max(3, runs // 4) passes over all calls (process CPU). Without `--src` both run in this
-process (the trimsurf on PYTHONPATH); with `--src` each in a child process with that tree first on PYTHONPATH,
-the trees of a replay old then new, `--rounds` times (best of the rounds), each tree with its own fresh
-NUMBA_CACHE_DIR (numba's cache index of a kernel keys on its own file only: a stale cache replays old helpers),
-and a table of new/old ratios with their geometric mean.
+KERNEL is a name of ENTRIES below (refine, place, chunks, loop_polylines, span_bounds, mesh_faces) or
+`module:function`; a kernel called only from compiled code (cell_surface_kernel, from refine_cells_kernel) is
+timed through its compiled caller.
+
+capture: per model (a part of a file name in ../shared/data/cad) and mode (tolerance 1e-3 of the diagonal, max
+edge: tol = the diagonal, paper = 3 % of it) one warm `tessellate_shell` (with the measurement where ENTRIES or
+`--measure` say), then one of a fresh copy of the shell during which every trimsurf module's name for the kernel
+records each call's arguments (arrays copied before the call), outputs and the array arguments it wrote into:
+DIR/KERNEL/MODEL_MODE.pkl.
+
+replay: each call once, its outputs and written arguments compared bit for bit with the capture's (`same`),
+then `--runs` times with fresh copies of the array arguments: `per-call` = the sum over the calls of each one's
+best (the lesser of wall and process CPU time: the wall clock is finer for a short call, CPU time leaves out the
+waits of a long one on a loaded machine), `total` = the best of max(3, runs // 4) passes over all calls (process
+CPU). Without `--src` in this process (the trimsurf on PYTHONPATH). With `--src` each tree in a child process
+with it first on PYTHONPATH and its own fresh NUMBA_CACHE_DIR (numba's cache index of a kernel keys on its own
+file only: a stale cache replays old helpers), the trees one after the other (old first), `--rounds` times, best
+of the rounds; the table gives the ratios last tree / first tree and their geometric mean. A capture replays
+under any tree whose kernel takes the same arguments (pickled objects load with that tree's classes).
 """
 
 from __future__ import annotations
@@ -54,7 +63,6 @@ def _refine_outputs(res) -> list:
 #: name -> (module:function, measure during the capture, the outputs to compare (None: all, flattened))
 ENTRIES = {
     "refine": ("trimsurf.tessellate._line_kernels:refine_cells_kernel", False, _refine_outputs),
-    "cell_surface": ("trimsurf.tessellate._line_kernels:cell_surface_kernel", False, None),
     "place": ("trimsurf.tessellate._line_kernels:equidistributed_kernel", False, None),
     "chunks": ("trimsurf.tessellate._chunk_kernels:discretize_chunks_kernel", False, None),
     "loop_polylines": ("trimsurf.geom._pcurve_kernels:loop_polylines_kernel", True, None),
@@ -119,7 +127,9 @@ def capture(args) -> None:
             def rec(*a, _real=real, _calls=calls, **k):
                 before = _copy(a)
                 res = _real(*a, **k)
-                _calls.append((before, k, [np.copy(o) for o in outputs(res)]))
+                wrote = [i for i, (x, b) in enumerate(zip(a, before))
+                         if isinstance(x, np.ndarray) and not _same([x], [b])]
+                _calls.append((before, k, wrote, [np.copy(o) for o in outputs(res)] + [a[i].copy() for i in wrote]))
                 return res
 
             spots = [(m, v) for m in list(sys.modules.values()) if getattr(m, "__name__", "").startswith("trimsurf")
@@ -139,25 +149,32 @@ def capture(args) -> None:
 def replay(args) -> dict:
     """{model_mode: {calls, per_call, total (s), same}} in this process; printed unless --json."""
     mod, name, _, outputs = _resolve(args.kernel)
+    if args.use:
+        mod, _, name = args.use.partition(":")
+        mod = importlib.import_module(mod)
     kernel = getattr(mod, name)
     res = {}
     for key in args.models.split(","):
         for mode in args.modes.split(","):
             calls = pickle.loads((Path(args.dir) / args.kernel.replace(":", "_") / f"{key}_{mode}.pkl").read_bytes())
-            same = all([_same(outputs(kernel(*_copy(a), **k)), ref) for a, k, ref in calls])
+            same = True
+            for a, k, wrote, ref in calls:
+                c = _copy(a)
+                same &= _same(outputs(kernel(*c, **k)) + [c[i] for i in wrote], ref)
             gc.disable()
             best = np.full(len(calls), np.inf)
             for _ in range(args.runs):
-                copies = [_copy(a) for a, _, _ in calls]
-                for i, (c, (_, k, _)) in enumerate(zip(copies, calls)):
-                    t = time.perf_counter()
+                copies = [_copy(c[0]) for c in calls]
+                for i, (c, (_, k, _, _)) in enumerate(zip(copies, calls)):
+                    cpu, wall = time.process_time(), time.perf_counter()
                     kernel(*c, **k)
-                    best[i] = min(best[i], time.perf_counter() - t)
+                    wall = time.perf_counter() - wall
+                    best[i] = min(best[i], wall, time.process_time() - cpu)
             total = np.inf
             for _ in range(max(3, args.runs // 4)):
-                copies = [_copy(a) for a, _, _ in calls]
+                copies = [_copy(c[0]) for c in calls]
                 t = time.process_time()
-                for c, (_, k, _) in zip(copies, calls):
+                for c, (_, k, _, _) in zip(copies, calls):
                     kernel(*c, **k)
                 total = min(total, time.process_time() - t)
             gc.enable()
@@ -191,6 +208,8 @@ def main(argv=None) -> None:
     ap.add_argument("--models", default="featuretype,t20,screw,U_Joint")
     ap.add_argument("--modes", default="tol", help="tol, paper or tol,paper")
     ap.add_argument("--measure", action="store_true", help="capture with the measurement on")
+    ap.add_argument("--use", help="replay: call this module:function with the captured arguments instead "
+                    "(e.g. a reference implementation)")
     ap.add_argument("--runs", type=int, default=20)
     ap.add_argument("--rounds", type=int, default=2, help="with --src: each tree's replays, interleaved")
     ap.add_argument("--dir", default="/tmp/kernel_replay")
@@ -201,7 +220,7 @@ def main(argv=None) -> None:
         (capture if args.what == "capture" else replay)(args)
         return
     argv = [args.what, args.kernel, "--models", args.models, "--modes", args.modes, "--runs", str(args.runs),
-            "--dir", args.dir] + (["--measure"] if args.measure else [])
+            "--dir", args.dir] + (["--measure"] if args.measure else []) + (["--use", args.use] if args.use else [])
     if args.what == "capture":
         print(_child(argv, args.src[0], None), end="")
         return
