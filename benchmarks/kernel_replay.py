@@ -13,11 +13,11 @@ timed through its compiled caller.
 capture: per model (a part of a file name in ../shared/data/cad) and mode (tolerance 1e-3 of the diagonal, max
 edge: tol = the diagonal, paper = 3 % of it) one warm `tessellate_shell` (with the measurement where ENTRIES or
 `--measure` say), then one of a fresh copy of the shell during which every trimsurf module's name for the kernel
-records each call's arguments (arrays copied before the call), outputs and the array arguments it wrote into:
-DIR/KERNEL/MODEL_MODE.pkl.
+records each call's arguments (pickled at the call; the arrays it writes into as they were before), outputs and
+the arrays it wrote into: DIR/KERNEL/MODEL_MODE.pkl.
 
 replay: each call once, its outputs and written arguments compared bit for bit with the capture's (`same`),
-then `--runs` times with fresh copies of the array arguments: `per-call` = the sum over the calls of each one's
+then `--runs` times with fresh copies of the arrays it writes into: `per-call` = the sum over the calls of each one's
 best (the lesser of wall and process CPU time: the wall clock is finer for a short call, CPU time leaves out the
 waits of a long one on a loaded machine), `total` = the best of max(3, runs // 4) passes over all calls (process
 CPU). Without `--src` in this process (the trimsurf on PYTHONPATH). With `--src` each tree in a child process
@@ -30,6 +30,7 @@ under any tree whose kernel takes the same arguments (pickled objects load with 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import gc
 import importlib
 import json
@@ -73,22 +74,25 @@ MODES = {"tol": 1.0, "paper": 3e-2}      # max edge / diagonal
 
 
 def _flat(x) -> list:
-    """The arrays (and scalars as 0-d arrays) of a call's outputs, in order, for bit comparison."""
+    """The arrays (and scalars as 0-d arrays) of a call's outputs, in order, for bit comparison (objects by their
+    fields; what has no bits, e.g. a function, left out)."""
     if x is None:
         return []
     if isinstance(x, (tuple, list)):
         return [a for v in x for a in _flat(v)]
     if isinstance(x, dict):
         return [a for k in sorted(x) for a in _flat(x[k])]
-    if isinstance(x, np.ndarray) or np.isscalar(x):
-        return [np.array(x, copy=True)]
+    if dataclasses.is_dataclass(x):
+        return _flat([getattr(x, f.name) for f in dataclasses.fields(x)])
     if hasattr(x, "__dict__"):
         return _flat(vars(x))
-    return [np.array(x, copy=True)]
+    a = np.array(x, copy=True)
+    return [] if a.dtype == object else [a]
 
 
-def _copy(args: tuple) -> list:
-    return [a.copy() if isinstance(a, np.ndarray) else a for a in args]
+def _copy(args, only=None) -> list:
+    """The arguments with their arrays copied (only those at the indices `only` if given)."""
+    return [a.copy() if isinstance(a, np.ndarray) and (only is None or i in only) else a for i, a in enumerate(args)]
 
 
 def _same(a: list, b: list) -> bool:
@@ -129,7 +133,9 @@ def capture(args) -> None:
                 res = _real(*a, **k)
                 wrote = [i for i, (x, b) in enumerate(zip(a, before))
                          if isinstance(x, np.ndarray) and not _same([x], [b])]
-                _calls.append((before, k, wrote, [np.copy(o) for o in outputs(res)] + [a[i].copy() for i in wrote]))
+                # pickled now, as they were; the arguments not written into as themselves (caches keyed by identity)
+                call = pickle.dumps(([before[i] if i in wrote else x for i, x in enumerate(a)], k))
+                _calls.append((call, wrote, [np.copy(o) for o in outputs(res)] + [a[i].copy() for i in wrote]))
                 return res
 
             spots = [(m, v) for m in list(sys.modules.values()) if getattr(m, "__name__", "").startswith("trimsurf")
@@ -156,15 +162,16 @@ def replay(args) -> dict:
     res = {}
     for key in args.models.split(","):
         for mode in args.modes.split(","):
-            calls = pickle.loads((Path(args.dir) / args.kernel.replace(":", "_") / f"{key}_{mode}.pkl").read_bytes())
+            path = Path(args.dir) / args.kernel.replace(":", "_") / f"{key}_{mode}.pkl"
+            calls = [(*pickle.loads(call), wrote, ref) for call, wrote, ref in pickle.loads(path.read_bytes())]
             same = True
             for a, k, wrote, ref in calls:
-                c = _copy(a)
+                c = _copy(a, wrote)
                 same &= _same(outputs(kernel(*c, **k)) + [c[i] for i in wrote], ref)
             gc.disable()
             best = np.full(len(calls), np.inf)
             for _ in range(args.runs):
-                copies = [_copy(c[0]) for c in calls]
+                copies = [_copy(a, wrote) for a, _, wrote, _ in calls]
                 for i, (c, (_, k, _, _)) in enumerate(zip(copies, calls)):
                     cpu, wall = time.process_time(), time.perf_counter()
                     kernel(*c, **k)
@@ -172,7 +179,7 @@ def replay(args) -> dict:
                     best[i] = min(best[i], wall, time.process_time() - cpu)
             total = np.inf
             for _ in range(max(3, args.runs // 4)):
-                copies = [_copy(c[0]) for c in calls]
+                copies = [_copy(a, wrote) for a, _, wrote, _ in calls]
                 t = time.process_time()
                 for c, (_, k, _, _) in zip(copies, calls):
                     kernel(*c, **k)
@@ -231,20 +238,16 @@ def main(argv=None) -> None:
             for i, src in enumerate(args.src):
                 runs[i].append(json.loads(_child(argv + ["--json"], src, caches[i]).splitlines()[-1]))
                 print(f"round {r + 1} tree {i} ({src}) done", file=sys.stderr, flush=True)
-    best = [{m: {c: min(x[m][c] for x in tree) for c in ("per_call", "total")} | {
-        "calls": tree[0][m]["calls"], "same": all(x[m]["same"] for x in tree)} for m in tree[0]} for tree in runs]
-    names = [f"tree {i}" for i in range(len(args.src))]
-    print(f"{args.kernel}: best of {args.rounds} rounds x {args.runs} runs, ms; ratio = tree {len(names) - 1} / "
-          "tree 0; " + "; ".join(f"{n} = {s}" for n, s in zip(names, args.src)))
+    best = [{m: {c: min(x[m][c] for x in tree) for c in ("per_call", "total")} for m in tree[0]} for tree in runs]
+    print(f"{args.kernel}: ms, best of {args.rounds} rounds x {args.runs} runs; trees "
+          + ", ".join(map(str, args.src)) + "; ratio = last / first")
     ratios = {"per_call": [], "total": []}
-    for m in best[0]:
-        cells = []
-        for c in ("per_call", "total"):
-            cells.append(" ".join(f"{b[m][c] * 1e3:8.2f}" for b in best))
-            ratios[c].append(best[-1][m][c] / best[0][m][c])
-            cells[-1] += f"  ratio {ratios[c][-1]:.3f}"
-        print(f"{m:18s} calls {best[0][m]['calls']:5d}  per-call {cells[0]}  total {cells[1]}  same "
-              + "/".join(str(b[m]["same"]) for b in best))
+    for m, first in runs[0][0].items():
+        row = f"{m:18s} calls {first['calls']:5d}"
+        for c, v in ratios.items():
+            v.append(best[-1][m][c] / best[0][m][c])
+            row += f"  {c} " + " ".join(f"{b[m][c] * 1e3:8.2f}" for b in best) + f"  ratio {v[-1]:.3f}"
+        print(row + "  same " + "/".join(str(all(x[m]["same"] for x in tree)) for tree in runs))
     print("geometric mean of the ratios: " + "  ".join(
         f"{c} {float(np.exp(np.mean(np.log(v)))):.3f}" for c, v in ratios.items()))
 
