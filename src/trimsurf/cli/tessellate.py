@@ -307,7 +307,8 @@ def run(args: argparse.Namespace) -> int:
             seconds = time.perf_counter() - t0 + read_timing.get("spawn_cost_s", 0.0)
             entries.append(_entry(path, res, seconds) | {
                 "output": written, "faces_skipped_at_read": skipped, "seconds_read": seconds_read,
-                "seconds_read_started_early": read_timing.get("early_start_s", 0.0)} | kernels)
+                "seconds_read_started_early": read_timing.get("early_start_s", 0.0),
+                "read_from_cache": bool(read_timing.get("from_cache"))} | kernels)
             bar.advance(1, description=path.name)
     if unreadable == len(inputs):
         status = EXIT_INPUT

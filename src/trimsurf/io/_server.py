@@ -150,10 +150,13 @@ def server() -> Server:
 
 
 def start_for(path) -> None:
-    """Start the server now (without waiting for it) if reading `path` will go through it and none runs."""
+    """Start the server now (without waiting for it) if reading `path` will go through it and none runs.
+
+    Not when the read will come from the cache (`trimsurf.io._cache`)."""
     if _SERVER is not None and _SERVER.alive():
         return
-    if in_process() or Path(path).suffix.lower() not in _SERVER_SUFFIXES:
+    suffix = Path(path).suffix.lower()
+    if in_process() or suffix not in _SERVER_SUFFIXES or _cached(path):
         return
     with LOCK:
         with contextlib.suppress(OSError):  # no fork/exec possible now: the read itself tries again (and says so)
@@ -184,13 +187,31 @@ def note_read(srv: Server, asked_at: float) -> None:
         srv.early = False  # counted once, with the first read
 
 
+def note_cached_read() -> None:
+    """Record that the read asked for now came from the cache (`take_read_timing`)."""
+    _TIMING.clear()
+    _TIMING["from_cache"] = 1.0
+    if _SERVER is not None and _SERVER.early:
+        _TIMING["spawn_cost_s"] = _SERVER.spawn_cost
+        _SERVER.early = False
+
+
+def _cached(path) -> bool:
+    """Whether reading `path` will come from the cache of read shells."""
+    from . import _cache
+
+    fmt = _cache.FORMATS.get(Path(path).suffix.lower())
+    return fmt is not None and _cache.has(_cache.key(path, fmt))
+
+
 def take_read_timing() -> dict[str, float]:
     """What the last read's server start cost outside the read call, and clear it.
 
     ``spawn_cost_s``: this process's cost of starting the server early (add it to the read's time);
     ``early_start_s``: the server's own start-up that ran before the read was asked for, concurrently
-    with the caller (wall time on another core, not waited for). Empty when the read used a server
-    started by the read itself (its whole start is then inside the read's time) or none.
+    with the caller (wall time on another core, not waited for); ``from_cache``: 1.0 when the shell came
+    from the cache of read shells (`trimsurf.io._cache`), without the server. Empty when the read used a
+    server started by the read itself (its whole start is then inside the read's time) or none.
     """
     out = dict(_TIMING)
     _TIMING.clear()
@@ -198,14 +219,16 @@ def take_read_timing() -> dict[str, float]:
 
 
 def _wants_reader(argv: list[str]) -> bool:
-    """Whether ``trimsurf`` `argv` (without the program) reads a CAD file through the server."""
+    """Whether ``trimsurf`` `argv` (without the program) reads a CAD file through the server.
+
+    A file whose read will come from the cache of read shells (`trimsurf.io._cache`) needs no server."""
     words = [a for a in argv if not a.startswith("-")]
     if not words or words[0] not in _READING_COMMANDS:
         return False
     for word in words[1:]:
         with contextlib.suppress(OSError, ValueError):
             p = Path(word)
-            if p.suffix.lower() in _SERVER_SUFFIXES and p.is_file():
+            if p.suffix.lower() in _SERVER_SUFFIXES and p.is_file() and not _cached(word):
                 return True
             if words[0] == "tessellate" and p.is_dir():
                 if any(q.suffix.lower() in _SERVER_SUFFIXES for q in p.iterdir()):

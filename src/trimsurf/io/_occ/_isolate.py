@@ -35,7 +35,7 @@ import warnings
 from pathlib import Path
 
 from ... import errors
-from .. import _server
+from .. import _cache, _server
 from ...errors import FileFormatError
 from ...model import Shell
 
@@ -97,6 +97,10 @@ def read_isolated(path: str | os.PathLike, fmt: str, error: type[FileFormatError
     """
     if _in_process():
         return convert_file(str(path), fmt)
+    cache_key = _cache.key(path, fmt)
+    message = _cached(cache_key)
+    if message is not None:
+        return _answer(message, path)
     timeout = read_timeout(path)
     fd, answer = tempfile.mkstemp(prefix="trimsurf-read-", suffix=".pickle")
     os.close(fd)
@@ -122,15 +126,38 @@ def read_isolated(path: str | os.PathLike, fmt: str, error: type[FileFormatError
         if message is None:
             how = f"crashed ({_signal_name(-code)})" if code < 0 else f"ended with status {code}"
             raise error(f"{path}: Open CASCADE {how} while reading the {fmt} file (the file is probably malformed)")
+        if message[0] == "ok":
+            _cache.store(cache_key, answer, path)
     finally:
         with contextlib.suppress(OSError):
             os.unlink(answer)
+    return _answer(message, path)
+
+
+def _cached(cache_key: str | None):
+    """The answer a child gave for the same file and code (`trimsurf.io._cache`), or None."""
+    data = _cache.load(cache_key)
+    if data is None:
+        return None
+    try:
+        message = pickle.loads(data)
+        if message[0] != "ok" or not isinstance(message[1], Shell):
+            raise ValueError("not a read shell")
+    except Exception:  # noqa: BLE001 - a damaged entry: read the file again
+        _cache.drop(cache_key)
+        return None
+    _server.note_cached_read()
+    return message
+
+
+def _answer(message: tuple, path) -> Shell:
+    """The shell of a child's answer (its warnings given again), or its error raised."""
     kind = message[0]
     if kind == "ok":
         _, shell, caught = message
         for category_name, text in caught:
             category = getattr(errors, category_name, errors.TrimsurfWarning)
-            warnings.warn(text, category, stacklevel=3)
+            warnings.warn(text, category, stacklevel=4)
         return shell
     _, class_name, text = message
     if class_name == "KeyboardInterrupt":
