@@ -120,6 +120,26 @@ def test_errors_are_not_kept_and_damaged_entries_are_read_again(shared_data, cac
     assert entry.stat().st_size > 100  # stored again
 
 
+def test_any_edit_of_the_code_changes_its_key(tmp_path):
+    pkg = tmp_path / "pkg"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "a.py").write_text("x = 1\n")
+    (pkg / "sub" / "b.py").write_text("y = 2\n")
+    (pkg / "data.txt").write_text("not code")
+    keys = {_cache.sources_key(pkg)}
+    (pkg / "data.txt").write_text("not code, changed")
+    assert _cache.sources_key(pkg) in keys  # only .py files count
+    st = (pkg / "sub" / "b.py").stat()
+    os.utime(pkg / "sub" / "b.py", ns=(st.st_atime_ns, st.st_mtime_ns + 1))  # touched
+    keys.add(_cache.sources_key(pkg))
+    (pkg / "a.py").write_text("x = 12\n")  # edited
+    keys.add(_cache.sources_key(pkg))
+    (pkg / "sub" / "c.py").write_text("")  # a new module
+    keys.add(_cache.sources_key(pkg))
+    assert len(keys) == 4
+    assert len(_cache.code_key()) == 32
+
+
 def test_cache_off_keeps_nothing(shared_data, tmp_path, monkeypatch):
     monkeypatch.setenv("TRIMSURF_READ_CACHE", "0")
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))

@@ -72,14 +72,7 @@ def code_key() -> str:
     if _code_key is None:
         h = hashlib.blake2b(digest_size=16)
         h.update(sys.version.encode())
-        root = Path(__file__).resolve().parents[1]
-        for folder, dirs, files in os.walk(root):
-            dirs[:] = sorted(d for d in dirs if d != "__pycache__")
-            for name in sorted(files):
-                if name.endswith(".py"):
-                    p = os.path.join(folder, name)
-                    st = os.stat(p)
-                    h.update(f"{os.path.relpath(p, root)}\0{st.st_size}\0{st.st_mtime_ns}\n".encode())
+        h.update(sources_key(Path(__file__).resolve().parents[1]).encode())
         import importlib.util
 
         for package in ("OCP", "numpy"):
@@ -92,6 +85,19 @@ def code_key() -> str:
                         h.update(f"{p}\0{st.st_size}\0{st.st_mtime_ns}\n".encode())
         _code_key = h.hexdigest()
     return _code_key
+
+
+def sources_key(root: Path) -> str:
+    """A digest of the relative path, size and modification time of every ``.py`` file under `root`."""
+    h = hashlib.blake2b(digest_size=16)
+    for folder, dirs, files in os.walk(root):
+        dirs[:] = sorted(d for d in dirs if d != "__pycache__")
+        for name in sorted(files):
+            if name.endswith(".py"):
+                p = os.path.join(folder, name)
+                st = os.stat(p)
+                h.update(f"{os.path.relpath(p, root)}\0{st.st_size}\0{st.st_mtime_ns}\n".encode())
+    return h.hexdigest()
 
 
 def key(path: str | os.PathLike, fmt: str) -> str | None:
