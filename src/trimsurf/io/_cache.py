@@ -30,7 +30,6 @@ import contextlib
 import hashlib
 import os
 import sys
-import tempfile
 from pathlib import Path
 
 __all__ = ["cache_dir", "key", "load", "store", "FORMATS"]
@@ -165,6 +164,8 @@ def store(k: str | None, answer: str | os.PathLike, path: str | os.PathLike) -> 
         text = os.fspath(path)
         if _made.get(k) != (text, _stat_key(text)):
             return  # the file changed during the read
+        import tempfile
+
         entry.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
         data = Path(answer).read_bytes()
         fd, tmp = tempfile.mkstemp(dir=entry.parent, prefix=".tmp-", suffix=_SUFFIX)

@@ -201,7 +201,8 @@ def _cached(path) -> bool:
     from . import _cache
 
     fmt = _cache.FORMATS.get(Path(path).suffix.lower())
-    return fmt is not None and _cache.has(_cache.key(path, fmt))
+    folder = _cache.cache_dir()
+    return fmt is not None and folder is not None and folder.is_dir() and _cache.has(_cache.key(path, fmt))
 
 
 def take_read_timing() -> dict[str, float]:
