@@ -2,9 +2,15 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
+
+# the suite reads every file for real (the reader server, Open CASCADE): no shells from an earlier run's
+# cache of read shells (trimsurf.io._cache), none written into ~/.cache; tests/io/test_read_cache.py
+# gives the cache its own folder
+os.environ["TRIMSURF_READ_CACHE"] = "0"
 
 _REPO = Path(__file__).resolve().parents[1]
 
