@@ -7,7 +7,12 @@ Three steps, each run with the checkout's ``src`` first on PYTHONPATH:
    (shell, result) per run into DIR (34 files);
 2. ``figures DIR OUT.json``: on each pickled mesh, `measure_result` (the report's figures) and
    `shell_deviation(density=3, n_domain=32)` (the benchmark's metric), every float as its repr;
-3. ``compare A.json B.json``: the rows whose figures differ, field by field (timings left out).
+3. ``compare A.json B.json [--rel R]``: the rows whose figures differ, field by field (timings left out).
+   With ``--rel R`` (session 29: the figures may move in the last bits), a float field whose relative
+   difference is at most R counts as the same; every other difference is printed with its relative
+   size and whether B is larger (for a deviation or its bound: conservative) or SMALLER; the exit code is
+   0 when no deviation figure of B is smaller than A's beyond R and every other field but
+   ``deviation_samples`` (a count of the work) is equal.
 
 Usage:
     PYTHONPATH=/old/src python benchmarks/measure_same.py meshes /tmp/m
@@ -67,6 +72,49 @@ def figures(folder: str, out: str) -> None:
     Path(out).write_text(json.dumps(rows, indent=1))
 
 
+def compare_rel(a_path: str, b_path: str, rel: float) -> int:
+    """`compare` with floats equal within `rel` (relative); see the module docstring."""
+    a, b = json.loads(Path(a_path).read_text()), json.loads(Path(b_path).read_text())
+    same = bad = larger = 0
+    for k, ra in a.items():
+        rb = b.get(k)
+        if rb is None:
+            print("missing", k)
+            bad += 1
+            continue
+        notes = []
+        for f, va in ra.items():
+            vb = rb.get(f)
+            if f.startswith("_") or "second" in f or va == vb:
+                continue
+            if f == "deviation_samples":
+                notes.append(f"{f} {va} -> {vb}")
+                continue
+            try:
+                x, y = float(va), float(vb)
+            except (TypeError, ValueError):
+                notes.append(f"{f} {va!r} -> {vb!r} DIFFERENT")
+                bad += 1
+                continue
+            r = (y - x) / abs(x) if x else float("inf")
+            if abs(r) <= rel:
+                continue
+            dev = "deviation" in f or f.startswith("sd_max") or f.startswith("sd_rms")
+            if dev and y > x:
+                notes.append(f"{f} {va} -> {vb} ({r:+.2e}, larger)")
+                larger += 1
+            else:
+                notes.append(f"{f} {va} -> {vb} ({r:+.2e}, {'SMALLER' if dev else 'DIFFERENT'})")
+                bad += 1
+        if notes:
+            print(k, "; ".join(notes))
+        if not any("larger" in n or "SMALLER" in n or "DIFFERENT" in n for n in notes):
+            same += 1
+    print(f"rows with every figure within {rel:g} relative: {same} / {len(a)}; larger figures {larger}, "
+          f"smaller or different {bad}")
+    return 0 if bad == 0 else 1
+
+
 def compare(a_path: str, b_path: str) -> int:
     a, b = json.loads(Path(a_path).read_text()), json.loads(Path(b_path).read_text())
     same = 0
@@ -91,6 +139,8 @@ if __name__ == "__main__":
     elif cmd == "figures":
         figures(*args)
     elif cmd == "compare":
+        if len(args) == 4 and args[2] == "--rel":
+            sys.exit(compare_rel(args[0], args[1], float(args[3])))
         sys.exit(compare(*args))
     else:
         sys.exit(__doc__)

@@ -93,7 +93,7 @@ def _left_pending(mesh, shell, monkeypatch, scale=1.0):
     done = D._complete_face
 
     def spy(devs, st, info_i, i, g, tol_rel):
-        pts, c, s_rows, t_rows = st.pending
+        pts, c, s_rows, t_rows = st.pending[:4]
         done(devs, st, info_i, i, scale * g, tol_rel)
         beta, _, kap = info_i[:3]
         val = D.project_to_face(pts, st.face, tol_rel=tol_rel).distance

@@ -121,6 +121,100 @@ def project_to_face(points, face, *, tol_rel: float = 1e-10, uv0=None, skip_belo
                               compiled=True, skip_below=skip_below)
 
 
+#: `_project_warm`'s rounding allowance on its distance test, relative to the bound
+WARM_BOUND_SLACK = 1e-9
+
+
+def _corner_bound(mesh: TriMesh, samples, rows: np.ndarray, vd: np.ndarray) -> np.ndarray:
+    """Per sample row of `samples` (of `mesh`): ``min_j |p - P_j| + d_j`` over its triangle's corners P_j
+    with their distances d_j (`vd`, per vertex) to the surface. The foot S(x_j) of a corner is a surface
+    point within that of p, so the sample's distance to the surface is at most this value."""
+    t = mesh.triangles[samples.triangle[rows]]
+    r = mesh.vertices[t] - samples.points[rows][:, None, :]
+    return np.min(np.sqrt(np.einsum("njd,njd->nj", r, r)) + vd[t], axis=1)
+
+
+def _project_warm(points: np.ndarray, face, uv0: np.ndarray, bound: np.ndarray, tol_rel: float,
+                  reach: np.ndarray | None = None):
+    """(distance, uv, converged) of the points (n, 3) on the face's surface, each from one Newton run
+    warm-started at `uv0` (n, 2) (for a sample of a triangle: the same barycentric combination of its
+    corners' feet) where that run converges inside the domain (not on a domain edge) at a distance
+    within `bound` (`_corner_bound`); the others (and rows with a non-finite start) with the full
+    search from the seeds (`project_to_face` without a start, its numbers).
+
+    What a warm value is: the distance |p - S(x)| to a surface point, so never below the true distance;
+    where the run converges to the foot the full search finds, the same foot to the iteration's
+    tolerance (the distance to ~1e-12 relative, the last step bringing it to rounding). Where it
+    converges to another local minimum (the full search's seed query, crease restarts and far-seed
+    retries are not made), the value is larger than the true distance: a mesh -> surface sample can
+    only be reported high, never low (conservative). A run that ends beyond `bound` is in another basin
+    for sure, and one on a domain edge may be (a start across a periodic seam lands mid-domain): both
+    are searched in full. So is a run whose foot moved farther from its start, in either parameter, than
+    `reach` (n, 2) (for a triangle's sample: its corners' feet's largest distance from the start in that
+    parameter; the foot of a point of a triangle that follows its face lies among its corners' feet): it
+    left the triangle's footprint, where another basin may be (a surface folding back within a seed
+    cell, occt__linkrods.step)."""
+    n = len(points)
+    d = np.empty(n)
+    uv = np.empty((n, 2))
+    conv = np.zeros(n, dtype=bool)
+    good = np.all(np.isfinite(uv0), axis=1) if n else np.zeros(0, dtype=bool)
+    g = np.flatnonzero(good)
+    if len(g):
+        # skip_below = inf: every converged warm run is final (`geom.projection._solve`)
+        pr = project_to_face(points[g], face, tol_rel=tol_rel, uv0=uv0[g], skip_below=np.full(len(g), np.inf))
+        d[g], uv[g], conv[g] = pr.distance, pr.uv, pr.converged
+        bad = pr.on_boundary | ~(pr.distance <= bound[g] * (1.0 + WARM_BOUND_SLACK))
+        if reach is not None:
+            bad |= np.any(np.abs(pr.uv - uv0[g]) > reach[g] * (1.0 + WARM_BOUND_SLACK), axis=1)
+        good[g[bad]] = False
+    rest = np.flatnonzero(~good)
+    if len(rest):
+        pr = project_to_face(points[rest], face, tol_rel=tol_rel)
+        d[rest], uv[rest], conv[rest] = pr.distance, pr.uv, pr.converged
+    return d, uv, conv
+
+
+def _first_pass(mesh: TriMesh, face, samples, rows: np.ndarray, tol_rel: float):
+    """The first pass's projections of the sample rows `rows`: (distance, uv, converged) per row. The
+    vertices (kind 0) with the full search; every other row warm-started from its triangle's corners'
+    feet (`_warm_samples`)."""
+    rows = np.asarray(rows, dtype=np.int64)
+    n = len(rows)
+    d = np.empty(n)
+    uv = np.empty((n, 2))
+    conv = np.zeros(n, dtype=bool)
+    isv = samples.kind[rows] == 0
+    v = np.flatnonzero(isv)
+    pv = project_to_face(samples.points[rows[v]], face, tol_rel=tol_rel)
+    d[v], uv[v], conv[v] = pv.distance, pv.uv, pv.converged
+    o = np.flatnonzero(~isv)
+    if len(o):
+        d[o], uv[o], conv[o] = _warm_samples(mesh, face, samples, rows[o], rows[v], pv.distance, pv.uv, tol_rel)
+    return d, uv, conv
+
+
+def _warm_samples(mesh: TriMesh, face, samples, rows: np.ndarray, k0: np.ndarray, vdist: np.ndarray,
+                  vfeet: np.ndarray, tol_rel: float):
+    """`_project_warm` of the sample rows `rows` (no vertices), started from the same barycentric
+    combination of their triangle's corners' feet, given the vertex sample rows `k0` projected with
+    their distances `vdist` and feet `vfeet`."""
+    vuv = np.full((mesh.n_vertices, 2), np.nan)
+    vd = np.full(mesh.n_vertices, np.inf)
+    vuv[samples.element[k0]] = vfeet
+    vd[samples.element[k0]] = vdist
+    cuv = vuv[mesh.triangles[samples.triangle[rows]]]
+    uv0 = np.einsum("kj,kjd->kd", samples.barycentric[rows], cuv)
+    return _project_warm(samples.points[rows], face, uv0, _corner_bound(mesh, samples, rows, vd), tol_rel,
+                         _reach(cuv, uv0))
+
+
+def _reach(cuv: np.ndarray, uv0: np.ndarray) -> np.ndarray:
+    """Per start uv0 (n, 2) inside its triangle's corners' feet cuv (n, 3, 2): the largest distance from it
+    to a corner's foot in each parameter (`_project_warm`'s ``reach``)."""
+    return np.max(np.abs(cuv - uv0[:, None, :]), axis=1)
+
+
 def surface_deviation(mesh: TriMesh, target, *, density: int = 4, n_domain: int = 64, two_sided: bool = True,
                       tol_rel: float = 1e-10, trim_tol_uv: float | None = None,
                       refine: float | None = None) -> Deviation:
@@ -263,23 +357,34 @@ def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, tw
         # the mesh's per-vertex (u, v), interpolated at the samples, warm-starts the projection
         uv0 = None if mesh.uv is None else np.einsum("kj,kjd->kd", samples.barycentric,
                                                       mesh.uv[mesh.triangles[samples.triangle]])
-        proj = project_to_face(samples.points, face, tol_rel=tol_rel, uv0=uv0)
-        d = proj.distance
-        puv = proj.uv
-        n_conv = int(np.count_nonzero(~proj.converged))
+        if adaptive and uv0 is None and WARM_FIRST_PASS:
+            # the vertices in full, the other samples from their corners' feet (`_first_pass`)
+            d, puv, conv = _first_pass(mesh, face, samples, np.arange(len(samples.points)), tol_rel)
+            n_conv = int(np.count_nonzero(~conv))
+        else:
+            proj = project_to_face(samples.points, face, tol_rel=tol_rel, uv0=uv0)
+            d = proj.distance
+            puv = proj.uv
+            n_conv = int(np.count_nonzero(~proj.converged))
         sel = None
     else:
         samples, uv0 = pre.samples, pre.uv0
         skip = pre.apriori <= skip_at
         sel = _kept_rows(mesh, samples, skip, density)
         rest = sel[samples.kind[sel] != 0]
-        pr = project_to_face(samples.points[rest], face, tol_rel=tol_rel, uv0=None if uv0 is None else uv0[rest])
         n = len(samples.points)
         d = np.full(n, -np.inf)
         puv = np.full((n, 2), np.nan)
         d[pre.k0], puv[pre.k0] = pre.vproj.distance, pre.vproj.uv
-        d[rest], puv[rest] = pr.distance, pr.uv
-        n_conv = int(np.count_nonzero(~pre.vproj.converged) + np.count_nonzero(~pr.converged))
+        if uv0 is None and WARM_FIRST_PASS:
+            # from the corners' feet (the vertices are projected already)
+            d[rest], puv[rest], conv = _warm_samples(mesh, face, samples, rest, pre.k0, pre.vproj.distance,
+                                                     pre.vproj.uv, tol_rel)
+        else:
+            pr = project_to_face(samples.points[rest], face, tol_rel=tol_rel,
+                                 uv0=None if uv0 is None else uv0[rest])
+            d[rest], puv[rest], conv = pr.distance, pr.uv, pr.converged
+        n_conv = int(np.count_nonzero(~pre.vproj.converged) + np.count_nonzero(~conv))
     if sel is None:
         mx, rms, where = _stats(d, samples.points)
         n_mesh = len(d)
@@ -374,6 +479,10 @@ def _grid_points(surface, uv: np.ndarray) -> np.ndarray:
     return out
 
 
+#: the report's first pass (`_surface_deviation` with ``adaptive``) projects the samples other than the
+#: vertices from their corners' feet (`_first_pass`, `_project_warm`); False: every sample with the full search
+WARM_FIRST_PASS = True
+
 #: faces with at least this many triangles take `_first_pass_lazy` (`_shell_deviation` with ``skip``): below,
 #: its second projection call costs more than the projections it saves
 LAZY_MIN_TRIANGLES = 128
@@ -391,8 +500,9 @@ def _first_pass_lazy(mesh: TriMesh, face, tol_rel: float):
     projected now (it is *pending*) when c(w) is below the largest vertex or centroid value of the face
     M1 and every triangle on its edge passes the refinement's footprint test with the values measured
     so far (``|S(centre) - centroid| <= 2 R + 2 L_t``, `refine_deviation`; it then passes with any
-    larger value). Everything else is projected as before (the full search, restarts included), and
-    every projection is point by point, so the measured values are those of projecting all samples.
+    larger value). Everything else is projected as in `_first_pass` (the vertices with the full search,
+    the rest warm-started from their corners' feet, `_project_warm`), and every projection is point by
+    point, so the measured values are those of projecting all samples that way.
 
     What this leaves unchanged: the face's largest mesh sample (a pending node is below M1, a value the
     face reaches), so every maximum, skipping threshold and face order of `_shell_deviation`; every
@@ -408,13 +518,18 @@ def _first_pass_lazy(mesh: TriMesh, face, tol_rel: float):
     kind = samples.kind
     n = len(samples.points)
     first = np.flatnonzero(kind != 1)               # vertices and centroids (density 3: the interior node)
-    p1 = project_to_face(samples.points[first], face, tol_rel=tol_rel)
     d = np.full(n, -np.inf)
     puv = np.full((n, 2), np.nan)
-    d[first], puv[first] = p1.distance, p1.uv
-    n_conv = int(np.count_nonzero(~p1.converged))
+    if WARM_FIRST_PASS:
+        d1, uv1, c1 = _first_pass(mesh, face, samples, first, tol_rel)
+    else:
+        p1 = project_to_face(samples.points[first], face, tol_rel=tol_rel)
+        d1, uv1, c1 = p1.distance, p1.uv, p1.converged
+    d[first], puv[first] = d1, uv1
+    n_conv = int(np.count_nonzero(~c1))
     e1 = np.flatnonzero(kind == 1)
-    m1 = float(np.max(p1.distance)) if len(first) else -np.inf
+    m1 = float(np.max(d1)) if len(first) else -np.inf
+    uv_e = None
     pend = np.zeros(0, dtype=np.int64)
     if len(e1) and np.isfinite(m1):
         k0 = first[kind[first] == 0]
@@ -441,11 +556,19 @@ def _first_pass_lazy(mesh: TriMesh, face, tol_rel: float):
         low = (c < m1) & node_ok[e1]
         pend = e1[low]
         c_pend = c[low]
+        uv_pend = uv_e[low]
         e1 = e1[~low]
+        uv_e = uv_e[~low]
     if len(e1):
-        p2 = project_to_face(samples.points[e1], face, tol_rel=tol_rel)
-        d[e1], puv[e1] = p2.distance, p2.uv
-        n_conv += int(np.count_nonzero(~p2.converged))
+        if WARM_FIRST_PASS and uv_e is not None:
+            vd = np.full(mesh.n_vertices, np.inf)
+            vd[samples.element[k0]] = d[k0]
+            d[e1], puv[e1], c2 = _project_warm(samples.points[e1], face, uv_e, _corner_bound(mesh, samples, e1, vd),
+                                               tol_rel, _reach(cuv[samples.triangle[e1]], uv_e))
+        else:
+            p2 = project_to_face(samples.points[e1], face, tol_rel=tol_rel)
+            d[e1], puv[e1], c2 = p2.distance, p2.uv, p2.converged
+        n_conv += int(np.count_nonzero(~c2))
     if not len(pend):
         return samples, d, puv, n_conv, None, None
     keep = np.ones(n, dtype=bool)
@@ -453,7 +576,11 @@ def _first_pass_lazy(mesh: TriMesh, face, tol_rel: float):
     pos = np.full(n, -1, dtype=np.int64)
     pos[pend] = np.arange(len(pend))
     hit = pos[s_i] >= 0
-    pending = (samples.points[pend], c_pend, pos[s_i][hit], t_i[hit])
+    vd = np.full(mesh.n_vertices, np.inf)
+    vd[samples.element[k0]] = d[k0]
+    # the pending nodes' warm starts and corner bounds, for `_complete_face`
+    pending = (samples.points[pend], c_pend, pos[s_i][hit], t_i[hit], uv_pend, _corner_bound(mesh, samples, pend, vd),
+               _reach(cuv[samples.triangle[pend]], uv_pend))
     return samples, d, puv, n_conv, np.flatnonzero(keep), pending
 
 
@@ -482,7 +609,7 @@ def _complete_first_pass(devs: list, states: list, info: dict, live: list, tol_r
 
 def _complete_face(devs: list, st, info_i: tuple, i: int, g: float, tol_rel: float) -> None:
     """`_complete_first_pass` for one face state, with G = `g`."""
-    pts, c, s_rows, t_rows = st.pending
+    pts, c, s_rows, t_rows, uv_pend, b_pend, r_pend = st.pending
     st.pending = None
     beta, _, kap = info_i[:3]
     u = st.tri_max.copy()
@@ -495,18 +622,22 @@ def _complete_face(devs: list, st, info_i: tuple, i: int, g: float, tol_rel: flo
     idx = np.flatnonzero(node_need)
     if not len(idx):
         return
-    pr = project_to_face(pts[idx], st.face, tol_rel=tol_rel)
+    if WARM_FIRST_PASS:
+        dist, _, conv = _project_warm(pts[idx], st.face, uv_pend[idx], b_pend[idx], tol_rel, r_pend[idx])
+    else:
+        pr = project_to_face(pts[idx], st.face, tol_rel=tol_rel)
+        dist, conv = pr.distance, pr.converged
     val = np.full(len(pts), -np.inf)
-    val[idx] = pr.distance
+    val[idx] = dist
     np.maximum.at(st.tri_max, t_rows, val[s_rows])
     dev = devs[i]
-    j = int(np.argmax(pr.distance))
+    j = int(np.argmax(dist))
     mx, where = dev.max_mesh_to_target, dev.where_mesh_to_target
-    if pr.distance[j] > mx:         # not expected: a pending node is below the face's largest value
-        mx, where = float(pr.distance[j]), pts[idx[j]].copy()
+    if dist[j] > mx:         # not expected: a pending node is below the face's largest value
+        mx, where = float(dist[j]), pts[idx[j]].copy()
     devs[i] = replace(dev, max_mesh_to_target=mx, where_mesh_to_target=where,
                       n_mesh_samples=dev.n_mesh_samples + len(idx),
-                      n_not_converged=dev.n_not_converged + int(np.count_nonzero(~pr.converged)),
+                      n_not_converged=dev.n_not_converged + int(np.count_nonzero(~conv)),
                       max_two_sided=float(np.nanmax([mx, dev.max_target_to_mesh])))
 
 
@@ -1099,7 +1230,9 @@ def refine_deviation(devs: list, states: list, *, rel: float = 0.01, tol_rel: fl
     between them (sampled, not proven), (b) surface -> mesh, the nearest mesh
     point lies in the plane of a triangle (near a convex mesh edge the
     distance is the edge's, convex across it, whose maximum the edge samples
-    catch), and (c) the projection finds the global foot. Gaps in the mesh
+    catch), and (c) the projection finds the global foot (the first pass's edge nodes and centroids
+    are one Newton run from their corners' feet, `_project_warm`: where that run ends at another local
+    minimum their value is above the true distance, conservative for the mesh -> surface side). Gaps in the mesh
     wider than about one triangle are caught by the (u, v) grid that follows
     the triangles' size (`_footprint_grid`); surface samples farther than
     half the maximum are kept only inside fine trim polygons (`_drop_outside`).
