@@ -89,9 +89,7 @@ def _same(a, b):
 @pytest.mark.parametrize("name, edge, broken", [("occt__screw.step", 1.0, 0.3), ("trimesh__featuretype.STEP", 3e-2, 0.7)])
 def test_same_figures_with_and_without_pruning(shared_data, monkeypatch, name, edge, broken):
     shell, res = _tessellate(shared_data, name, edge)
-    # the refinement's pruning alone: first-pass nodes are all projected (their own pruning, which leaves
-    # some triangles' largest values lower, is tests/quality/test_first_pass_lazy.py)
-    monkeypatch.setattr(D, "LAZY_MIN_TRIANGLES", 10 ** 9)
+    # the refinement's pruning (the first pass projects every node)
     pruned = _figures(res.mesh, shell)
     bound = D._chord_bound
     with monkeypatch.context() as m:

@@ -346,13 +346,7 @@ def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, tw
     _check_mesh(mesh, "surface_deviation")
     face = as_face(target)
     skip = None
-    pending = None
-    lazy = (prune and adaptive and two_sided and pre is None and density == 3 and mesh.uv is None
-            and mesh.n_triangles >= LAZY_MIN_TRIANGLES)
-    if lazy:
-        samples, d, puv, n_conv, sel, pending = _first_pass_lazy(mesh, face, tol_rel)
-        uv0 = None
-    elif pre is None:
+    if pre is None:
         samples = sample_triangles(mesh, density=density)
         # the mesh's per-vertex (u, v), interpolated at the samples, warm-starts the projection
         uv0 = None if mesh.uv is None else np.einsum("kj,kjd->kd", samples.barycentric,
@@ -445,8 +439,6 @@ def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, tw
         if skip is not None:
             state.skip, state.apriori = skip, pre.apriori
         state.prune = bool(prune)
-        if pending is not None:
-            state.pending = pending       # `_complete_first_pass`, from `refine_deviation`
         if density % 3 == 0:    # the centroid (1, 1, 1) / 3 is a node of the grid: kept for `flipped_against_normal`
             k = density // 3
             cen = np.flatnonzero((samples.kind == 2) & np.all(np.rint(samples.barycentric * density) == k, axis=1))
@@ -482,164 +474,6 @@ def _grid_points(surface, uv: np.ndarray) -> np.ndarray:
 #: the report's first pass (`_surface_deviation` with ``adaptive``) projects the samples other than the
 #: vertices from their corners' feet (`_first_pass`, `_project_warm`); False: every sample with the full search
 WARM_FIRST_PASS = True
-
-#: faces with at least this many triangles take `_first_pass_lazy` (`_shell_deviation` with ``skip``): below,
-#: its second projection call costs more than the projections it saves
-LAZY_MIN_TRIANGLES = 128
-
-
-def _first_pass_lazy(mesh: TriMesh, face, tol_rel: float):
-    """The first pass's mesh samples (density 3) with the edge nodes that provably cannot matter left for
-    later: (samples, d, puv, n_not_converged, measured rows, pending) as `_surface_deviation` uses them.
-
-    The vertices and centroids are projected first (every centroid's foot serves
-    `flipped_against_normal`). Each edge node p(w) then has its chord bound c(w) = |S(x(w)) - p(w)| +
-    slack (`_chord_bound`; x(w) the same combination of its edge's corners' feet): S(x(w)) is a surface
-    point, so the node's distance to the surface is at most c(w), and so is the distance of the surface
-    point S(x(w)) to the mesh (the refinement's footprint sample at the same node). A node is not
-    projected now (it is *pending*) when c(w) is below the largest vertex or centroid value of the face
-    M1 and every triangle on its edge passes the refinement's footprint test with the values measured
-    so far (``|S(centre) - centroid| <= 2 R + 2 L_t``, `refine_deviation`; it then passes with any
-    larger value). Everything else is projected as in `_first_pass` (the vertices with the full search,
-    the rest warm-started from their corners' feet, `_project_warm`), and every projection is point by
-    point, so the measured values are those of projecting all samples that way.
-
-    What this leaves unchanged: the face's largest mesh sample (a pending node is below M1, a value the
-    face reaches), so every maximum, skipping threshold and face order of `_shell_deviation`; every
-    triangle's footprint test (so the same footprint samples and curvature bounds). What waits: a
-    triangle's largest sample D_t, which `_complete_first_pass` settles once the curvature bounds and
-    the maximum G over all faces are known, before any refinement decision.
-
-    One case could differ from projecting every node, as in `_chord_bound`: a projection whose global
-    search misses the nearest foot returns more than the true distance, possibly more than c(w); a
-    pending node then keeps the lower (truer) value (not seen on the 34 shared runs).
-    """
-    samples = sample_triangles(mesh, density=3)
-    kind = samples.kind
-    n = len(samples.points)
-    first = np.flatnonzero(kind != 1)               # vertices and centroids (density 3: the interior node)
-    d = np.full(n, -np.inf)
-    puv = np.full((n, 2), np.nan)
-    if WARM_FIRST_PASS:
-        d1, uv1, c1 = _first_pass(mesh, face, samples, first, tol_rel)
-    else:
-        p1 = project_to_face(samples.points[first], face, tol_rel=tol_rel)
-        d1, uv1, c1 = p1.distance, p1.uv, p1.converged
-    d[first], puv[first] = d1, uv1
-    n_conv = int(np.count_nonzero(~c1))
-    e1 = np.flatnonzero(kind == 1)
-    m1 = float(np.max(d1)) if len(first) else -np.inf
-    uv_e = None
-    pend = np.zeros(0, dtype=np.int64)
-    if len(e1) and np.isfinite(m1):
-        k0 = first[kind[first] == 0]
-        vert_uv = np.full((mesh.n_vertices, 2), np.nan)
-        vert_uv[samples.element[k0]] = puv[k0]
-        t = mesh.triangles
-        cuv = vert_uv[t]
-        uv_e = np.einsum("kj,kjd->kd", samples.barycentric[e1], cuv[samples.triangle[e1]])
-        c = _chord_bound(face.surface, uv_e, samples.points[e1], tol_rel)
-        # the refinement's footprint test (`refine_deviation`: corners' feet finite, the (u, v) centre's
-        # surface point within 2 R + 2 D_t of the centroid), passed with the values so far L_t <= D_t
-        s_i, t_i = samples.incidence(mesh)
-        lo_t = np.full(len(t), -np.inf)
-        np.maximum.at(lo_t, t_i, d[s_i])             # `per_triangle_max` of the values so far
-        p = mesh.vertices[t]
-        good = np.all(np.isfinite(cuv.reshape(len(t), -1)), axis=1)
-        if good.any():
-            r = _enclosing_radius(p[good])
-            c3 = face.surface.evaluate(cuv[good].mean(axis=1))
-            good[good] = np.linalg.norm(c3 - p[good].mean(axis=1), axis=1) <= (
-                (2.0 * r + 2.0 * np.maximum(lo_t[good], 0.0)) * (1.0 - 1e-12))
-        node_ok = np.ones(n, dtype=bool)
-        node_ok[s_i[~good[t_i]]] = False
-        low = (c < m1) & node_ok[e1]
-        pend = e1[low]
-        c_pend = c[low]
-        uv_pend = uv_e[low]
-        e1 = e1[~low]
-        uv_e = uv_e[~low]
-    if len(e1):
-        if WARM_FIRST_PASS and uv_e is not None:
-            vd = np.full(mesh.n_vertices, np.inf)
-            vd[samples.element[k0]] = d[k0]
-            d[e1], puv[e1], c2 = _project_warm(samples.points[e1], face, uv_e, _corner_bound(mesh, samples, e1, vd),
-                                               tol_rel, _reach(cuv[samples.triangle[e1]], uv_e))
-        else:
-            p2 = project_to_face(samples.points[e1], face, tol_rel=tol_rel)
-            d[e1], puv[e1], c2 = p2.distance, p2.uv, p2.converged
-        n_conv += int(np.count_nonzero(~c2))
-    if not len(pend):
-        return samples, d, puv, n_conv, None, None
-    keep = np.ones(n, dtype=bool)
-    keep[pend] = False
-    pos = np.full(n, -1, dtype=np.int64)
-    pos[pend] = np.arange(len(pend))
-    hit = pos[s_i] >= 0
-    vd = np.full(mesh.n_vertices, np.inf)
-    vd[samples.element[k0]] = d[k0]
-    # the pending nodes' warm starts and corner bounds, for `_complete_face`
-    pending = (samples.points[pend], c_pend, pos[s_i][hit], t_i[hit], uv_pend, _corner_bound(mesh, samples, pend, vd),
-               _reach(cuv[samples.triangle[pend]], uv_pend))
-    return samples, d, puv, n_conv, np.flatnonzero(keep), pending
-
-
-def _complete_first_pass(devs: list, states: list, info: dict, live: list, tol_rel: float) -> None:
-    """Project the pending first-pass nodes (`_first_pass_lazy`) of the face states `live` that could matter,
-    once `refine_deviation` has the curvature bounds (beta_t, kappa_t in ``info[i]``) and the footprint
-    samples.
-
-    With U_t = max(the triangle's largest value so far, the chord bounds of its pending nodes) >= D_t
-    (its largest value with every node projected; the footprint samples are in the first term), a
-    triangle whose bound ``U_t + beta_t / (max(1 - kappa_t U_t, 0.5) k^2)`` is at most G (the largest
-    sample over all faces now) has B_t <= G with the true D_t as well (the bound grows with D_t): it is
-    never refined (the refinement asks for B_t > (1 + rel) G', G' >= G), and its bound stays below the
-    reported one (``max(B_t, G)`` over all triangles). Its pending nodes stay unmeasured; its B_t from
-    the values it has is lower still. Every other triangle's pending nodes are projected now (full
-    search, the values they would have had), so its D_t, refinement and bound are as without pending
-    nodes. No maximum changes: a pending node is below its face's largest mesh sample.
-    """
-    todo = [i for i in live if getattr(states[i], "pending", None) is not None]
-    if not todo:
-        return
-    g = max(float(np.nanmax([dv.max_two_sided, 0.0])) for dv in devs if dv is not None)
-    for i in todo:
-        _complete_face(devs, states[i], info[i], i, g, tol_rel)
-
-
-def _complete_face(devs: list, st, info_i: tuple, i: int, g: float, tol_rel: float) -> None:
-    """`_complete_first_pass` for one face state, with G = `g`."""
-    pts, c, s_rows, t_rows, uv_pend, b_pend, r_pend = st.pending
-    st.pending = None
-    beta, _, kap = info_i[:3]
-    u = st.tri_max.copy()
-    np.maximum.at(u, t_rows, c[s_rows])
-    with np.errstate(invalid="ignore"):
-        b = u + beta / np.maximum(1.0 - kap * u, 0.5) / st.density ** 2
-    need = ~(b <= g)
-    node_need = np.zeros(len(pts), dtype=bool)
-    np.logical_or.at(node_need, s_rows, need[t_rows])
-    idx = np.flatnonzero(node_need)
-    if not len(idx):
-        return
-    if WARM_FIRST_PASS:
-        dist, _, conv = _project_warm(pts[idx], st.face, uv_pend[idx], b_pend[idx], tol_rel, r_pend[idx])
-    else:
-        pr = project_to_face(pts[idx], st.face, tol_rel=tol_rel)
-        dist, conv = pr.distance, pr.converged
-    val = np.full(len(pts), -np.inf)
-    val[idx] = dist
-    np.maximum.at(st.tri_max, t_rows, val[s_rows])
-    dev = devs[i]
-    j = int(np.argmax(dist))
-    mx, where = dev.max_mesh_to_target, dev.where_mesh_to_target
-    if dist[j] > mx:         # not expected: a pending node is below the face's largest value
-        mx, where = float(dist[j]), pts[idx[j]].copy()
-    devs[i] = replace(dev, max_mesh_to_target=mx, where_mesh_to_target=where,
-                      n_mesh_samples=dev.n_mesh_samples + len(idx),
-                      n_not_converged=dev.n_not_converged + int(np.count_nonzero(~conv)),
-                      max_two_sided=float(np.nanmax([mx, dev.max_target_to_mesh])))
-
 
 def _closest_from(pts: np.ndarray, loc, at: float) -> np.ndarray:
     """Exact distances of the points `pts` (n, 3) to `loc`'s triangles (`closest_point._TriangleLocator`),
@@ -793,10 +627,7 @@ def _shell_deviation(mesh: TriMesh, shell: Shell, *, density: int, n_domain: int
     other triangles (their own samples, bounds and the running maximum are unchanged). Skipped
     triangles enter the bound with A_t (<= T). Per-face figures of faces with skipped triangles may be
     lower than without skipping (never above); the sample counts and RMS values cover the measured
-    samples only. Faces of at least `LAZY_MIN_TRIANGLES` triangles measured without that skipping take
-    `_first_pass_lazy` (edge nodes below their face's maximum by their chord bound wait, and
-    `_complete_first_pass`, from `refine_deviation`, projects those that could matter): the same maxima,
-    refinement decisions and bound.
+    samples only.
     """
     _check_mesh(mesh, "shell_deviation")
     if not isinstance(shell, Shell):
@@ -1268,7 +1099,6 @@ def refine_deviation(devs: list, states: list, *, rel: float = 0.01, tol_rel: fl
         st = states[i]
         if st.two_sided:
             _sample_more(devs, states, info, i, np.flatnonzero(info[i][1]), tol_rel, surface_only=True)
-    _complete_first_pass(devs, states, info, live, tol_rel)     # the first pass's pending nodes that could matter
 
     def bounds(i, k=None):
         st = states[i]
