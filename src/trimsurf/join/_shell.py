@@ -13,6 +13,7 @@ from ..model import Shell, TriMesh
 from ._boundary import EdgePolyline, arc_length_fractions, delete_loops, edge_table, median_polyline, \
     sample_edge_curve
 from ._chains import mesh_chains
+from ._fallback import collapse_coincident
 from ._patch import PAPER_BOUNDARY_ANGLE_DEG, PAPER_MIN_ANGLE_DEG, _angles_deg, cached_scale, MeshProjection, PatchResult, heights, join_patch, project_mesh, \
     project_near, project_points, repair_pole_turns, split_edges
 
@@ -24,6 +25,8 @@ _DEGENERATE_SEGMENTS = 8
 _MAX_MIN_ANGLE_DEG = 33.8   # Triangle terminates in practice up to about this quality bound
 _CHORD_REL = 2e-4          # default chord tolerance of the edge-curve polylines, x diagonal
 _MIN_CLOSED_SEGMENTS = 6   # a closed edge (a loop of its own) gets at least this many segments
+_COLLAPSE_REL = 1e-12       # input mesh edges at most this x diagonal long are one point (`collapse_coincident`)
+_FAKE_POLE_REL = 1e-7      # a collapsed edge along which F moves more than this x the control net: no pole
 _FINAL_MERGE = 1e-9         # in the last pass only coinciding points are one point
 _MERGE_FRACTION = 0.2       # Steiner points closer than this fraction of a boundary segment are one point
 
@@ -34,8 +37,9 @@ class FaceReport:
 
     face: int
     name: str
-    status: str = "joined"           # "joined", "bad" (not moved) or "empty"
-    message: str = ""
+    status: str = "joined"           # "joined", "remeshed" (whole domain re-triangulated), "bad" (not moved), "empty"
+    message: str = ""                # for "bad" and "remeshed": why
+    n_collapsed: int = 0             # input mesh vertices merged into a coinciding neighbour (`collapse_coincident`)
     max_distance: float = 0.0        # largest vertex distance to the surface found (step 1)
     n_turned: int = 0                # triangles turned over in (u, v) (M^-1 not injective)
     lipschitz: float = float("nan")
@@ -74,6 +78,11 @@ class JoinResult:
     @property
     def bad_faces(self) -> list[int]:
         return [f.face for f in self.faces if f.status == "bad"]
+
+    @property
+    def remeshed_faces(self) -> list[int]:
+        """Faces whose input mesh could not be inverted: re-triangulated over their whole (u, v) domain."""
+        return [f.face for f in self.faces if f.status == "remeshed"]
 
     def __bool__(self) -> bool:
         return not self.bad_faces
@@ -278,6 +287,9 @@ def _project_loops(face, loops):
             spacing = float(np.median(seg[seg > 0])) if np.any(seg > 0) else 0.0
             pr = project_near(face, xyz[~pole], uv0[~pole], spacing=spacing)
             uv[~pole] = pr.uv
+        if pole.any():
+            keep_pts = _short_edge_runs(face, uv, xyz, gid, pole)
+            uv, xyz, gid, ref, pole = uv[keep_pts], xyz[keep_pts], gid[keep_pts], ref[keep_pts], pole[keep_pts]
         eps, _, _ = heights(face, uv, xyz)
         eps[pole] = 0.0
         # drop points that coincide in (u, v) with their predecessor (repeated ends)
@@ -288,6 +300,41 @@ def _project_loops(face, loops):
             keep[-1] = False
         out.append((uv[keep], xyz[keep], eps[keep], gid[keep], ref[keep]))
     return out
+
+
+def _short_edge_runs(face, uv: np.ndarray, xyz: np.ndarray, gid: np.ndarray, pole: np.ndarray) -> np.ndarray:
+    """Which dR points to keep: one point of each run of a collapsed edge that is no pole of the surface.
+
+    A model edge shorter than the sewing or reading tolerance comes with both ends at one vertex (U_Joint's
+    5e-6 edges, the sewn bearing's 1.7e-6 edge): the join treats it as collapsed and puts all its points at
+    that vertex, but its p-curve spans a piece of the (u, v) domain where the surface is regular (F varies
+    along it), so dR would run there and back and cross itself, or hold triangles of no size in 3D that
+    turn over. Where F along the run's (u, v) moves more than rounding (1e-7 of the control net's size:
+    at a true pole it does not move), the run becomes one point: the vertex's own projection (a point of
+    the run that is not on the collapsed edge), else the run's first point.
+    """
+    k = len(gid)
+    if k < 3:
+        return np.ones(k, dtype=bool)
+    start = np.flatnonzero(gid != np.roll(gid, 1))
+    if not len(start):
+        return np.ones(k, dtype=bool)
+    keep = np.ones(k, dtype=bool)
+    lo, hi = face.surface.control_bbox()
+    tol = _FAKE_POLE_REL * float(np.linalg.norm(hi - lo))
+    ends = np.r_[start[1:], start[0] + k]
+    for s0, s1 in zip(start.tolist(), ends.tolist()):
+        run = np.arange(s0, s1) % k
+        if len(run) < 2 or not pole[run].any() or gid[run[0]] < 0:
+            continue
+        spread = np.linalg.norm(face.surface.evaluate(uv[run]) - xyz[run[0]], axis=1).max()
+        if not spread > tol:
+            continue
+        own = run[~pole[run]]
+        kept = own[0] if len(own) else run[0]
+        keep[run] = False
+        keep[kept] = True
+    return keep
 
 
 def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool = True,
@@ -375,6 +422,10 @@ def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool
     diag = shell.diagonal()
     max_d = _DEFAULT_MAX_DISTANCE_REL * diag if max_distance is None else float(max_distance)
     nf = len(shell.faces)
+    given = list(meshes)       # a face left unjoined keeps its mesh as given
+    meshes = list(meshes)      # a face's mesh may be cleaned (`collapse_coincident`)
+    collapse_tol = _COLLAPSE_REL * diag
+    remesh: set[int] = set()   # faces re-triangulated over their whole domain (empty central mesh)
     reports = [FaceReport(i, shell.faces[i].name) for i in range(nf)]
     projs: list[MeshProjection | None] = [None] * nf
     chains: list[dict] = [{} for _ in range(nf)]
@@ -395,13 +446,28 @@ def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool
                            f"(limit {max_d:.6g})")
             continue
         if pr.n_turned:
-            rep.status = "bad"
+            # triangles with two corners at one point have no orientation in 3D: merge such corners (the
+            # mesh's surface is unchanged) and project again
+            cleaned, k = collapse_coincident(mesh, collapse_tol)
+            if k:
+                pr2 = project_mesh(face, cleaned)
+                if pr2.max_distance <= max_d:
+                    meshes[i], mesh, pr, rep.n_collapsed = cleaned, cleaned, pr2, k
+        if pr.n_turned:
+            # M^-1 not injective (Sec. II): the face is re-triangulated over its whole (u, v) domain
+            rep.status = "remeshed"
             rep.message = (f"inverse map not injective: {pr.n_turned} triangles turn over when projected to "
                            f"(u, v); largest vertex distance {pr.max_distance:.6g}")
-            continue
-        rep.status = "joined"
+            remesh.add(i)
+        else:
+            rep.status = "joined"
         projs[i] = pr
-        chains[i] = mesh_chains(face, pr.uv, pr.triangles)
+        try:
+            chains[i] = mesh_chains(face, pr.uv, pr.triangles)
+        except Exception:   # noqa: BLE001 - a mesh that turns over may have no clean boundary walk
+            if i not in remesh:
+                raise
+            chains[i] = {}
         be = [c for c in chains[i].values()]
         if be:
             seg = np.concatenate([np.linalg.norm(np.diff(mesh.vertices[c], axis=0), axis=1) for c in be])
@@ -445,17 +511,33 @@ def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool
             # such a face keeps its dR as given (Triangle's -Y) and claims no angle bound
             corner = _min_corner_angle([lp[0] for lp in loops],
                                        cached_scale(face, projs[i], caches.setdefault(i, {})))
-            try:
-                res = join_patch(face, projs[i], meshes[i], [lp[0] for lp in loops], [lp[1] for lp in loops],
-                                 [lp[2] for lp in loops], [lp[3] for lp in loops], min_angle_deg=min_angle_deg,
-                                 split_long_edges=split_long_edges,
-                                 allow_boundary_steiner=corner >= PAPER_BOUNDARY_ANGLE_DEG,
-                                 central_init=None if results[i] is None else results[i].central_keep,
-                                 cache=caches.setdefault(i, {}), max_deviation=deflection)
-            except InputError as exc:
-                reports[i].status, reports[i].message = "bad", str(exc)
+            res = None
+            for whole in ((False, True) if i not in remesh else (True,)):
+                if whole:
+                    central_init = np.zeros(len(projs[i].triangles), dtype=bool)   # no central mesh
+                else:
+                    central_init = None if results[i] is None else results[i].central_keep
+                try:
+                    res = join_patch(face, projs[i], meshes[i], [lp[0] for lp in loops], [lp[1] for lp in loops],
+                                     [lp[2] for lp in loops], [lp[3] for lp in loops], min_angle_deg=min_angle_deg,
+                                     split_long_edges=split_long_edges,
+                                     allow_boundary_steiner=corner >= PAPER_BOUNDARY_ANGLE_DEG,
+                                     central_init=central_init,
+                                     cache=caches.setdefault(i, {}), max_deviation=deflection)
+                    break
+                except InputError as exc:
+                    if whole:
+                        reports[i].status, reports[i].message = "bad", str(exc)
+                    else:
+                        # the central mesh crosses dR: re-mesh the whole domain
+                        reports[i].message = f"the input mesh crosses the boundary in (u, v): {exc}"
+            if res is None:
                 results[i] = None
+                remesh.discard(i)
                 continue
+            if i not in remesh and reports[i].message:
+                remesh.add(i)
+                reports[i].status = "remeshed"
             results[i] = res
             for li, si, frac, vertex in res.boundary_steiner:
                 key, cidx, fwd = (int(x) for x in loops[li][4][si])
@@ -486,7 +568,7 @@ def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool
         if results[i] is not None:
             results[i], _ = repair_pole_turns(shell.faces[i], results[i])
     gpos = ids.positions()
-    mesh_out, vertex_of = _merge(shell, meshes, results, reports, gpos)
+    mesh_out, vertex_of = _merge(shell, given, results, reports, gpos)
     res = JoinResult(mesh_out, reports, results, vertex_of, edges)
     for i, r in enumerate(results):
         if r is None:
@@ -559,7 +641,7 @@ def _summary(shell: Shell, res: JoinResult, measure: bool = True) -> dict:
         slope_after = max(slope_after, float(sl.max()))
         if r.lipschitz > SLOPE_ROUNDING:   # a ratio to L at rounding level (L ~ 1e-14) says nothing
             slope_ratio = np.nanmax([slope_ratio, float(sl.max()) / r.lipschitz])
-    ok = [f for f in res.faces if f.status == "joined"]
+    ok = [f for f in res.faces if f.status in ("joined", "remeshed")]
     # boundary edges between two joint vertices: only triangles with two joint corners can have one
     t = res.mesh.triangles
     cand = t[on_joint[t].sum(axis=1) >= 2]
@@ -601,6 +683,10 @@ def _summary(shell: Shell, res: JoinResult, measure: bool = True) -> dict:
         "non_manifold_edges": int(len(res.mesh.non_manifold_edges())) if measure else None,
         "bad_faces": [{"face": f.face, "name": f.name, "distance": f.max_distance, "message": f.message}
                       for f in res.faces if f.status == "bad"],
+        "n_remeshed": int(sum(1 for f in res.faces if f.status == "remeshed")),
+        "remeshed_faces": [{"face": f.face, "name": f.name, "message": f.message}
+                           for f in res.faces if f.status == "remeshed"],
+        "collapsed_vertices": int(sum(f.n_collapsed for f in res.faces)),
     }
 
 
