@@ -503,12 +503,15 @@ def join_patch(face: TrimmedFace, proj: MeshProjection, mesh: TriMesh, loops_uv:
     # PSLG: dR loops, then the central boundary loops
     rverts = np.concatenate(loops_uv)
     nr = len(rverts)
+    # a point dR passes twice (a hole touching the outer loop: turbine face 1) is one vertex for Triangle
+    uniq, vpos = _pinch_vertices(rverts, np.concatenate(loops_gid))
+    nu = len(uniq)
     segs, marks = [], []
     off = 0
     for li, lp in enumerate(loops_uv):
         k = len(lp)
         idx = off + np.arange(k)
-        segs.append(np.column_stack([idx, off + (np.arange(k) + 1) % k]))
+        segs.append(vpos[np.column_stack([idx, off + (np.arange(k) + 1) % k])])
         marks.append(2 + idx)  # marker 2 + global dR segment index
         off += k
     holes = [_interior_point(lp) for lp in loops_uv[1:]]
@@ -518,7 +521,7 @@ def join_patch(face: TrimmedFace, proj: MeshProjection, mesh: TriMesh, loops_uv:
         be = central_be
         cb_vertices = np.unique(be.ravel())
         local = np.full(n, -1, dtype=np.int64)
-        local[cb_vertices] = nr + np.arange(len(cb_vertices))
+        local[cb_vertices] = nu + np.arange(len(cb_vertices))
         cb_edges = be
         segs.append(local[be])
         marks.append(2 + nr + np.arange(len(be)))
@@ -530,11 +533,11 @@ def join_patch(face: TrimmedFace, proj: MeshProjection, mesh: TriMesh, loops_uv:
         _, lab = csgraph.connected_components(g, directed=False)
         first = np.unique(lab[central[:, 0]], return_index=True)[1]
         holes.extend(uv[central[first]].mean(axis=1))
-    n_fixed = nr + len(cb_vertices)       # dR and central boundary; then the pole rings' points, if any
+    n_fixed = nu + len(cb_vertices)       # dR and central boundary; then the pole rings' points, if any
     ring = _pole_ring(face, scale, loops_uv, loops_xyz, loops_gid, np.concatenate(segs),
-                      np.concatenate([rverts, uv[cb_vertices]]),
+                      np.concatenate([rverts[uniq], uv[cb_vertices]]),
                       [uv[lp] for lp in loops_from_edges(central_be)] if len(central) else [])
-    pv = np.concatenate([rverts, uv[cb_vertices], ring])
+    pv = np.concatenate([rverts[uniq], uv[cb_vertices], ring])
     _check_pslg(face, pv, np.concatenate(segs), len(loops_uv))
     data = {"vertices": pv, "segments": np.concatenate(segs), "segment_markers": np.concatenate(marks)[:, None]}
     if holes:
@@ -551,7 +554,7 @@ def join_patch(face: TrimmedFace, proj: MeshProjection, mesh: TriMesh, loops_uv:
         if cache is not None and "second_derivatives" not in cache:
             cache["second_derivatives"] = _second_derivative_bound(face.surface, scale)
         m2 = _second_derivative_bound(face.surface, scale) if cache is None else cache["second_derivatives"]
-        out, n_refine, reused = _refine_to_deviation(face, out, flags, nr, np.concatenate(loops_xyz), bdata,
+        out, n_refine, reused = _refine_to_deviation(face, out, flags, nr, np.concatenate(loops_xyz)[uniq], bdata,
                                                      lipschitz, scale, float(max_deviation),
                                                      float(np.abs(np.concatenate(loops_eps)).max(initial=0.0)),
                                                      second_derivatives=m2)
@@ -585,8 +588,8 @@ def join_patch(face: TrimmedFace, proj: MeshProjection, mesh: TriMesh, loops_uv:
     # ---- assemble the combined mesh: central vertices (input ids), dR, central boundary, new points
     # vertex numbering: [0, n) input mesh vertices; [n, n + nr) dR vertices; then Triangle's new points
     tmap = np.empty(len(tv), dtype=np.int64)
-    tmap[:nr] = n + np.arange(nr)
-    tmap[nr:n_fixed] = cb_vertices
+    tmap[:nu] = n + uniq
+    tmap[nu:n_fixed] = cb_vertices
     tmap[n_fixed:] = n + nr + np.arange(len(new))
     all_uv = np.concatenate([uv, rverts, tv[n_fixed:]])
     ext_tris = tmap[tt]
@@ -606,7 +609,7 @@ def join_patch(face: TrimmedFace, proj: MeshProjection, mesh: TriMesh, loops_uv:
     nt = len(all_uv)
     used = np.zeros(nt, dtype=bool)
     used[tris_all.ravel()] = True
-    used[n:n + nr] = True
+    used[n + uniq] = True     # (a dR point that is another's pinch copy is not a vertex of its own)
     a_all = np.zeros(nt)
     foot, nrm = np.zeros((nt, 3)), np.zeros((nt, 3))
     known_a = np.zeros(nt, dtype=bool)      # a(p) already evaluated (the refinement's last pass)
@@ -764,7 +767,7 @@ def _refine_to_deviation(face: TrimmedFace, out: dict, flags: str, nr: int, r_xy
         uv = tv / scale
         foot, nrm = _foot_normal(face, uv)
         pts = foot + wa.average[:, None] * nrm
-        pts[:nr] = r_xyz
+        pts[:len(r_xyz)] = r_xyz
         reproj = _Reprojection(wa.average, foot, nrm, wa.mean_blocks_visited)
         # the a-priori bound: corners' distance to F plus the interpolation error of F over the triangle
         off = np.linalg.norm(pts - foot, axis=1)
@@ -801,6 +804,38 @@ def _refine_to_deviation(face: TrimmedFace, out: dict, flags: str, nr: int, r_xy
                 "triangle_max_area": limit}
         out = triangle.triangulate(data, rflags)
         it += 1
+
+
+def _pinch_vertices(rverts: np.ndarray, rgid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """dR points that are one point: the same shared id and (u, v) within 1e-9 of dR's extent.
+
+    Returns the indices of the points Triangle gets (the first of each such group) and, for every dR
+    point, the index of its Triangle vertex among them.
+
+    Examples
+    --------
+    >>> w = np.array([[0., 0], [1, 0], [1, 1], [0.5, 0.5], [0.6, 0.5], [0.5, 0.6], [0.5, 0.5]])
+    >>> uniq, vpos = _pinch_vertices(w, np.array([0, 1, 2, 3, 4, 5, 3]))
+    >>> uniq.tolist(), vpos.tolist()
+    ([0, 1, 2, 3, 4, 5], [0, 1, 2, 3, 4, 5, 3])
+    """
+    nr = len(rverts)
+    first = np.arange(nr)
+    vals, cnt = np.unique(rgid[rgid >= 0], return_counts=True)
+    if np.any(cnt > 1):
+        tol = 1e-9 * float(np.ptp(rverts, axis=0).max(initial=0.0))
+        for v in vals[cnt > 1].tolist():
+            idx = np.flatnonzero(rgid == v)
+            for a in range(len(idx)):
+                if first[idx[a]] != idx[a]:
+                    continue
+                near = np.linalg.norm(rverts[idx[a + 1:]] - rverts[idx[a]], axis=1) <= tol
+                near &= first[idx[a + 1:]] == idx[a + 1:]
+                first[idx[a + 1:][near]] = idx[a]
+    uniq = np.flatnonzero(first == np.arange(nr))
+    pos = np.empty(nr, dtype=np.int64)
+    pos[uniq] = np.arange(len(uniq))
+    return uniq, pos[first]
 
 
 def _check_pslg(face: TrimmedFace, vertices: np.ndarray, segments: np.ndarray, n_loops: int) -> None:

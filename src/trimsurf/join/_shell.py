@@ -799,6 +799,9 @@ def _finalize_steiner(shell: Shell, edges, use_key, results, inserts, ids: _Ids,
                 continue
             sel = np.flatnonzero(np.isin(r.gid, ed.gid))
             vid = dict(zip(r.gid[sel].tolist(), sel.tolist()))
+            copies: dict[int, list[int]] = {}   # a point F has twice (a closed edge's end on a seam)
+            for g_, v_ in zip(r.gid[sel].tolist(), sel.tolist()):
+                copies.setdefault(g_, []).append(v_)
             for k, g in enumerate(ed.gid):
                 g = int(g)
                 if g in vid:
@@ -807,6 +810,13 @@ def _finalize_steiner(shell: Shell, edges, use_key, results, inserts, ids: _Ids,
                 left = next(int(x) for x in ed.gid[:k][::-1] if int(x) in vid)
                 right = next(int(x) for x in ed.gid[k + 1:] if int(x) in vid)
                 a, b = vid[left], vid[right]
+                if len(copies[left]) > 1 or len(copies[right]) > 1:
+                    # the copies that are the ends of one edge of F's triangles
+                    t = r.triangles
+                    tedges = {(int(x), int(y)) for x, y in np.concatenate([t[:, [0, 1]], t[:, [1, 2]],
+                                                                             t[:, [2, 0]]]).tolist()}
+                    a, b = next(((x, y) for x in copies[left] for y in copies[right]
+                                 if (x, y) in tedges or (y, x) in tedges), (a, b))
                 fa = pos[left]
                 fb = pos[right]
                 w = (pos[g] - fa) / max(fb - fa, 1)  # by position along the polyline (refined below)
@@ -818,6 +828,7 @@ def _finalize_steiner(shell: Shell, edges, use_key, results, inserts, ids: _Ids,
                 # its triangles were split, not refined: the angle bound is not claimed for this face
                 r = r._replace(gid=_with(r.gid, v, g), boundary_steiner_allowed=False)
                 vid[g] = v
+                copies[g] = [v]
             results[f] = r
             touched.add(f)
     for f in sorted(touched):
