@@ -67,3 +67,43 @@ def collapse_coincident(mesh: TriMesh, tol: float) -> tuple[TriMesh, int]:
     fid = None if mesh.face_id is None else mesh.face_id[ok]
     merged = int(n - len(np.unique(to)))
     return TriMesh(mesh.vertices[used], remap[t], uv=uv, face_id=fid), merged
+
+
+def crossing_segments(loops_uv: list[np.ndarray], loops_gid: list[np.ndarray]) -> np.ndarray:
+    """Indices (into the loops' concatenation; segment k runs from point k to the next of its loop) of dR
+    segments that cross or touch another segment they share no end with (pinch copies, `_pinch_vertices`,
+    count as one end).
+
+    Examples
+    --------
+    >>> sq = np.array([[0., 0], [2, 0], [2, 2], [0, 2]])
+    >>> bow = np.array([[0., 0], [2, 0], [0, 2], [2, 2]])       # segments 1 and 3 cross
+    >>> crossing_segments([sq], [np.arange(4)]).tolist(), crossing_segments([bow], [np.arange(4)]).tolist()
+    ([], [1, 3])
+    """
+    from scipy.spatial import cKDTree
+
+    from ..geom import segment_intersections
+    from ._patch import _pinch_vertices
+
+    w = np.concatenate(loops_uv)
+    _, vpos = _pinch_vertices(w, np.concatenate(loops_gid))
+    off = np.cumsum([0] + [len(lp) for lp in loops_uv])
+    seg = np.concatenate([np.column_stack([off[i] + np.arange(len(lp)), off[i] + (np.arange(len(lp)) + 1) % len(lp)])
+                          for i, lp in enumerate(loops_uv)])
+    a, b = w[seg[:, 0]], w[seg[:, 1]]
+    mid = 0.5 * (a + b)
+    rad = 0.5 * np.linalg.norm(b - a, axis=1)
+    if not len(seg):
+        return np.zeros(0, dtype=np.int64)
+    pairs = cKDTree(mid).query_pairs(2.0 * float(rad.max()) + 1e-300, output_type="ndarray")
+    if not len(pairs):
+        return np.zeros(0, dtype=np.int64)
+    i, j = pairs[:, 0], pairs[:, 1]
+    near = np.linalg.norm(mid[i] - mid[j], axis=1) <= rad[i] + rad[j]
+    i, j = i[near], j[near]
+    v = vpos[seg]
+    share = ((v[i, 0] == v[j, 0]) | (v[i, 0] == v[j, 1]) | (v[i, 1] == v[j, 0]) | (v[i, 1] == v[j, 1]))
+    i, j = i[~share], j[~share]
+    hit = segment_intersections(a[i], b[i], a[j], b[j])
+    return np.unique(np.concatenate([i[hit], j[hit]]))

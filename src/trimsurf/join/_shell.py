@@ -26,6 +26,7 @@ _MAX_MIN_ANGLE_DEG = 33.8   # Triangle terminates in practice up to about this q
 _CHORD_REL = 2e-4          # default chord tolerance of the edge-curve polylines, x diagonal
 _MIN_CLOSED_SEGMENTS = 6   # a closed edge (a loop of its own) gets at least this many segments
 _COLLAPSE_REL = 1e-12       # input mesh edges at most this x diagonal long are one point (`collapse_coincident`)
+_CROSSING_ROUNDS = 12      # rounds of splitting chords whose (u, v) images cross (`_split_crossing_chords`)
 _FAKE_POLE_REL = 1e-7      # a collapsed edge along which F moves more than this x the control net: no pole
 _FINAL_MERGE = 1e-9         # in the last pass only coinciding points are one point
 _MERGE_FRACTION = 0.2       # Steiner points closer than this fraction of a boundary segment are one point
@@ -492,6 +493,7 @@ def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool
     ids = _Ids(shell)
     _assign_ids(edges, ids)
     active = [i for i in range(nf) if projs[i] is not None]
+    n_split_crossing = _split_crossing_chords(shell, edges, use_key, active, ids)
     results: list[PatchResult | None] = [None] * nf
     todo = set(active)
     rounds = 0
@@ -599,7 +601,8 @@ def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool
                                                                                      "whitney", "refine")}
     res.report.update({"seconds_project": t_proj, "seconds_steps": steps, "seconds_join": t_join,
                        "boundary_segments_max": int(max((len(r.boundary.length) for r in results if r is not None),
-                                                        default=0)),"steiner_rounds": rounds, "steiner_points_shared_by_split": n_final_points, "loops_deleted": n_loops_deleted, "chords_split": n_chords,
+                                                        default=0)),"steiner_rounds": rounds, "steiner_points_shared_by_split": n_final_points, "loops_deleted": n_loops_deleted,
+                       "crossing_chords_split": n_split_crossing, "chords_split": n_chords,
                        "case": sorted({e.case for e in edges if e.joined}),
                        "seconds": time.perf_counter() - t_start})
     return res
@@ -688,6 +691,45 @@ def _summary(shell: Shell, res: JoinResult, measure: bool = True) -> dict:
                            for f in res.faces if f.status == "remeshed"],
         "collapsed_vertices": int(sum(f.n_collapsed for f in res.faces)),
     }
+
+
+def _split_crossing_chords(shell: Shell, edges, use_key, faces, ids: _Ids) -> int:
+    """Split edge-polyline chords whose (u, v) images cross another chord of the same face's dR.
+
+    Where two trim curves meet at a small angle (bug32596's cusps) or touch (a hole tangent to the outer
+    loop), their polylines can cross in (u, v) although the curves do not: dR is then no polygon and
+    Triangle cannot take it. Each crossing chord is split at its middle (on b(t) in Case 1), in the
+    shared polyline (so the neighbour gets the point too), up to `_CROSSING_ROUNDS` times; a face whose
+    dR still crosses is left to `join_patch`'s check (the curves themselves cross: bad input).
+    Returns the number of points inserted.
+    """
+    from ._fallback import crossing_segments
+
+    n_points = 0
+    for f in faces:
+        face = shell.faces[f]
+        for _ in range(_CROSSING_ROUNDS):
+            loops = _project_loops(face, _face_loops(shell, f, edges, use_key))
+            bad = crossing_segments([lp[0] for lp in loops], [lp[3] for lp in loops])
+            if not len(bad):
+                break
+            ref = np.concatenate([lp[4] for lp in loops])[bad]
+            items: dict[int, set[int]] = {}
+            for key, cidx, fwd in ref.tolist():
+                if edges[key].degenerate:
+                    continue
+                j = cidx if fwd else cidx - 1
+                if 0 <= j < len(edges[key].points) - 1:
+                    items.setdefault(key, set()).add(j)
+            if not items:
+                break
+            for key, js in items.items():
+                ed = edges[key]
+                before = len(ed.points)
+                ed.points, ed.tpar, ed.gid, _ = _insert_points(ed, [(j, 0.5) for j in sorted(js)], ids,
+                                                               merge=_MERGE_FRACTION)
+                n_points += len(ed.points) - before
+    return n_points
 
 
 def _split_conflicting_chords(shell: Shell, results) -> int:
@@ -793,25 +835,27 @@ def _finalize_steiner(shell: Shell, edges, use_key, results, inserts, ids: _Ids,
             touched.add(face)
         # every face on the edge: insert the points it lacks by splitting its boundary triangles
         pos = {int(g): k for k, g in enumerate(ed.gid)}
+        side: dict[int, int] = {}     # a seam edge is used twice by one face: each side gets the points
         for f, li, si, fwd in ed.uses:
             r = results[f]
             if r is None:
                 continue
+            side[f] = side.get(f, 0) + 1
+            need = side[f]
             sel = np.flatnonzero(np.isin(r.gid, ed.gid))
-            vid = dict(zip(r.gid[sel].tolist(), sel.tolist()))
-            copies: dict[int, list[int]] = {}   # a point F has twice (a closed edge's end on a seam)
+            copies: dict[int, list[int]] = {}   # a point F has twice (a seam; a hole touching the outer loop)
             for g_, v_ in zip(r.gid[sel].tolist(), sel.tolist()):
                 copies.setdefault(g_, []).append(v_)
             for k, g in enumerate(ed.gid):
                 g = int(g)
-                if g in vid:
+                if len(copies.get(g, ())) >= need:
                     continue
                 # the neighbours of g along the edge that F has
-                left = next(int(x) for x in ed.gid[:k][::-1] if int(x) in vid)
-                right = next(int(x) for x in ed.gid[k + 1:] if int(x) in vid)
-                a, b = vid[left], vid[right]
+                left = next(int(x) for x in ed.gid[:k][::-1] if int(x) in copies)
+                right = next(int(x) for x in ed.gid[k + 1:] if int(x) in copies)
+                a, b = copies[left][-1], copies[right][-1]
                 if len(copies[left]) > 1 or len(copies[right]) > 1:
-                    # the copies that are the ends of one edge of F's triangles
+                    # the copies that are the ends of one edge of F's triangles (this side's)
                     t = r.triangles
                     tedges = {(int(x), int(y)) for x, y in np.concatenate([t[:, [0, 1]], t[:, [1, 2]],
                                                                              t[:, [2, 0]]]).tolist()}
@@ -827,8 +871,7 @@ def _finalize_steiner(shell: Shell, edges, use_key, results, inserts, ids: _Ids,
                 r, v = split_boundary_edge(r, a, b, (1 - w) * r.uv[a] + w * r.uv[b])
                 # its triangles were split, not refined: the angle bound is not claimed for this face
                 r = r._replace(gid=_with(r.gid, v, g), boundary_steiner_allowed=False)
-                vid[g] = v
-                copies[g] = [v]
+                copies.setdefault(g, []).append(v)
             results[f] = r
             touched.add(f)
     for f in sorted(touched):
