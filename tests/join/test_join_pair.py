@@ -159,11 +159,27 @@ def test_bad_mesh_reported_not_moved(fold):
     sub = res.mesh.submesh(res.mesh.face_id == 1)
     assert sub.n_triangles == far.n_triangles
     np.testing.assert_array_equal(np.sort(sub.vertices, axis=0), np.sort(far.vertices, axis=0))
-    # a mesh whose projection turns a triangle over (M^-1 not injective)
+
+
+def test_non_injective_mesh_is_remeshed(fold):
+    # a mesh whose projection turns triangles over (M^-1 not injective, Sec. II): no longer left unjoined
+    # (a crack along the shared edge) but re-triangulated over its whole (u, v) domain, sharing the edge's
+    # vertices with its neighbour
+    shell, meshes = fold
     v = meshes[1].vertices.copy()
     v[[10, 11]] = v[[11, 10]]
-    res2 = join_shell(shell, [meshes[0], TriMesh(v, meshes[1].triangles)])
-    assert res2.bad_faces == [1] and "injective" in res2.faces[1].message
+    turned = TriMesh(v, meshes[1].triangles)
+    res = join_shell(shell, [meshes[0], turned])
+    assert res and res.bad_faces == [] and res.remeshed_faces == [1]
+    assert res.faces[1].status == "remeshed" and "injective" in res.faces[1].message
+    assert res.report["n_remeshed"] == 1 and res.report["remeshed_faces"][0]["face"] == 1
+    assert res.report["boundary_edges_on_joins"] == 0 and len(res.mesh.boundary_edges()) == \
+        len(join_shell(shell, meshes).mesh.boundary_edges())        # only the pair's free edges are open
+    assert res.report["flipped_after"] == 0
+    assert res.report["max_deviation"] <= res.report["deflection"]
+    # none of the turned mesh's triangles is kept: face 1 is Triangle's mesh of the whole domain
+    r = res.patches[1]
+    assert r.n_central == 0 and r.external.all()
 
 
 def test_bad_arguments(fold):

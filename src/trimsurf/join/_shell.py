@@ -493,7 +493,7 @@ def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool
     ids = _Ids(shell)
     _assign_ids(edges, ids)
     active = [i for i in range(nf) if projs[i] is not None]
-    n_split_crossing = _split_crossing_chords(shell, edges, use_key, active, ids)
+    n_split_crossing, crossed = _split_crossing_chords(shell, edges, use_key, active, ids)
     results: list[PatchResult | None] = [None] * nf
     todo = set(active)
     rounds = 0
@@ -566,6 +566,8 @@ def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool
     # beside a pole the parametrization is singular (outside Sec. II's hypothesis): edges of the external
     # region are flipped where a triangle turns over in 3D (`repair_pole_turns`)
     pole_faces = {u[0] for e in edges if e.degenerate for u in e.uses}
+    # so where dR's chords crossed (cusps of the trim: thin slivers of the domain) or the face was re-meshed
+    pole_faces |= crossed | remesh
     for i in sorted(pole_faces):
         if results[i] is not None:
             results[i], _ = repair_pole_turns(shell.faces[i], results[i])
@@ -701,18 +703,31 @@ def _split_crossing_chords(shell: Shell, edges, use_key, faces, ids: _Ids) -> in
     Triangle cannot take it. Each crossing chord is split at its middle (on b(t) in Case 1), in the
     shared polyline (so the neighbour gets the point too), up to `_CROSSING_ROUNDS` times; a face whose
     dR still crosses is left to `join_patch`'s check (the curves themselves cross: bad input).
-    Returns the number of points inserted.
+    Returns the number of points inserted and the faces whose dR crossed.
     """
     from ._fallback import crossing_segments
 
     n_points = 0
+    crossed: set[int] = set()
     for f in faces:
         face = shell.faces[f]
-        for _ in range(_CROSSING_ROUNDS):
+        added: dict[int, set[int]] = {}     # edge -> ids of the points inserted for this face
+        for it in range(_CROSSING_ROUNDS + 1):
             loops = _project_loops(face, _face_loops(shell, f, edges, use_key))
             bad = crossing_segments([lp[0] for lp in loops], [lp[3] for lp in loops])
             if not len(bad):
                 break
+            if it == _CROSSING_ROUNDS:
+                # the curves themselves cross: take the points out again (they would only lengthen the
+                # cracks along the edges of a face left unjoined)
+                for key, g in added.items():
+                    ed = edges[key]
+                    keep = ~np.isin(ed.gid, list(g))
+                    n_points -= int((~keep).sum())
+                    ed.points, ed.tpar, ed.gid = ed.points[keep], ed.tpar[keep], ed.gid[keep]
+                crossed.discard(f)
+                break
+            crossed.add(f)
             ref = np.concatenate([lp[4] for lp in loops])[bad]
             items: dict[int, set[int]] = {}
             for key, cidx, fwd in ref.tolist():
@@ -725,11 +740,13 @@ def _split_crossing_chords(shell: Shell, edges, use_key, faces, ids: _Ids) -> in
                 break
             for key, js in items.items():
                 ed = edges[key]
-                before = len(ed.points)
+                before = set(ed.gid.tolist())
                 ed.points, ed.tpar, ed.gid, _ = _insert_points(ed, [(j, 0.5) for j in sorted(js)], ids,
                                                                merge=_MERGE_FRACTION)
-                n_points += len(ed.points) - before
-    return n_points
+                new = set(ed.gid.tolist()) - before
+                added.setdefault(key, set()).update(new)
+                n_points += len(new)
+    return n_points, crossed
 
 
 def _split_conflicting_chords(shell: Shell, results) -> int:
