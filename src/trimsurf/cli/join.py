@@ -35,6 +35,19 @@ paper's case). A model whose faces share no edge (an unsewn IGES surface
 model) is sewn first (Open CASCADE's sewing). With --meshes give one mesh file per face, in face order
 (as `trimsurf info MODEL` lists them). A face whose mesh does not lie near it
 is reported with the distance found, left as it is, and the exit status is 1.
+
+Meshes outside the paper's hypotheses: coinciding corners of a face mesh
+(triangles with two corners at one point) are merged first, which leaves its
+surface unchanged. A face whose mesh still turns triangles over when projected
+to (u, v) (the inverse map is not injective), or crosses the face's boundary
+there, is re-meshed: its whole (u, v) domain is triangulated anew as the
+strips are (Triangle, Ruppert refinement, refined to the deflection) with the
+joined edge polylines as its boundary, so it shares its edge vertices with its
+neighbours; a warning names such faces ("remeshed_faces" in the report) and
+the exit status stays 0. A model edge shorter than the tolerance whose ends
+are one vertex becomes that one point; edge polylines whose chords cross in a
+face's (u, v) domain are refined where that makes the boundary a polygon.
+Where the trim curves themselves cross, the face is left unjoined.
 So is a joined face with flipped triangles (possible only where the face breaks
 the paper's hypotheses, e.g. at a pole of its parametrization); the warning
 names the faces.
@@ -221,9 +234,15 @@ def run(args: argparse.Namespace) -> int:
     print(format_table(rows))
     for bad in report["bad_faces"]:
         print_warning(f"face {bad['face']} ({bad['name']}): {bad['message']}; left unjoined")
+    remeshed = report.get("remeshed_faces") or []
+    if remeshed:
+        names = ", ".join(str(f["face"]) for f in remeshed[:10]) + (f" and {len(remeshed) - 10} more"
+                                                                     if len(remeshed) > 10 else "")
+        print_warning(f"{len(remeshed)} face(s) re-meshed over their whole (u, v) domain (input mesh not "
+                      f"invertible: {remeshed[0]['message']}): faces {names}")
     # the paper's guarantee (no folding) rests on Sec. II's hypotheses, e.g. a regular parametrization; where a
     # face breaks them (a pole) the join can still flip triangles: say where, and do not report success
-    flipped = [f for f in faces if f["status"] == "joined" and f["flipped_after"] > 0]
+    flipped = [f for f in faces if f["status"] in ("joined", "remeshed") and f["flipped_after"] > 0]
     if flipped:
         where = ", ".join(f"{f['face']} ({f['flipped_after']})" for f in flipped[:10])
         more = f" and {len(flipped) - 10} more" if len(flipped) > 10 else ""
