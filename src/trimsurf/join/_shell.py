@@ -289,7 +289,8 @@ def _project_loops(face, loops):
             pr = project_near(face, xyz[~pole], uv0[~pole], spacing=spacing)
             uv[~pole] = pr.uv
         if pole.any():
-            keep_pts = _short_edge_runs(face, uv, xyz, gid, pole)
+            keep_pts, at_pole = _short_edge_runs(face, uv, xyz, gid, pole, uv0)
+            uv[at_pole] = uv0[at_pole]
             uv, xyz, gid, ref, pole = uv[keep_pts], xyz[keep_pts], gid[keep_pts], ref[keep_pts], pole[keep_pts]
         eps, _, _ = heights(face, uv, xyz)
         eps[pole] = 0.0
@@ -303,8 +304,10 @@ def _project_loops(face, loops):
     return out
 
 
-def _short_edge_runs(face, uv: np.ndarray, xyz: np.ndarray, gid: np.ndarray, pole: np.ndarray) -> np.ndarray:
-    """Which dR points to keep: one point of each run of a collapsed edge that is no pole of the surface.
+def _short_edge_runs(face, uv: np.ndarray, xyz: np.ndarray, gid: np.ndarray, pole: np.ndarray,
+                     uv0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Which dR points to keep: one point of each run of a collapsed edge that is no pole of the surface;
+    and which points at a true pole take their p-curve's (u, v) instead of their projection.
 
     A model edge shorter than the sewing or reading tolerance comes with both ends at one vertex (U_Joint's
     5e-6 edges, the sewn bearing's 1.7e-6 edge): the join treats it as collapsed and puts all its points at
@@ -313,14 +316,22 @@ def _short_edge_runs(face, uv: np.ndarray, xyz: np.ndarray, gid: np.ndarray, pol
     turn over. Where F along the run's (u, v) moves more than rounding (1e-7 of the control net's size:
     at a true pole it does not move), the run becomes one point: the vertex's own projection (a point of
     the run that is not on the collapsed edge), else the run's first point.
+
+    At a true pole every (u, v) of the pole line is a closest point of the vertex: its projection as the end
+    of the next edge may land at the other end of the pole line (the crankshaft's face 106: dR then runs
+    back along the pole and crosses itself). Where the projection is farther than 1e-3 of the domain from
+    the p-curve's (u, v), the p-curve's is taken.
     """
     k = len(gid)
+    keep = np.ones(k, dtype=bool)
+    at_pole = np.zeros(k, dtype=bool)
     if k < 3:
-        return np.ones(k, dtype=bool)
+        return keep, at_pole
     start = np.flatnonzero(gid != np.roll(gid, 1))
     if not len(start):
-        return np.ones(k, dtype=bool)
-    keep = np.ones(k, dtype=bool)
+        return keep, at_pole
+    (u0, u1), (v0, v1) = face.surface.domain
+    span = max(u1 - u0, v1 - v0)
     lo, hi = face.surface.control_bbox()
     tol = _FAKE_POLE_REL * float(np.linalg.norm(hi - lo))
     ends = np.r_[start[1:], start[0] + k]
@@ -330,12 +341,14 @@ def _short_edge_runs(face, uv: np.ndarray, xyz: np.ndarray, gid: np.ndarray, pol
             continue
         spread = np.linalg.norm(face.surface.evaluate(uv[run]) - xyz[run[0]], axis=1).max()
         if not spread > tol:
+            own = run[~pole[run]]
+            at_pole[own[np.linalg.norm(uv[own] - uv0[own], axis=1) > 1e-3 * span]] = True
             continue
         own = run[~pole[run]]
         kept = own[0] if len(own) else run[0]
         keep[run] = False
         keep[kept] = True
-    return keep
+    return keep, at_pole
 
 
 def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool = True,
