@@ -404,10 +404,16 @@ def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool
     -------
     JoinResult
         ``mesh`` (with ``face_id``), per-face reports, ``report`` with the
-        issue's fields. Faces whose mesh does not lie near the face, or whose
-        projection turns triangles over (M^-1 not injective, Sec. II), are
-        ``status == "bad"``: their mesh is kept unchanged and unjoined, and the
-        result is falsy.
+        issue's fields. A face mesh with triangles that have two corners at
+        one point is cleaned first (`_fallback.collapse_coincident`: the
+        surface is unchanged). A face whose projection still turns triangles
+        over (M^-1 not injective, Sec. II), or whose mesh crosses dR in
+        (u, v), is re-triangulated over its whole domain (``status ==
+        "remeshed"``, ``report["remeshed_faces"]``: step 4 with an empty
+        central mesh, refined to the deflection). Faces whose mesh does not
+        lie near the face, or whose dR still crosses itself (the trim curves
+        cross), are ``status == "bad"``: their mesh is kept unchanged and
+        unjoined, and the result is falsy.
 
     Raises
     ------
