@@ -92,3 +92,23 @@ def test_turbine_face_1_touching_hole(shared_data):
     keep = _neighbours(whole, 1)
     shell = _subshell(whole, keep)
     _check(shell, tio.occ_mesh_faces(shell, linear_deflection=d), keep.index(1), d)
+
+
+def test_u_joint_folded_mesh_is_remeshed(shared_data):
+    # a real face mesh folded over (two interior vertices swapped: M^-1 not injective, and no coinciding
+    # corners to merge): face 51 is re-triangulated over its whole (u, v) domain
+    whole = tio.read_shell(shared_data / "cad" / "gmsh__U_Joint_2.stp")
+    d = 1e-3 * whole.diagonal()
+    meshes = tio.occ_mesh_faces(whole, linear_deflection=d)
+    keep = _neighbours(whole, 51)
+    shell = _subshell(whole, keep)
+    t = keep.index(51)
+    sub = [meshes[f] for f in keep]
+    m = sub[t]
+    inner = np.setdiff1d(np.arange(m.n_vertices), m.boundary_edges().ravel())
+    v = m.vertices.copy()
+    v[inner[[0, 1]]] = v[inner[[1, 0]]]
+    sub[t] = type(m)(v, m.triangles)
+    res = _check(shell, sub, t, d)
+    assert res.faces[t].status == "remeshed" and res.remeshed_faces == [t]
+    assert res.patches[t].n_central == 0
