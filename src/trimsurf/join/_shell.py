@@ -893,10 +893,8 @@ def _finalize_steiner(shell: Shell, edges, use_key, results, inserts, ids: _Ids,
                 if len(copies[left]) > 1 or len(copies[right]) > 1:
                     # the copies that are the ends of one edge of F's triangles (this side's)
                     t = r.triangles
-                    tedges = {(int(x), int(y)) for x, y in np.concatenate([t[:, [0, 1]], t[:, [1, 2]],
-                                                                             t[:, [2, 0]]]).tolist()}
                     a, b = next(((x, y) for x in copies[left] for y in copies[right]
-                                 if (x, y) in tedges or (y, x) in tedges), (a, b))
+                                 if np.any((t == x).any(axis=1) & (t == y).any(axis=1))), (a, b))
                 fa = pos[left]
                 fb = pos[right]
                 w = (pos[g] - fa) / max(fb - fa, 1)  # by position along the polyline (refined below)
