@@ -512,7 +512,8 @@ def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool
     ids = _Ids(shell)
     _assign_ids(edges, ids)
     active = [i for i in range(nf) if projs[i] is not None]
-    n_split_crossing, crossed = _split_crossing_chords(shell, edges, use_key, active, ids)
+    pre_loops: dict[int, list] = {}   # dR of the faces as the crossing check projected it (reused in round 1)
+    n_split_crossing, crossed = _split_crossing_chords(shell, edges, use_key, active, ids, pre_loops)
     results: list[PatchResult | None] = [None] * nf
     todo = set(active)
     rounds = 0
@@ -525,7 +526,9 @@ def join_shell(shell: Shell, meshes: Sequence[TriMesh], *, use_edge_curves: bool
         inserts: dict[int, list[tuple[int, float, int, int]]] = {}
         for i in sorted(todo):
             face = shell.faces[i]
-            loops = _project_loops(face, _face_loops(shell, i, edges, use_key))
+            loops = pre_loops.pop(i, None) if rounds == 1 else None
+            if loops is None:
+                loops = _project_loops(face, _face_loops(shell, i, edges, use_key))
             face_loops[i] = loops
             # Sec. III-B's hypothesis: dR's corners >= 26.45 deg. Where it fails, Ruppert refinement splits the
             # dR segments near the sharp corner again at every pass (the neighbour's points move them a little):
@@ -714,7 +717,7 @@ def _summary(shell: Shell, res: JoinResult, measure: bool = True) -> dict:
     }
 
 
-def _split_crossing_chords(shell: Shell, edges, use_key, faces, ids: _Ids) -> int:
+def _split_crossing_chords(shell: Shell, edges, use_key, faces, ids: _Ids, cache: dict) -> tuple[int, set]:
     """Split edge-polyline chords whose (u, v) images cross another chord of the same face's dR.
 
     Where two trim curves meet at a small angle (bug32596's cusps) or touch (a hole tangent to the outer
@@ -722,7 +725,8 @@ def _split_crossing_chords(shell: Shell, edges, use_key, faces, ids: _Ids) -> in
     Triangle cannot take it. Each crossing chord is split at its middle (on b(t) in Case 1), in the
     shared polyline (so the neighbour gets the point too), up to `_CROSSING_ROUNDS` times; a face whose
     dR still crosses is left to `join_patch`'s check (the curves themselves cross: bad input).
-    Returns the number of points inserted and the faces whose dR crossed.
+    Returns the number of points inserted and the faces whose dR crossed; `cache` gets every face's
+    projected dR where no edge of it changed since.
     """
     from ._fallback import crossing_segments
 
@@ -735,12 +739,15 @@ def _split_crossing_chords(shell: Shell, edges, use_key, faces, ids: _Ids) -> in
             loops = _project_loops(face, _face_loops(shell, f, edges, use_key))
             bad = crossing_segments([lp[0] for lp in loops], [lp[3] for lp in loops])
             if not len(bad):
+                cache[f] = loops
                 break
             if it == _CROSSING_ROUNDS:
                 # the curves themselves cross: take the points out again (they would only lengthen the
                 # cracks along the edges of a face left unjoined)
                 for key, g in added.items():
                     ed = edges[key]
+                    for u in ed.uses:
+                        cache.pop(u[0], None)
                     keep = ~np.isin(ed.gid, list(g))
                     n_points -= int((~keep).sum())
                     ed.points, ed.tpar, ed.gid = ed.points[keep], ed.tpar[keep], ed.gid[keep]
@@ -764,6 +771,8 @@ def _split_crossing_chords(shell: Shell, edges, use_key, faces, ids: _Ids) -> in
                                                                merge=_MERGE_FRACTION)
                 new = set(ed.gid.tolist()) - before
                 added.setdefault(key, set()).update(new)
+                for u in ed.uses:
+                    cache.pop(u[0], None)
                 n_points += len(new)
     return n_points, crossed
 
