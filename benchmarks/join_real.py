@@ -18,6 +18,10 @@ normal (`quality.flipped_triangles_normal`, the same test for both methods); ``o
 edges (one triangle, no welding) and, in brackets, those on joints; ``min_ang`` the smallest 3D triangle
 angle (degrees); ``s`` seconds of the join alone (meshing and measuring not included).
 
+The JSON rows also give, for W, the faces left unjoined (``bad_faces``), re-meshed over their whole (u, v)
+domain (``remeshed_faces``), the input mesh vertices merged into a coinciding neighbour
+(``collapsed_vertices``) and the chords split where dR crossed (``crossing_chords_split``).
+
 Usage: python benchmarks/join_real.py [--json out.json] [--models NAME ...]
 """
 
@@ -88,6 +92,9 @@ def run_model(path: Path) -> list[dict]:
         rep = _summary(shell, res, True)
         row["whitney"] = measure(shell, res.mesh, tw, rep["boundary_edges_on_joins"])
         row["whitney"]["bad_faces"] = len(res.bad_faces)
+        row["whitney"]["remeshed_faces"] = len(res.remeshed_faces)
+        row["whitney"]["collapsed_vertices"] = rep["collapsed_vertices"]
+        row["whitney"]["crossing_chords_split"] = res.report["crossing_chords_split"]
         t = time.perf_counter()
         base = midpoint_join(shell, meshes)
         tb = time.perf_counter() - t
