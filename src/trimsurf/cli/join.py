@@ -35,6 +35,9 @@ paper's case). A model whose faces share no edge (an unsewn IGES surface
 model) is sewn first (Open CASCADE's sewing). With --meshes give one mesh file per face, in face order
 (as `trimsurf info MODEL` lists them). A face whose mesh does not lie near it
 is reported with the distance found, left as it is, and the exit status is 1.
+So is a joined face with flipped triangles (possible only where the face breaks
+the paper's hypotheses, e.g. at a pole of its parametrization); the warning
+names the faces.
 
 Meshes outside the paper's hypotheses: coinciding corners of a face mesh
 (triangles with two corners at one point) are merged first, which leaves its
@@ -47,10 +50,8 @@ neighbours; a warning names such faces ("remeshed_faces" in the report) and
 the exit status stays 0. A model edge shorter than the tolerance whose ends
 are one vertex becomes that one point; edge polylines whose chords cross in a
 face's (u, v) domain are refined where that makes the boundary a polygon.
-Where the trim curves themselves cross, the face is left unjoined.
-So is a joined face with flipped triangles (possible only where the face breaks
-the paper's hypotheses, e.g. at a pole of its parametrization); the warning
-names the faces.
+Where the trim curves themselves cross, the face is left unjoined (exit
+status 1).
 
 Accuracy: the strip Triangle re-meshes is refined until every triangle's
 sampled deviation from its face is within the deflection D (--deflection;
