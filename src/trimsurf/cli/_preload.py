@@ -42,7 +42,8 @@ MODULES = ("trimsurf.tessellate", "trimsurf.tessellate.measure", "trimsurf.quali
 #: `curve_points_kernel` is no longer called (measured on the six models above); s28-measure: `memo_points_kernel`,
 #: the measurement's seed grids and (u, v) grids, and no `segments_distance_kernel`: the report's measurement no
 #: longer computes the feet's distances outside the trim loops; s28-span: `span_bounds_kernel`, the report's
-#: per-cell derivative bounds of each surface (`quality.interpolation_bound.span_bounds`)
+#: per-cell derivative bounds of each surface (`quality.interpolation_bound.span_bounds`); s29-mesh: the seam
+#: reduction's vertices on two faces (`seams._multi_face_kernel`)
 KERNELS = {
     "trimsurf.geom._nurbs_kernels": ("surface_derivatives_kernel", "project_newton_kernel"),
     "trimsurf.geom._seed_kernels": ("seed_grid_kernel", "retry_seeds_kernel", "memo_points_kernel"),
@@ -55,7 +56,8 @@ KERNELS = {
     "trimsurf.tessellate._mesh_kernels": ("lift_kernel", "face_loops_kernel", "cell_main_kernel", "curved_kernel"),
     "trimsurf.tessellate.slivers": ("_face_sliver_start_kernel", "_sliver_pick_kernel", "_sliver_result_kernel",
                                     "_corner_cosines", "_check_shape_kernel"),
-    "trimsurf.tessellate.seams": ("_seam_select_kernel", "_dev_against_kernel", "_seam_edges_kernel"),
+    "trimsurf.tessellate.seams": ("_seam_select_kernel", "_dev_against_kernel", "_seam_edges_kernel",
+                                  "_multi_face_kernel"),
     "trimsurf.quality._kernels": ("grid_build_kernel", "grid_closest_kernel", "hint_closest_kernel",
                                   "uv_locate_kernel"),
     "trimsurf.quality._bound_kernels": ("span_bounds_kernel",),

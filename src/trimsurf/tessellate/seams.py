@@ -865,6 +865,42 @@ class _HalfEdges:
         self.changed[self._key(e)] = k
 
 
+def _multi_face_numpy(T, alive, fid, nv):
+    """(multi, stri): per vertex, whether the alive triangles at it lie on more than one face (True for a
+    vertex on none: its lowest face id stays above its highest), and per triangle (alive or not) whether
+    two of its corners are such vertices. `_multi_face_kernel`'s reference (the tests compare them)."""
+    t, f = T[alive], fid[alive]
+    lo = np.full(nv, np.iinfo(np.int64).max)
+    hi = np.full(nv, -1, dtype=np.int64)
+    fr = np.repeat(f, 3)
+    np.minimum.at(lo, t.ravel(), fr)
+    np.maximum.at(hi, t.ravel(), fr)
+    multi = lo != hi
+    return multi, np.count_nonzero(multi[T], axis=1) >= 2
+
+
+@njit(cache=True, nogil=True)
+def _multi_face_kernel(T, alive, fid, nv):
+    """`_multi_face_numpy` in one compiled pass (integer minima and maxima: the same flags)."""
+    m = T.shape[0]
+    lo = np.full(nv, np.iinfo(np.int64).max)
+    hi = np.full(nv, -1, dtype=np.int64)
+    for t in range(m):
+        if alive[t]:
+            f = fid[t]
+            for c in range(3):
+                v = T[t, c]
+                lo[v] = min(lo[v], f)
+                hi[v] = max(hi[v], f)
+    multi = np.empty(nv, dtype=np.bool_)
+    for v in range(nv):
+        multi[v] = lo[v] != hi[v]
+    stri = np.empty(m, dtype=np.bool_)
+    for t in range(m):
+        stri[t] = (np.int64(multi[T[t, 0]]) + np.int64(multi[T[t, 1]]) + np.int64(multi[T[t, 2]])) >= 2
+    return multi, stri
+
+
 class _State:
     """The mesh being reduced: triangles (with ``alive``), deviation bounds and corner (u, v)."""
 
@@ -901,16 +937,9 @@ class _State:
         face), so the first set holds every later one, which is all the selection needs.
         """
         if self._multi is None:
-            t, f = self.T[self.alive], self.fid[self.alive]
-            nv = len(self.V)
-            lo = np.full(nv, np.iinfo(np.int64).max)
-            hi = np.full(nv, -1, dtype=np.int64)
-            fr = np.repeat(f, 3)
-            np.minimum.at(lo, t.ravel(), fr)
-            np.maximum.at(hi, t.ravel(), fr)
-            self._multi = lo != hi
-            # per triangle (kept up to date by `_set_rows`): two corners on more than one face
-            self._stri = np.count_nonzero(self._multi[self.T], axis=1) >= 2
+            # (`_multi_face_numpy`'s flags in one compiled pass: numpy's minimum.at / maximum.at took up to
+            # 1 ms each on a mesh's face ids, which come in long runs)
+            self._multi, self._stri = _multi_face_kernel(self.T, self.alive, self.fid, np.int64(len(self.V)))
         return _seam_edges(self.T, self.fid, len(self.V), np.flatnonzero(self.alive & self._stri))
 
     def round(self, seam, cands, chord_tol, skip, uv_check: bool = True, interior: bool = False) -> int:
