@@ -118,7 +118,35 @@ def _split(seg: np.ndarray, s: np.ndarray, v: np.ndarray, t: np.ndarray) -> np.n
 
 
 def _candidate_segment_pairs(q: np.ndarray, seg: np.ndarray) -> np.ndarray:
-    """Pairs (i < j) of segments whose bounding circles meet."""
+    """Pairs (i < j) of segments whose bounding circles meet and whose boxes meet (closed boxes): the pairs of
+    `_candidate_segment_pairs_kdtree` that `crossing_segments` keeps past its box test, found by a compiled
+    bucket grid (`_box_pairs_kernel`) and the same circle test in numpy (the same numbers), in the same
+    (sorted) order.
+
+    The circle test's pairs the k-d trees find are those within the radius of the longer one's length class
+    (r >= the sum of the two radii), so a pair the circle test keeps is within r of each other; one only the
+    k-d trees' rounding could leave out lies at distance r = the sum of the radii, its circles touching, its
+    segments meeting at most at their ends: never a proper crossing (argued, not proven to the last bit)."""
+    if not _BOX_PAIRS or not np.all(np.isfinite(q)):
+        return _candidate_segment_pairs_kdtree(q, seg)
+    p = _box_pairs_kernel(np.ascontiguousarray(q), np.ascontiguousarray(seg))
+    if not len(p):
+        return np.zeros((0, 2), dtype=np.int64)
+    a, b = q[seg[:, 0]], q[seg[:, 1]]
+    length = np.linalg.norm(b - a, axis=1)
+    mid = 0.5 * (a + b)
+    i, j = p[:, 0], p[:, 1]
+    near = np.linalg.norm(mid[i] - mid[j], axis=1) <= 0.5 * (length[i] + length[j]) + 1e-300
+    key = np.sort(i[near] * len(seg) + j[near])           # (each pair once: np.unique(p, axis=0)'s order)
+    return np.column_stack([key // len(seg), key % len(seg)])
+
+
+#: `_candidate_segment_pairs` by the compiled box pairs (False: the k-d trees, as before; the tests compare both)
+_BOX_PAIRS = True
+
+
+def _candidate_segment_pairs_kdtree(q: np.ndarray, seg: np.ndarray) -> np.ndarray:
+    """Pairs (i < j) of segments whose bounding circles meet (k-d trees per length class)."""
     a, b = q[seg[:, 0]], q[seg[:, 1]]
     length = np.linalg.norm(b - a, axis=1)
     mid = 0.5 * (a + b)
@@ -138,6 +166,87 @@ def _candidate_segment_pairs(q: np.ndarray, seg: np.ndarray) -> np.ndarray:
     p = np.sort(np.concatenate(out), axis=1)
     p = p[p[:, 0] != p[:, 1]]
     return np.unique(p, axis=0) if len(p) else p.reshape(0, 2)
+
+
+@njit(cache=True, nogil=True)
+def _box_pairs_kernel(q, seg):
+    """Every pair (i < j) of segments whose closed boxes meet (min <= max on both axes), each once, in no
+    particular order: a bucket grid over the boxes, a pair reported in the bucket of its boxes' common
+    corner (the larger of the two minima on each axis). Finite points."""
+    m = seg.shape[0]
+    if m < 2:
+        return np.zeros((0, 2), dtype=np.int64)
+    x0, y0, x1, y1 = np.inf, np.inf, -np.inf, -np.inf
+    for k in range(m):
+        for e in range(2):
+            v = seg[k, e]
+            x0 = min(x0, q[v, 0])
+            y0 = min(y0, q[v, 1])
+            x1 = max(x1, q[v, 0])
+            y1 = max(y1, q[v, 1])
+    g = max(1, int(np.sqrt(m)))
+    while True:
+        hx, hy = (x1 - x0) / g, (y1 - y0) / g
+        if not hx > 0:
+            hx = 1.0
+        if not hy > 0:
+            hy = 1.0
+        total = 0
+        for k in range(m):
+            a, b = seg[k, 0], seg[k, 1]
+            ia, ib = _bucket_range(min(q[a, 0], q[b, 0]), max(q[a, 0], q[b, 0]), x0, hx, g)
+            ja, jb = _bucket_range(min(q[a, 1], q[b, 1]), max(q[a, 1], q[b, 1]), y0, hy, g)
+            total += (ib - ia + 1) * (jb - ja + 1)
+        if g == 1 or total <= 8 * m:
+            break
+        g = max(1, g // 2)
+    cnt = np.zeros(g * g + 1, dtype=np.int64)
+    for k in range(m):
+        a, b = seg[k, 0], seg[k, 1]
+        ia, ib = _bucket_range(min(q[a, 0], q[b, 0]), max(q[a, 0], q[b, 0]), x0, hx, g)
+        ja, jb = _bucket_range(min(q[a, 1], q[b, 1]), max(q[a, 1], q[b, 1]), y0, hy, g)
+        for i in range(ia, ib + 1):
+            for j in range(ja, jb + 1):
+                cnt[i * g + j + 1] += 1
+    for c in range(g * g):
+        cnt[c + 1] += cnt[c]
+    fill = cnt[:-1].copy()
+    sb = np.empty(cnt[-1], dtype=np.int64)
+    for k in range(m):
+        a, b = seg[k, 0], seg[k, 1]
+        ia, ib = _bucket_range(min(q[a, 0], q[b, 0]), max(q[a, 0], q[b, 0]), x0, hx, g)
+        ja, jb = _bucket_range(min(q[a, 1], q[b, 1]), max(q[a, 1], q[b, 1]), y0, hy, g)
+        for i in range(ia, ib + 1):
+            for j in range(ja, jb + 1):
+                sb[fill[i * g + j]] = k
+                fill[i * g + j] += 1
+    out = np.empty((64, 2), dtype=np.int64)
+    n = 0
+    for c in range(g * g):
+        for s in range(cnt[c], cnt[c + 1]):
+            k = sb[s]
+            a, b = seg[k, 0], seg[k, 1]
+            kx0, kx1 = min(q[a, 0], q[b, 0]), max(q[a, 0], q[b, 0])
+            ky0, ky1 = min(q[a, 1], q[b, 1]), max(q[a, 1], q[b, 1])
+            for t in range(s + 1, cnt[c + 1]):
+                l = sb[t]
+                cc, d = seg[l, 0], seg[l, 1]
+                lx0, lx1 = min(q[cc, 0], q[d, 0]), max(q[cc, 0], q[d, 0])
+                ly0, ly1 = min(q[cc, 1], q[d, 1]), max(q[cc, 1], q[d, 1])
+                cx, cy = max(kx0, lx0), max(ky0, ly0)
+                if not (cx <= min(kx1, lx1) and cy <= min(ky1, ly1)):
+                    continue
+                ia, _ = _bucket_range(cx, cx, x0, hx, g)
+                ja, _ = _bucket_range(cy, cy, y0, hy, g)
+                if ia * g + ja != c:
+                    continue            # (the pair's bucket is another one: reported there)
+                if n == out.shape[0]:
+                    grown = np.empty((2 * n, 2), dtype=np.int64)
+                    grown[:n] = out
+                    out = grown
+                out[n, 0], out[n, 1] = min(k, l), max(k, l)
+                n += 1
+    return out[:n].copy()
 
 
 def _orient_certain(a, b, c) -> np.ndarray:
