@@ -220,33 +220,33 @@ def _box_pairs_kernel(q, seg):
             for j in range(ja, jb + 1):
                 sb[fill[i * g + j]] = k
                 fill[i * g + j] += 1
-    out = np.empty((64, 2), dtype=np.int64)
-    n = 0
-    for c in range(g * g):
-        for s in range(cnt[c], cnt[c + 1]):
-            k = sb[s]
-            a, b = seg[k, 0], seg[k, 1]
-            kx0, kx1 = min(q[a, 0], q[b, 0]), max(q[a, 0], q[b, 0])
-            ky0, ky1 = min(q[a, 1], q[b, 1]), max(q[a, 1], q[b, 1])
-            for t in range(s + 1, cnt[c + 1]):
-                l = sb[t]
-                cc, d = seg[l, 0], seg[l, 1]
-                lx0, lx1 = min(q[cc, 0], q[d, 0]), max(q[cc, 0], q[d, 0])
-                ly0, ly1 = min(q[cc, 1], q[d, 1]), max(q[cc, 1], q[d, 1])
-                cx, cy = max(kx0, lx0), max(ky0, ly0)
-                if not (cx <= min(kx1, lx1) and cy <= min(ky1, ly1)):
-                    continue
-                ia, _ = _bucket_range(cx, cx, x0, hx, g)
-                ja, _ = _bucket_range(cy, cy, y0, hy, g)
-                if ia * g + ja != c:
-                    continue            # (the pair's bucket is another one: reported there)
-                if n == out.shape[0]:
-                    grown = np.empty((2 * n, 2), dtype=np.int64)
-                    grown[:n] = out
-                    out = grown
-                out[n, 0], out[n, 1] = min(k, l), max(k, l)
-                n += 1
-    return out[:n].copy()
+    out = np.empty((0, 2), dtype=np.int64)
+    for rnd in range(2):            # count, then fill
+        n = 0
+        for c in range(g * g):
+            for s in range(cnt[c], cnt[c + 1]):
+                k = sb[s]
+                a, b = seg[k, 0], seg[k, 1]
+                kx0, kx1 = min(q[a, 0], q[b, 0]), max(q[a, 0], q[b, 0])
+                ky0, ky1 = min(q[a, 1], q[b, 1]), max(q[a, 1], q[b, 1])
+                for t in range(s + 1, cnt[c + 1]):
+                    l = sb[t]
+                    cc, d = seg[l, 0], seg[l, 1]
+                    lx0, lx1 = min(q[cc, 0], q[d, 0]), max(q[cc, 0], q[d, 0])
+                    ly0, ly1 = min(q[cc, 1], q[d, 1]), max(q[cc, 1], q[d, 1])
+                    cx, cy = max(kx0, lx0), max(ky0, ly0)
+                    if not (cx <= min(kx1, lx1) and cy <= min(ky1, ly1)):
+                        continue
+                    ia, _ = _bucket_range(cx, cx, x0, hx, g)
+                    ja, _ = _bucket_range(cy, cy, y0, hy, g)
+                    if ia * g + ja != c:
+                        continue            # (the pair's bucket is another one: reported there)
+                    if rnd == 1:
+                        out[n, 0], out[n, 1] = min(k, l), max(k, l)
+                    n += 1
+        if rnd == 0:
+            out = np.empty((n, 2), dtype=np.int64)
+    return out
 
 
 def _orient_certain(a, b, c) -> np.ndarray:
