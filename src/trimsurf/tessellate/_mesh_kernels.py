@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..geom._nurbs_kernels import _point_scratch, _surface_point01
 from ..geom.predicates import _segments_apart_kernel
+from ._line_kernels import _points0
 
 __all__ = ["cell_main_kernel", "curved_kernel", "deviation_samples", "deviation_start_bound", "face_loops_kernel",
            "lift_kernel", "trim_loop_kernel"]
@@ -131,17 +131,13 @@ def deviation_start_bound(bary, uv, xyz, tris, pu, pv, ku, kv, pw, rational):
     exceeds, so an upper bound of `trimsurf.tessellate.face.triangle_deviation` (NaN where a sample's is),
     at one surface point per sample instead of the Gauss-Newton steps' three evaluations."""
     suv, sx, rows = deviation_samples(bary, uv, xyz, tris)
-    u0, u1 = ku[pu], ku[ku.shape[0] - pu - 1]
-    v0, v1 = kv[pv], kv[kv.shape[0] - pv - 1]
-    ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(pu, pv, pw.shape[2])
-    res = np.empty((3, 3))
+    # S at every sample (clipped to the domain) by `_line_kernels._points0`: `_surface_point01`'s numbers, each
+    # parameter value's span and basis computed once (samples on a grid line or cell column share them)
+    sp = np.empty((suv.shape[0], 3))
+    _points0(pu, pv, ku, kv, pw, rational, suv, sp)
     d = np.empty(suv.shape[0])
     for i in range(suv.shape[0]):
-        uc = min(max(suv[i, 0], u0), u1)
-        vc = min(max(suv[i, 1], v0), v1)
-        _surface_point01(pu, pv, ku, kv, pw, rational, uc, vc, np.int64(0), ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
-                         bu, bv, tmp, skl, res)
-        r0, r1, r2 = sx[i, 0] - res[0, 0], sx[i, 1] - res[0, 1], sx[i, 2] - res[0, 2]
+        r0, r1, r2 = sx[i, 0] - sp[i, 0], sx[i, 1] - sp[i, 1], sx[i, 2] - sp[i, 2]
         d[i] = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
     out = np.empty(rows.shape[0])
     for t in range(rows.shape[0]):
@@ -174,16 +170,19 @@ def lift_kernel(bary, uv, trim_xyz, tris, pu, pv, ku, kv, pw, rational, all_poin
     for i in range(n):
         if not (np.isfinite(uv[i, 0]) and np.isfinite(uv[i, 1])):
             return 1, xyz, off, maybe
-    u0, u1 = ku[pu], ku[ku.shape[0] - pu - 1]
-    v0, v1 = kv[pv], kv[kv.shape[0] - pv - 1]
-    ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v, bu, bv, tmp, skl = _point_scratch(pu, pv, pw.shape[2])
-    res = np.empty((3, 3))
-    for i in range(0 if all_points else nt, n):
-        uc = min(max(uv[i, 0], u0), u1)
-        vc = min(max(uv[i, 1], v0), v1)
-        _surface_point01(pu, pv, ku, kv, pw, rational, uc, vc, np.int64(0), ndu_u, ndu_v, a_u, a_v, l_u, r_u, l_v, r_v,
-                         bu, bv, tmp, skl, res)
-        xyz[i, 0], xyz[i, 1], xyz[i, 2] = res[0, 0], res[0, 1], res[0, 2]
+    # S(uv) clipped to the domain by `_line_kernels._points0` (`_surface_point01`'s numbers; a grid's nodes share
+    # their u and v values: each one's span and basis computed once)
+    s0 = 0 if all_points else nt
+    if s0 == 0:
+        _points0(pu, pv, ku, kv, pw, rational, uv, xyz)
+    elif n > s0:
+        q = np.empty((n - s0, 2))
+        for i in range(n - s0):
+            q[i, 0], q[i, 1] = uv[s0 + i, 0], uv[s0 + i, 1]
+        x = np.empty((n - s0, 3))
+        _points0(pu, pv, ku, kv, pw, rational, q, x)
+        for i in range(n - s0):
+            xyz[s0 + i, 0], xyz[s0 + i, 1], xyz[s0 + i, 2] = x[i, 0], x[i, 1], x[i, 2]
     for i in range(nt):
         if all_points:
             r0, r1, r2 = xyz[i, 0] - trim_xyz[i, 0], xyz[i, 1] - trim_xyz[i, 1], xyz[i, 2] - trim_xyz[i, 2]
