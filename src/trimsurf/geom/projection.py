@@ -898,12 +898,12 @@ def project_to_surface(points, degree_u: int, degree_v: int, knots_u, knots_v, c
         ku, kv, w = ku.copy(), kv.copy(), None if w is None else w.copy()    # not the caller's arrays
         prep = (ku, kv, w, _diagonal(cp), tuple(axes), breaks,
                 (pu, pv, ku.tobytes(), kv.tobytes(), cp.shape, cp.tobytes(), None if w is None else w.tobytes(),
-                 tuple(a.tobytes() for a in axes)), {})
+                 tuple(a.tobytes() for a in axes)))
         if prep_key is not None:
             if len(_SEED_CACHE) >= _SEED_CACHE_SIZE:
                 _SEED_CACHE.pop(next(iter(_SEED_CACHE)))
             _SEED_CACHE[prep_key] = prep
-    ku, kv, w, diag, axes, breaks, key, kept = prep
+    ku, kv, w, diag, axes, breaks, key = prep
     axes = list(axes)
     pts = _points(points, 3, name)
     tol_rel, max_iter = _options(tol_rel, max_iter, name)
@@ -919,11 +919,8 @@ def project_to_surface(points, degree_u: int, degree_v: int, knots_u, knots_v, c
         return Projection(np.zeros((0, 2)), np.zeros((0, 3)), np.zeros(0), z, z.copy(), 0)
 
     if compiled:
-        # the homogeneous net and the kernels' surface arguments, once per prepared surface (its exact
-        # control points and weights are in the key: the same arrays)
-        surf = kept.get("surf")
-        if surf is None:
-            surf = kept["surf"] = (pu, pv, read_only(ku), read_only(kv), _homogeneous(cp, w), w is not None)
+        pw = _homogeneous(cp, w)
+        surf = (pu, pv, read_only(ku), read_only(kv), pw, w is not None)
 
         def evaluate(uv):
             # not called on this path: the seeds are points alone, and every Newton run (from a seed too)

@@ -121,100 +121,6 @@ def project_to_face(points, face, *, tol_rel: float = 1e-10, uv0=None, skip_belo
                               compiled=True, skip_below=skip_below)
 
 
-#: `_project_warm`'s rounding allowance on its distance test, relative to the bound
-WARM_BOUND_SLACK = 1e-9
-
-
-def _corner_bound(mesh: TriMesh, samples, rows: np.ndarray, vd: np.ndarray) -> np.ndarray:
-    """Per sample row of `samples` (of `mesh`): ``min_j |p - P_j| + d_j`` over its triangle's corners P_j
-    with their distances d_j (`vd`, per vertex) to the surface. The foot S(x_j) of a corner is a surface
-    point within that of p, so the sample's distance to the surface is at most this value."""
-    t = mesh.triangles[samples.triangle[rows]]
-    r = mesh.vertices[t] - samples.points[rows][:, None, :]
-    return np.min(np.sqrt(np.einsum("njd,njd->nj", r, r)) + vd[t], axis=1)
-
-
-def _project_warm(points: np.ndarray, face, uv0: np.ndarray, bound: np.ndarray, tol_rel: float,
-                  reach: np.ndarray | None = None):
-    """(distance, uv, converged) of the points (n, 3) on the face's surface, each from one Newton run
-    warm-started at `uv0` (n, 2) (for a sample of a triangle: the same barycentric combination of its
-    corners' feet) where that run converges inside the domain (not on a domain edge) at a distance
-    within `bound` (`_corner_bound`); the others (and rows with a non-finite start) with the full
-    search from the seeds (`project_to_face` without a start, its numbers).
-
-    What a warm value is: the distance |p - S(x)| to a surface point, so never below the true distance;
-    where the run converges to the foot the full search finds, the same foot to the iteration's
-    tolerance (the distance to ~1e-12 relative, the last step bringing it to rounding). Where it
-    converges to another local minimum (the full search's seed query, crease restarts and far-seed
-    retries are not made), the value is larger than the true distance: a mesh -> surface sample can
-    only be reported high, never low (conservative). A run that ends beyond `bound` is in another basin
-    for sure, and one on a domain edge may be (a start across a periodic seam lands mid-domain): both
-    are searched in full. So is a run whose foot moved farther from its start, in either parameter, than
-    `reach` (n, 2) (for a triangle's sample: its corners' feet's largest distance from the start in that
-    parameter; the foot of a point of a triangle that follows its face lies among its corners' feet): it
-    left the triangle's footprint, where another basin may be (a surface folding back within a seed
-    cell, occt__linkrods.step)."""
-    n = len(points)
-    d = np.empty(n)
-    uv = np.empty((n, 2))
-    conv = np.zeros(n, dtype=bool)
-    good = np.all(np.isfinite(uv0), axis=1) if n else np.zeros(0, dtype=bool)
-    g = np.flatnonzero(good)
-    if len(g):
-        # skip_below = inf: every converged warm run is final (`geom.projection._solve`)
-        pr = project_to_face(points[g], face, tol_rel=tol_rel, uv0=uv0[g], skip_below=np.full(len(g), np.inf))
-        d[g], uv[g], conv[g] = pr.distance, pr.uv, pr.converged
-        bad = pr.on_boundary | ~(pr.distance <= bound[g] * (1.0 + WARM_BOUND_SLACK))
-        if reach is not None:
-            bad |= np.any(np.abs(pr.uv - uv0[g]) > reach[g] * (1.0 + WARM_BOUND_SLACK), axis=1)
-        good[g[bad]] = False
-    rest = np.flatnonzero(~good)
-    if len(rest):
-        pr = project_to_face(points[rest], face, tol_rel=tol_rel)
-        d[rest], uv[rest], conv[rest] = pr.distance, pr.uv, pr.converged
-    return d, uv, conv
-
-
-def _first_pass(mesh: TriMesh, face, samples, rows: np.ndarray, tol_rel: float):
-    """The first pass's projections of the sample rows `rows`: (distance, uv, converged) per row. The
-    vertices (kind 0) with the full search; every other row warm-started from its triangle's corners'
-    feet (`_warm_samples`)."""
-    rows = np.asarray(rows, dtype=np.int64)
-    n = len(rows)
-    d = np.empty(n)
-    uv = np.empty((n, 2))
-    conv = np.zeros(n, dtype=bool)
-    isv = samples.kind[rows] == 0
-    v = np.flatnonzero(isv)
-    pv = project_to_face(samples.points[rows[v]], face, tol_rel=tol_rel)
-    d[v], uv[v], conv[v] = pv.distance, pv.uv, pv.converged
-    o = np.flatnonzero(~isv)
-    if len(o):
-        d[o], uv[o], conv[o] = _warm_samples(mesh, face, samples, rows[o], rows[v], pv.distance, pv.uv, tol_rel)
-    return d, uv, conv
-
-
-def _warm_samples(mesh: TriMesh, face, samples, rows: np.ndarray, k0: np.ndarray, vdist: np.ndarray,
-                  vfeet: np.ndarray, tol_rel: float):
-    """`_project_warm` of the sample rows `rows` (no vertices), started from the same barycentric
-    combination of their triangle's corners' feet, given the vertex sample rows `k0` projected with
-    their distances `vdist` and feet `vfeet`."""
-    vuv = np.full((mesh.n_vertices, 2), np.nan)
-    vd = np.full(mesh.n_vertices, np.inf)
-    vuv[samples.element[k0]] = vfeet
-    vd[samples.element[k0]] = vdist
-    cuv = vuv[mesh.triangles[samples.triangle[rows]]]
-    uv0 = np.einsum("kj,kjd->kd", samples.barycentric[rows], cuv)
-    return _project_warm(samples.points[rows], face, uv0, _corner_bound(mesh, samples, rows, vd), tol_rel,
-                         _reach(cuv, uv0))
-
-
-def _reach(cuv: np.ndarray, uv0: np.ndarray) -> np.ndarray:
-    """Per start uv0 (n, 2) inside its triangle's corners' feet cuv (n, 3, 2): the largest distance from it
-    to a corner's foot in each parameter (`_project_warm`'s ``reach``)."""
-    return np.max(np.abs(cuv - uv0[:, None, :]), axis=1)
-
-
 def surface_deviation(mesh: TriMesh, target, *, density: int = 4, n_domain: int = 64, two_sided: bool = True,
                       tol_rel: float = 1e-10, trim_tol_uv: float | None = None,
                       refine: float | None = None) -> Deviation:
@@ -346,39 +252,34 @@ def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, tw
     _check_mesh(mesh, "surface_deviation")
     face = as_face(target)
     skip = None
-    if pre is None:
+    pending = None
+    lazy = (prune and adaptive and two_sided and pre is None and density == 3 and mesh.uv is None
+            and mesh.n_triangles >= LAZY_MIN_TRIANGLES)
+    if lazy:
+        samples, d, puv, n_conv, sel, pending = _first_pass_lazy(mesh, face, tol_rel)
+        uv0 = None
+    elif pre is None:
         samples = sample_triangles(mesh, density=density)
         # the mesh's per-vertex (u, v), interpolated at the samples, warm-starts the projection
         uv0 = None if mesh.uv is None else np.einsum("kj,kjd->kd", samples.barycentric,
                                                       mesh.uv[mesh.triangles[samples.triangle]])
-        if adaptive and uv0 is None and WARM_FIRST_PASS:
-            # the vertices in full, the other samples from their corners' feet (`_first_pass`)
-            d, puv, conv = _first_pass(mesh, face, samples, np.arange(len(samples.points)), tol_rel)
-            n_conv = int(np.count_nonzero(~conv))
-        else:
-            proj = project_to_face(samples.points, face, tol_rel=tol_rel, uv0=uv0)
-            d = proj.distance
-            puv = proj.uv
-            n_conv = int(np.count_nonzero(~proj.converged))
+        proj = project_to_face(samples.points, face, tol_rel=tol_rel, uv0=uv0)
+        d = proj.distance
+        puv = proj.uv
+        n_conv = int(np.count_nonzero(~proj.converged))
         sel = None
     else:
         samples, uv0 = pre.samples, pre.uv0
         skip = pre.apriori <= skip_at
         sel = _kept_rows(mesh, samples, skip, density)
         rest = sel[samples.kind[sel] != 0]
+        pr = project_to_face(samples.points[rest], face, tol_rel=tol_rel, uv0=None if uv0 is None else uv0[rest])
         n = len(samples.points)
         d = np.full(n, -np.inf)
         puv = np.full((n, 2), np.nan)
         d[pre.k0], puv[pre.k0] = pre.vproj.distance, pre.vproj.uv
-        if uv0 is None and WARM_FIRST_PASS:
-            # from the corners' feet (the vertices are projected already)
-            d[rest], puv[rest], conv = _warm_samples(mesh, face, samples, rest, pre.k0, pre.vproj.distance,
-                                                     pre.vproj.uv, tol_rel)
-        else:
-            pr = project_to_face(samples.points[rest], face, tol_rel=tol_rel,
-                                 uv0=None if uv0 is None else uv0[rest])
-            d[rest], puv[rest], conv = pr.distance, pr.uv, pr.converged
-        n_conv = int(np.count_nonzero(~pre.vproj.converged) + np.count_nonzero(~conv))
+        d[rest], puv[rest] = pr.distance, pr.uv
+        n_conv = int(np.count_nonzero(~pre.vproj.converged) + np.count_nonzero(~pr.converged))
     if sel is None:
         mx, rms, where = _stats(d, samples.points)
         n_mesh = len(d)
@@ -439,6 +340,8 @@ def _surface_deviation(mesh: TriMesh, target, *, density: int, n_domain: int, tw
         if skip is not None:
             state.skip, state.apriori = skip, pre.apriori
         state.prune = bool(prune)
+        if pending is not None:
+            state.pending = pending       # `_complete_first_pass`, from `refine_deviation`
         if density % 3 == 0:    # the centroid (1, 1, 1) / 3 is a node of the grid: kept for `flipped_against_normal`
             k = density // 3
             cen = np.flatnonzero((samples.kind == 2) & np.all(np.rint(samples.barycentric * density) == k, axis=1))
@@ -471,9 +374,141 @@ def _grid_points(surface, uv: np.ndarray) -> np.ndarray:
     return out
 
 
-#: the report's first pass (`_surface_deviation` with ``adaptive``) projects the samples other than the
-#: vertices from their corners' feet (`_first_pass`, `_project_warm`); False: every sample with the full search
-WARM_FIRST_PASS = True
+#: faces with at least this many triangles take `_first_pass_lazy` (`_shell_deviation` with ``skip``): below,
+#: its second projection call costs more than the projections it saves
+LAZY_MIN_TRIANGLES = 128
+
+
+def _first_pass_lazy(mesh: TriMesh, face, tol_rel: float):
+    """The first pass's mesh samples (density 3) with the edge nodes that provably cannot matter left for
+    later: (samples, d, puv, n_not_converged, measured rows, pending) as `_surface_deviation` uses them.
+
+    The vertices and centroids are projected first (every centroid's foot serves
+    `flipped_against_normal`). Each edge node p(w) then has its chord bound c(w) = |S(x(w)) - p(w)| +
+    slack (`_chord_bound`; x(w) the same combination of its edge's corners' feet): S(x(w)) is a surface
+    point, so the node's distance to the surface is at most c(w), and so is the distance of the surface
+    point S(x(w)) to the mesh (the refinement's footprint sample at the same node). A node is not
+    projected now (it is *pending*) when c(w) is below the largest vertex or centroid value of the face
+    M1 and every triangle on its edge passes the refinement's footprint test with the values measured
+    so far (``|S(centre) - centroid| <= 2 R + 2 L_t``, `refine_deviation`; it then passes with any
+    larger value). Everything else is projected as before (the full search, restarts included), and
+    every projection is point by point, so the measured values are those of projecting all samples.
+
+    What this leaves unchanged: the face's largest mesh sample (a pending node is below M1, a value the
+    face reaches), so every maximum, skipping threshold and face order of `_shell_deviation`; every
+    triangle's footprint test (so the same footprint samples and curvature bounds). What waits: a
+    triangle's largest sample D_t, which `_complete_first_pass` settles once the curvature bounds and
+    the maximum G over all faces are known, before any refinement decision.
+
+    One case could differ from projecting every node, as in `_chord_bound`: a projection whose global
+    search misses the nearest foot returns more than the true distance, possibly more than c(w); a
+    pending node then keeps the lower (truer) value (not seen on the 34 shared runs).
+    """
+    samples = sample_triangles(mesh, density=3)
+    kind = samples.kind
+    n = len(samples.points)
+    first = np.flatnonzero(kind != 1)               # vertices and centroids (density 3: the interior node)
+    p1 = project_to_face(samples.points[first], face, tol_rel=tol_rel)
+    d = np.full(n, -np.inf)
+    puv = np.full((n, 2), np.nan)
+    d[first], puv[first] = p1.distance, p1.uv
+    n_conv = int(np.count_nonzero(~p1.converged))
+    e1 = np.flatnonzero(kind == 1)
+    m1 = float(np.max(p1.distance)) if len(first) else -np.inf
+    pend = np.zeros(0, dtype=np.int64)
+    if len(e1) and np.isfinite(m1):
+        k0 = first[kind[first] == 0]
+        vert_uv = np.full((mesh.n_vertices, 2), np.nan)
+        vert_uv[samples.element[k0]] = puv[k0]
+        t = mesh.triangles
+        cuv = vert_uv[t]
+        uv_e = np.einsum("kj,kjd->kd", samples.barycentric[e1], cuv[samples.triangle[e1]])
+        c = _chord_bound(face.surface, uv_e, samples.points[e1], tol_rel)
+        # the refinement's footprint test (`refine_deviation`: corners' feet finite, the (u, v) centre's
+        # surface point within 2 R + 2 D_t of the centroid), passed with the values so far L_t <= D_t
+        s_i, t_i = samples.incidence(mesh)
+        lo_t = np.full(len(t), -np.inf)
+        np.maximum.at(lo_t, t_i, d[s_i])             # `per_triangle_max` of the values so far
+        p = mesh.vertices[t]
+        good = np.all(np.isfinite(cuv.reshape(len(t), -1)), axis=1)
+        if good.any():
+            r = _enclosing_radius(p[good])
+            c3 = face.surface.evaluate(cuv[good].mean(axis=1))
+            good[good] = np.linalg.norm(c3 - p[good].mean(axis=1), axis=1) <= (
+                (2.0 * r + 2.0 * np.maximum(lo_t[good], 0.0)) * (1.0 - 1e-12))
+        node_ok = np.ones(n, dtype=bool)
+        node_ok[s_i[~good[t_i]]] = False
+        low = (c < m1) & node_ok[e1]
+        pend = e1[low]
+        c_pend = c[low]
+        e1 = e1[~low]
+    if len(e1):
+        p2 = project_to_face(samples.points[e1], face, tol_rel=tol_rel)
+        d[e1], puv[e1] = p2.distance, p2.uv
+        n_conv += int(np.count_nonzero(~p2.converged))
+    if not len(pend):
+        return samples, d, puv, n_conv, None, None
+    keep = np.ones(n, dtype=bool)
+    keep[pend] = False
+    pos = np.full(n, -1, dtype=np.int64)
+    pos[pend] = np.arange(len(pend))
+    hit = pos[s_i] >= 0
+    pending = (samples.points[pend], c_pend, pos[s_i][hit], t_i[hit])
+    return samples, d, puv, n_conv, np.flatnonzero(keep), pending
+
+
+def _complete_first_pass(devs: list, states: list, info: dict, live: list, tol_rel: float) -> None:
+    """Project the pending first-pass nodes (`_first_pass_lazy`) of the face states `live` that could matter,
+    once `refine_deviation` has the curvature bounds (beta_t, kappa_t in ``info[i]``) and the footprint
+    samples.
+
+    With U_t = max(the triangle's largest value so far, the chord bounds of its pending nodes) >= D_t
+    (its largest value with every node projected; the footprint samples are in the first term), a
+    triangle whose bound ``U_t + beta_t / (max(1 - kappa_t U_t, 0.5) k^2)`` is at most G (the largest
+    sample over all faces now) has B_t <= G with the true D_t as well (the bound grows with D_t): it is
+    never refined (the refinement asks for B_t > (1 + rel) G', G' >= G), and its bound stays below the
+    reported one (``max(B_t, G)`` over all triangles). Its pending nodes stay unmeasured; its B_t from
+    the values it has is lower still. Every other triangle's pending nodes are projected now (full
+    search, the values they would have had), so its D_t, refinement and bound are as without pending
+    nodes. No maximum changes: a pending node is below its face's largest mesh sample.
+    """
+    todo = [i for i in live if getattr(states[i], "pending", None) is not None]
+    if not todo:
+        return
+    g = max(float(np.nanmax([dv.max_two_sided, 0.0])) for dv in devs if dv is not None)
+    for i in todo:
+        _complete_face(devs, states[i], info[i], i, g, tol_rel)
+
+
+def _complete_face(devs: list, st, info_i: tuple, i: int, g: float, tol_rel: float) -> None:
+    """`_complete_first_pass` for one face state, with G = `g`."""
+    pts, c, s_rows, t_rows = st.pending
+    st.pending = None
+    beta, _, kap = info_i[:3]
+    u = st.tri_max.copy()
+    np.maximum.at(u, t_rows, c[s_rows])
+    with np.errstate(invalid="ignore"):
+        b = u + beta / np.maximum(1.0 - kap * u, 0.5) / st.density ** 2
+    need = ~(b <= g)
+    node_need = np.zeros(len(pts), dtype=bool)
+    np.logical_or.at(node_need, s_rows, need[t_rows])
+    idx = np.flatnonzero(node_need)
+    if not len(idx):
+        return
+    pr = project_to_face(pts[idx], st.face, tol_rel=tol_rel)
+    val = np.full(len(pts), -np.inf)
+    val[idx] = pr.distance
+    np.maximum.at(st.tri_max, t_rows, val[s_rows])
+    dev = devs[i]
+    j = int(np.argmax(pr.distance))
+    mx, where = dev.max_mesh_to_target, dev.where_mesh_to_target
+    if pr.distance[j] > mx:         # not expected: a pending node is below the face's largest value
+        mx, where = float(pr.distance[j]), pts[idx[j]].copy()
+    devs[i] = replace(dev, max_mesh_to_target=mx, where_mesh_to_target=where,
+                      n_mesh_samples=dev.n_mesh_samples + len(idx),
+                      n_not_converged=dev.n_not_converged + int(np.count_nonzero(~pr.converged)),
+                      max_two_sided=float(np.nanmax([mx, dev.max_target_to_mesh])))
+
 
 def _closest_from(pts: np.ndarray, loc, at: float) -> np.ndarray:
     """Exact distances of the points `pts` (n, 3) to `loc`'s triangles (`closest_point._TriangleLocator`),
@@ -627,7 +662,10 @@ def _shell_deviation(mesh: TriMesh, shell: Shell, *, density: int, n_domain: int
     other triangles (their own samples, bounds and the running maximum are unchanged). Skipped
     triangles enter the bound with A_t (<= T). Per-face figures of faces with skipped triangles may be
     lower than without skipping (never above); the sample counts and RMS values cover the measured
-    samples only.
+    samples only. Faces of at least `LAZY_MIN_TRIANGLES` triangles measured without that skipping take
+    `_first_pass_lazy` (edge nodes below their face's maximum by their chord bound wait, and
+    `_complete_first_pass`, from `refine_deviation`, projects those that could matter): the same maxima,
+    refinement decisions and bound.
     """
     _check_mesh(mesh, "shell_deviation")
     if not isinstance(shell, Shell):
@@ -1061,9 +1099,7 @@ def refine_deviation(devs: list, states: list, *, rel: float = 0.01, tol_rel: fl
     between them (sampled, not proven), (b) surface -> mesh, the nearest mesh
     point lies in the plane of a triangle (near a convex mesh edge the
     distance is the edge's, convex across it, whose maximum the edge samples
-    catch), and (c) the projection finds the global foot (the first pass's edge nodes and centroids
-    are one Newton run from their corners' feet, `_project_warm`: where that run ends at another local
-    minimum their value is above the true distance, conservative for the mesh -> surface side). Gaps in the mesh
+    catch), and (c) the projection finds the global foot. Gaps in the mesh
     wider than about one triangle are caught by the (u, v) grid that follows
     the triangles' size (`_footprint_grid`); surface samples farther than
     half the maximum are kept only inside fine trim polygons (`_drop_outside`).
@@ -1099,6 +1135,7 @@ def refine_deviation(devs: list, states: list, *, rel: float = 0.01, tol_rel: fl
         st = states[i]
         if st.two_sided:
             _sample_more(devs, states, info, i, np.flatnonzero(info[i][1]), tol_rel, surface_only=True)
+    _complete_first_pass(devs, states, info, live, tol_rel)     # the first pass's pending nodes that could matter
 
     def bounds(i, k=None):
         st = states[i]

@@ -169,13 +169,18 @@ def measure_mesh(mesh: TriMesh, shell: Shell, *, density: int = 3, n_domain: int
     1,812, featuretype 11,784 -> 3,077; the per-triangle
     maxima and densities are the same numbers, tests/quality/test_chord_prune.py).
 
-    The first pass's edge nodes and centroids are one Newton run each from the same barycentric
-    combination of their triangle's corners' feet (`quality.deviation._first_pass`; the vertices with the
-    full search): the same feet to the iteration's tolerance (the figures within 1e-9 relative of the full
-    search's on the 34 shared runs, `benchmarks/measure_same.py compare --rel`); a run that ends on a
-    domain edge, leaves its footprint's reach or lies farther than its corners' distance bound is searched
-    in full, and one that still ends at another local minimum reports a value above the true distance
-    (conservative; none on the 34 runs, `benchmarks/measure_warm.py`).
+    First-pass edge nodes left out by the same bound (`quality.deviation._first_pass_lazy`, faces of at
+    least 128 triangles that do not take the skipping path above): a face's vertices and centroids are
+    projected first; an edge node whose chord bound c(w) is below the face's largest vertex / centroid
+    value, on triangles that pass the refinement's footprint test already, waits. Its value (and that of
+    the footprint sample S(x(w)) at the same node) is at most c(w), so the face's maxima are the same;
+    before the refinement decides anything, a triangle whose bound
+    ``U_t + beta_t / ((1 - kappa_t U_t) k^2)`` with U_t = max(its values, its waiting nodes' c(w)) exceeds
+    the maximum G over all faces has its waiting nodes projected (full search, restarts included:
+    `_complete_first_pass`); the others have B_t <= G with their true D_t (the bound grows with D_t), so
+    none is refined or raises ``max_deviation_bound``, and every figure is the same (proven, as far as
+    the projections find the global foot; checked on the 34 shared runs, `benchmarks/measure_same.py`,
+    and tests/quality/test_first_pass_lazy.py).
     Surface -> mesh, the first pass's (u, v) grid points are searched first within the face's largest
     values (`_closest_from`): the same distances bit for bit.
     """
