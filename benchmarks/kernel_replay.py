@@ -6,9 +6,11 @@ trimsurf function the meshing calls from Python) is given while the shared model
     python benchmarks/kernel_replay.py replay span_bounds --src src [--use MODULE:FUNCTION]   (another function,
         e.g. trimsurf.quality.interpolation_bound:_span_bounds_numpy, given the captured calls)
 
-KERNEL is a name of ENTRIES below (refine, place, chunks, loop_polylines, span_bounds, mesh_faces) or
-`module:function`; a kernel called only from compiled code (cell_surface_kernel, from refine_cells_kernel) is
-timed through its compiled caller.
+KERNEL is a name of ENTRIES below (refine, place, chunks, loop_polylines, span_bounds, mesh_faces, seams =
+reduce_seams, clean_pslg) or `module:function`; a kernel called only from compiled code (cell_surface_kernel, from
+refine_cells_kernel) is timed through its compiled caller. A model and mode without a call (clean_pslg runs only
+for the faces whose constraint graph `_domain_prepare_kernel` cannot hand to Triangle at once) is listed as such
+and left out of the ratios.
 
 capture: per model (a part of a file name in ../shared/data/cad) and mode (tolerance 1e-3 of the diagonal, max
 edge: tol = the diagonal, paper = 3 % of it) one warm `tessellate_shell` (with the measurement where ENTRIES or
@@ -69,6 +71,8 @@ ENTRIES = {
     "loop_polylines": ("trimsurf.geom._pcurve_kernels:loop_polylines_kernel", True, None),
     "span_bounds": ("trimsurf.quality.interpolation_bound:span_bounds", True, None),
     "mesh_faces": ("trimsurf.tessellate.face:mesh_face_from_chunks", False, None),
+    "seams": ("trimsurf.tessellate.seams:reduce_seams", False, None),
+    "clean_pslg": ("trimsurf.tessellate.pslg:clean_pslg", False, None),
 }
 MODES = {"tol": 1.0, "paper": 3e-2}      # max edge / diagonal
 
@@ -244,12 +248,16 @@ def main(argv=None) -> None:
     ratios = {"per_call": [], "total": []}
     for m, first in runs[0][0].items():
         row = f"{m:18s} calls {first['calls']:5d}"
+        if not first["calls"]:
+            print(row + "  (no call)")
+            continue
         for c, v in ratios.items():
             v.append(best[-1][m][c] / best[0][m][c])
             row += f"  {c} " + " ".join(f"{b[m][c] * 1e3:8.2f}" for b in best) + f"  ratio {v[-1]:.3f}"
         print(row + "  same " + "/".join(str(all(x[m]["same"] for x in tree)) for tree in runs))
-    print("geometric mean of the ratios: " + "  ".join(
-        f"{c} {float(np.exp(np.mean(np.log(v)))):.3f}" for c, v in ratios.items()))
+    if ratios["total"]:
+        print("geometric mean of the ratios: " + "  ".join(
+            f"{c} {float(np.exp(np.mean(np.log(v)))):.3f}" for c, v in ratios.items()))
 
 
 if __name__ == "__main__":
