@@ -62,6 +62,12 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="the paper's grid size instead of --max-edge: iso-lines (and trim points) "
                              "at most G apart in 3D, cell diagonals up to sqrt(2) G (= --max-edge "
                              "sqrt(2) G; about half the triangles of --max-edge G)")
+    parser.add_argument("--max-aspect", type=float, default=None, metavar="A",
+                        help="largest side ratio (3D) of a grid cell near the trimmed region: a longer cell "
+                             "is halved across its long side, so its two triangles' smallest angle stays "
+                             "above about atan(1/A) (default 6: 9.5 deg); binds mostly where --max-edge "
+                             "does not, e.g. along cylinders' straight lines with a large --max-edge; "
+                             "'inf': no limit (fewer, thinner triangles)")
     parser.add_argument("--quads", action="store_true",
                         help="keep untouched grid cells as quads (OBJ or PLY output)")
     parser.add_argument("--loose", action="store_true",
@@ -231,6 +237,9 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"--{name.replace('_', '-')} must be a positive number; got {v!r}")
     if args.jobs < 1:
         raise InputError(f"--jobs must be a positive integer; got {args.jobs}")
+    aspect = getattr(args, "max_aspect", None)
+    if aspect is not None and not (aspect >= 1.0):      # (NaN too; inf: no limit)
+        raise InputError(f"--max-aspect must be a number >= 1 (inf: no limit); got {aspect!r}")
     if getattr(args, "grid_size", None) is not None:
         if args.max_edge is not None:
             raise InputError("give --max-edge or --grid-size, not both")
@@ -270,7 +279,8 @@ def run(args: argparse.Namespace) -> int:
                 res = tessellate_shell(shell, tolerance=args.tolerance, max_edge=args.max_edge,
                                        mode="loose" if args.loose else "auto",
                                        strategy="bisection" if args.bisection else "equidistributed",
-                                       common=args.common, jobs=args.jobs)
+                                       common=args.common, jobs=args.jobs,
+                                       **({} if aspect is None else {"aspect": aspect}))
             except Exception as exc:
                 if not many or getattr(args, "debug", False) or _TERMINATED.is_set():
                     raise

@@ -27,7 +27,8 @@ __all__ = ["tessellate_face", "face_domain_values", "shell_domain_values", "grid
 _N_LINES = 24   # transversal lines per direction when the domain values are chosen (plus knot lines)
 #: largest side ratio of a grid cell at or in the trimmed region (3D sides): its two triangles' smallest
 #: angle is about atan(1 / ASPECT); a tolerance-only grid on a cylinder would otherwise span the whole
-#: straight direction with one cell (screw p5 angle 0.4 deg -> 1.4 deg, linkrods 1.7 -> 4.9)
+#: straight direction with one cell (screw p5 angle 0.4 deg -> 1.4 deg, linkrods 1.7 -> 4.9). Ours, not
+#: the paper's (its grid size bounds the cells instead); `tessellate_shell(aspect=...)`, CLI --max-aspect
 ASPECT = 6.0
 #: cells whose split deviates at most this many times the tolerance, few in their row and column, get an
 #: interior point in the triangulation instead of a grid line through the whole row or column
@@ -54,6 +55,25 @@ _NO_UV, _NO_P, _NO_D = np.zeros((0, 5, 2)), np.zeros((0, 5, 3)), np.zeros((0, 2)
 _NO_IDS2, _NO_TABLE = np.zeros((0, 2), dtype=np.int64), np.zeros((0, 0), dtype=np.int64)
 _EPS = float(np.finfo(np.float64).eps)
 
+
+
+def check_aspect(aspect) -> float | None:
+    """Validated aspect limit of the grid cells: a number >= 1, or None / inf for no limit (-> None).
+
+    >>> check_aspect(6), check_aspect(None), check_aspect(float("inf"))
+    (6.0, None, None)
+    """
+    if aspect is None:
+        return None
+    try:
+        a = float(aspect)
+    except (TypeError, ValueError):
+        raise InputError(f"aspect must be a number >= 1 or None (no limit); got {aspect!r}") from None
+    if a == math.inf:
+        return None
+    if not (math.isfinite(a) and a >= 1.0):
+        raise InputError(f"aspect must be a number >= 1, or inf / None for no limit; got {aspect!r}")
+    return a
 
 
 def check_parameters(tolerance, max_edge) -> tuple[float, float]:
@@ -445,7 +465,8 @@ def _increasing(a, b, n: int) -> bool:
 
 
 def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
-                       strategy: str = "equidistributed", n_lines: int = _N_LINES, with_fits: bool = False):
+                       strategy: str = "equidistributed", n_lines: int = _N_LINES, with_fits: bool = False,
+                       aspect: float | None = ASPECT):
     """Adaptive u and v values of a face (paper Sec. 4.2), the criteria evaluated over the whole face.
 
     For the u values, the lines are v = const for `n_lines` values across the
@@ -458,6 +479,8 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
     divided by the worst cell's ratio when that gives fewer cells than
     mid-lines through the bad cells, and a few cells just over the tolerance
     get an interior point when the face is triangulated instead of a line.
+    Cells whose sides differ by more than `aspect` are halved across their long side (None: no limit;
+    `refine_cells`).
 
     Returns
     -------
@@ -467,11 +490,11 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
         `mesh_face_from_chunks(..., fits=fits)`.
     """
     return _face_values(face, tolerance=tolerance, max_edge=max_edge, strategy=strategy, n_lines=n_lines,
-                        with_fits=with_fits)
+                        with_fits=with_fits, aspect=check_aspect(aspect))
 
 
 def shell_domain_values(faces, *, tolerance: float, max_edge: float, strategy: str = "equidistributed",
-                        n_lines: int = _N_LINES) -> list:
+                        n_lines: int = _N_LINES, aspect: float | None = ASPECT) -> list:
     """`face_domain_values(face, ..., with_fits=True)` of each face, or the InputError it raises (the same
     values, the same errors): the loops of all faces sampled, boxed and rasterized at once (`face_fronts`),
     then each face's placement and refinement."""
@@ -479,6 +502,7 @@ def shell_domain_values(faces, *, tolerance: float, max_edge: float, strategy: s
     # the rasters only serve compiled placements: a face straight in both directions (a plane, a bilinear
     # patch) within the grid size needs none (`_single_interval`); a face that does after all builds its own
     edge = max_edge / np.sqrt(2.0)
+    aspect = check_aspect(aspect)
 
     def rasterize(f, lo, hi):
         s = faces[f].surface
@@ -488,17 +512,17 @@ def shell_domain_values(faces, *, tolerance: float, max_edge: float, strategy: s
     for face, front in zip(faces, face_fronts(faces, rasterize)):
         try:
             out.append(_face_values(face, tolerance=tolerance, max_edge=max_edge, strategy=strategy,
-                                    n_lines=n_lines, with_fits=True, front=front))
+                                    n_lines=n_lines, with_fits=True, front=front, aspect=aspect))
         except InputError as exc:
             out.append(exc)
     return out
 
 
 def _face_values(face, *, tolerance, max_edge, strategy="equidistributed", n_lines=_N_LINES, with_fits=False,
-                 front=None):
+                 front=None, aspect=ASPECT):
     """`face_domain_values`, with the face's `_Front` from `shell_domain_values` when given."""
     cache = _CellCache(face.surface)
-    us, vs = _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front)
+    us, vs = _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front, aspect)
     if with_fits:
         return us, vs, cache.fits(us, vs)
     return us, vs
@@ -632,7 +656,7 @@ def face_fronts(faces, rasterize=None) -> list:
     return fronts
 
 
-def _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front=None):
+def _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front=None, aspect=ASPECT):
     """`face_domain_values` with the face's `_CellCache` (and its `_Front` when the caller has it)."""
     s = face.surface
     if front is not None:
@@ -712,7 +736,7 @@ def _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front=No
 
     us, vs = place(tolerance)
     if strategy == "uniform":
-        return refine_cells(face, us, vs, tolerance=tolerance, max_edge=max_edge, cache=cache)
+        return refine_cells(face, us, vs, tolerance=tolerance, max_edge=max_edge, aspect=aspect, cache=cache)
     # iso-lines within the tolerance still leave cells whose triangles deviate more (curvature in both
     # directions adds up at a triangle's centre, plus the twist). Mid-lines through the bad cells
     # (refine_cells) halve every row and column they cross and overshoot 4x; lines placed for the
@@ -722,7 +746,7 @@ def _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front=No
     # curved cells just over max_edge, and mid-lines through every such row and column doubled the
     # lines (hood sample at max edge 14.1: 3944 cells over by <= 0.64 %, 110 x 143 -> 151 x 205
     # lines, 2x the uniform grid's triangles); lines placed for max_edge / rd need ~rd x the lines.
-    best = refine_cells(face, us, vs, tolerance=tolerance, max_edge=max_edge, cache=cache)
+    best = refine_cells(face, us, vs, tolerance=tolerance, max_edge=max_edge, aspect=aspect, cache=cache)
     r, rd = _worst_cell_ratio(face, us, vs, tolerance, polys, cache, max_edge)
     if r > 1.0 or rd > 1.0:
         try:
@@ -730,7 +754,8 @@ def _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front=No
                         max_edge / (1.002 * rd) if rd > 1.0 else max_edge)
             if (len(alt[0]) - 1) * (len(alt[1]) - 1) >= (len(best[0]) - 1) * (len(best[1]) - 1):
                 return best         # refining only adds lines: the alternative cannot have fewer cells
-            alt = refine_cells(face, alt[0], alt[1], tolerance=tolerance, max_edge=max_edge, cache=cache)
+            alt = refine_cells(face, alt[0], alt[1], tolerance=tolerance, max_edge=max_edge, aspect=aspect,
+                               cache=cache)
         except InputError:          # the alternative would exceed the cell budget: keep the first
             return best
         if (len(alt[0]) - 1) * (len(alt[1]) - 1) < (len(best[0]) - 1) * (len(best[1]) - 1):
@@ -1830,7 +1855,8 @@ def _rectangle_face(face: TrimmedFace) -> TrimmedFace:
 
 
 def tessellate_face(face: TrimmedFace, *, tolerance: float, max_edge: float, strategy: str = "equidistributed",
-                    reduce: bool = True, repair: bool = True, slivers: bool = True) -> TriMesh:
+                    reduce: bool = True, repair: bool = True, slivers: bool = True,
+                    aspect: float | None = ASPECT) -> TriMesh:
     """Tessellate one trimmed face into a regular mesh whose iso-lines are nearly equidistant in 3D.
 
     Parameters
@@ -1849,6 +1875,8 @@ def tessellate_face(face: TrimmedFace, *, tolerance: float, max_edge: float, str
         Run `repair_face` first (join / fill loop gaps).
     slivers : bool
         Boundary-only reduction of thin triangles at the trims (`trimsurf.tessellate.slivers`).
+    aspect : float or None
+        Largest side ratio of a grid cell (`ASPECT`; None or inf: no limit; see `tessellate_shell`).
 
     Returns
     -------
@@ -1877,6 +1905,7 @@ def tessellate_face(face: TrimmedFace, *, tolerance: float, max_edge: float, str
     if not isinstance(face, TrimmedFace):
         raise InputError(f"tessellate_face needs a TrimmedFace; got {type(face).__name__}")
     tolerance, max_edge = check_parameters(tolerance, max_edge)
+    aspect = check_aspect(aspect)
     if repair:
         rep = repair_face(face, tolerance=tolerance)
         if rep.status == "failed":
@@ -1885,7 +1914,7 @@ def tessellate_face(face: TrimmedFace, *, tolerance: float, max_edge: float, str
     if not face.loops:
         face = _rectangle_face(face)
     us, vs, fits = face_domain_values(face, tolerance=tolerance, max_edge=max_edge, strategy=strategy,
-                                      with_fits=True)
+                                      with_fits=True, aspect=aspect)
     chunks = loose_chunks(face, 0, us, vs, tolerance=tolerance, max_edge=max_edge, strategy=strategy, reduce=reduce)
     return mesh_face_from_chunks(face, us, vs, chunks, tolerance=tolerance, max_edge=max_edge,
                                  slivers=slivers, fits=fits).to_trimesh()

@@ -10,7 +10,7 @@ import numpy as np
 from ..errors import InputError
 from ..model import Shell, TriMesh
 from ..model.mesh import compact_indices
-from .face import (FaceMesh, _rectangle_face, check_parameters, face_domain_values, loose_chunks,
+from .face import (ASPECT, FaceMesh, _rectangle_face, check_aspect, check_parameters, face_domain_values, loose_chunks,
                    mesh_face_from_chunks, shell_domain_values)
 from .repair import quick_repairs, repair_face
 from .trims import Chunk, ChunkUse, discretize_chunks
@@ -318,7 +318,8 @@ def _edge_point_ids_loop(shell: Shell, edge_index: list, chunks: list, tolerance
 def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: float | None = None,
                      mode: str = "auto", strategy: str = "equidistributed", reduce: bool = True,
                      stitch: bool = True, reduce_seams: bool = True, common: bool = False,
-                     measure: bool = True, progress=None, jobs: int = 1) -> TessellationResult:
+                     measure: bool = True, progress=None, jobs: int = 1,
+                     aspect: float | None = ASPECT) -> TessellationResult:
     """Tessellate every face of a shell and join them into one mesh (paper Sec. 4-5).
 
     Parameters
@@ -357,6 +358,13 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
         the same whatever `jobs` (each face and edge is computed by the same code from the same data,
         results are joined in order). The workers are forked: from a process that runs other threads
         (a Dask worker, a GUI) keep ``jobs=1``.
+    aspect : float or None
+        Largest side ratio (3D) of a grid cell at the trimmed region: a longer cell is halved
+        across its long side (where the short side's direction has at least two cells), so that
+        its two triangles' smallest angle stays above about atan(1 / aspect). Not the paper's
+        (its grid size, `max_edge`, keeps the cells regular); it matters where the grid size does
+        not bind, e.g. along a cylinder's straight direction with a large `max_edge`. Default
+        `face.ASPECT` (6); None or inf: no limit (fewer, thinner triangles; CLI ``--max-aspect``).
 
     Returns
     -------
@@ -383,6 +391,7 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
     if isinstance(jobs, bool) or not isinstance(jobs, (int, np.integer)) or jobs < 1:
         raise InputError(f"jobs must be a positive integer; got {jobs!r}")
     jobs = int(jobs)
+    aspect = check_aspect(aspect)
     if mode not in ("auto", "conforming", "loose"):
         raise InputError(f"mode must be 'auto', 'conforming' or 'loose'; got {mode!r}")
     d_tol, d_h = (None, None) if tolerance is not None and max_edge is not None else default_parameters(shell)
@@ -411,7 +420,8 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
         if not f.loops:
             f = _rectangle_face(f)
         try:
-            grid = face_domain_values(f, tolerance=face_tol, max_edge=max_edge, strategy=strategy, with_fits=True)
+            grid = face_domain_values(f, tolerance=face_tol, max_edge=max_edge, strategy=strategy, with_fits=True,
+                                      aspect=aspect)
             return f, FaceStatus(i, name, rep.status, tuple(rep.messages)), grid
         except InputError as exc:
             return f, FaceStatus(i, name, "failed", tuple(rep.messages) + (str(exc),)), None
@@ -431,7 +441,7 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
             prepared.append((f, rep))
         todo = [i for i in range(n) if prepared[i][1].status != "failed"]
         values = dict(zip(todo, shell_domain_values([prepared[i][0] for i in todo], tolerance=face_tol,
-                                                    max_edge=max_edge, strategy=strategy)))
+                                                    max_edge=max_edge, strategy=strategy, aspect=aspect)))
         results = []
         for i, (f, rep) in enumerate(prepared):
             name = shell.faces[i].name or f"face {i}"
@@ -460,7 +470,7 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
         n_common = len(changed)
         for i in changed:
             us, vs = grids[i]
-            grids[i] = refine_cells(faces[i], us, vs, tolerance=face_tol, max_edge=max_edge)
+            grids[i] = refine_cells(faces[i], us, vs, tolerance=face_tol, max_edge=max_edge, aspect=aspect)
     face_meshes: dict = {}
     next_id = [0]
     if mode == "conforming":
@@ -568,7 +578,7 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
     faces_t = tuple(statuses[i] for i in range(n))
     report = {
         "mode": mode, "strategy": strategy, "tolerance": tolerance, "max_edge_used": max_edge,
-        "parameters": {"tolerance": tolerance, "max_edge": max_edge},
+        "parameters": {"tolerance": tolerance, "max_edge": max_edge, "aspect": aspect},
         "faces_in": n, "faces_failed": sum(f.status == "failed" for f in faces_t),
         "faces_flagged": sum(f.status == "flagged" for f in faces_t),
         "faces_repaired": sum(f.status == "repaired" for f in faces_t),
