@@ -6,11 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from trimsurf.errors import InputError
 from trimsurf.model import NurbsSurface, TrimmedFace
 from trimsurf.samples import build_sample
 from trimsurf.tessellate.domain import adaptive_values, interval_criteria
-from trimsurf.tessellate.face import (ASPECT, _rectangle_face, face_domain_values, loose_chunks, mesh_face_from_chunks,
-                                      surface_distance, triangle_deviation)
+from trimsurf.tessellate.face import (ASPECT, _rectangle_face, check_aspect, face_domain_values, loose_chunks,
+                                      mesh_face_from_chunks, surface_distance, triangle_deviation)
 
 
 def _ellipse(t):
@@ -150,6 +151,42 @@ def test_tolerance_only_cylinder_cells_keep_their_aspect():
     ang = np.degrees(np.arccos(np.clip((b * b + c * c - a * a) / (2 * b * c), -1, 1)))
     assert np.percentile(ang, 5) >= 0.9 * np.degrees(np.arctan(1.0 / ASPECT))
     assert fm.tri_dev.max() <= tol
+
+
+@pytest.mark.parametrize("aspect", [4.0, 12.0, None])
+def test_aspect_parameter_bounds_the_cells(aspect):
+    """`aspect` is the limit the cells are halved down to: a tolerance-only grid on a long cylinder ends
+    with side ratios in (aspect / 2, aspect] (halving the long side halves the ratio; refine_cells runs at
+    most 6 rounds, 64 cells along this 400 long line: 4 is reached, 3 would not be), or, with no limit,
+    one cell along the whole straight direction; every setting within the tolerance."""
+    s = _half_cylinder(radius=10.0, height=400.0)
+    face = _rectangle_face(TrimmedFace(s))
+    tol, h = 0.05, 1e4
+    us, vs = face_domain_values(face, tolerance=tol, max_edge=h, aspect=aspect)
+    uu, vv = np.meshgrid(us, vs, indexing="ij")
+    p = s.evaluate(np.column_stack([uu.ravel(), vv.ravel()])).reshape(len(us), len(vs), 3)
+    side_u = np.linalg.norm(np.diff(p, axis=0), axis=2)[:, :-1]
+    side_v = np.linalg.norm(np.diff(p, axis=1), axis=2)[:-1, :]
+    ratio = np.maximum(side_u, side_v) / np.minimum(side_u, side_v)
+    if aspect is None:
+        assert len(vs) == 2 and ratio.max() > 50
+    else:
+        assert aspect / 2 < ratio.max() <= aspect
+    fm = mesh_face_from_chunks(face, us, vs, loose_chunks(face, 0, us, vs, tolerance=tol, max_edge=h,
+                                                          strategy="equidistributed"),
+                               tolerance=tol, max_edge=h)
+    assert fm.tri_dev.max() <= tol
+    # the default is ASPECT; inf is no limit
+    if aspect is None:
+        assert np.array_equal(face_domain_values(face, tolerance=tol, max_edge=h, aspect=float("inf"))[1], vs)
+    assert np.array_equal(face_domain_values(face, tolerance=tol, max_edge=h, aspect=ASPECT)[1],
+                          face_domain_values(face, tolerance=tol, max_edge=h)[1])
+
+
+@pytest.mark.parametrize("bad", [0.5, 0.0, -3.0, float("nan"), "six", [6]])
+def test_check_aspect_refuses_bad_values(bad):
+    with pytest.raises(InputError, match="aspect"):
+        check_aspect(bad)
 
 
 @pytest.mark.parametrize("name", ["fender", "hood"])
