@@ -13,6 +13,9 @@ Run once per source tree (the trimsurf on PYTHONPATH), then compare the two JSON
     PYTHONPATH=src python benchmarks/tessellate_figures.py --json new.json
     python benchmarks/tessellate_figures.py --compare old.json new.json
 
+``--aspect A`` meshes with ``tessellate_shell(aspect=A)`` (inf: no limit), e.g. to compare an aspect limit
+against the default on one tree.
+
 The comparison marks a row "NO" when the new mesh measures beyond eps (either metric), has a flipped
 triangle, is not consistently oriented, has more boundary or non-manifold edges or failed faces than the
 old one, or is no longer watertight where the old one was.
@@ -32,7 +35,8 @@ SAMPLES = ("fender", "hood", "gap_pair", "bspline_box")
 MODES = {"tol": 1.0, "paper": 3e-2}      # max edge / diagonal
 
 
-def figures(models: list[str] | None, runs: int) -> list[dict]:
+def figures(models: list[str] | None, runs: int, aspect: float | None = None) -> list[dict]:
+    """The rows; `aspect`: tessellate_shell's aspect limit (None: its default; inf: no limit)."""
     import numpy as np
 
     from trimsurf.io import read_shell
@@ -42,6 +46,7 @@ def figures(models: list[str] | None, runs: int) -> list[dict]:
 
     names = [(p.name, p) for p in sorted(DATA.iterdir()) if p.suffix.lower() in (".step", ".stp", ".iges", ".igs")]
     names += [(s, s) for s in SAMPLES]
+    kw = {} if aspect is None else {"aspect": aspect}
     if models:
         names = [m for m in names if any(k in m[0] for k in models)]
     rows = []
@@ -54,9 +59,9 @@ def figures(models: list[str] | None, runs: int) -> list[dict]:
             best = np.inf
             for _ in range(runs):
                 t = time.process_time()
-                tessellate_shell(shell, tolerance=eps, max_edge=h, measure=False)
+                tessellate_shell(shell, tolerance=eps, max_edge=h, measure=False, **kw)
                 best = min(best, time.process_time() - t)
-            res = tessellate_shell(shell, tolerance=eps, max_edge=h, measure=True)
+            res = tessellate_shell(shell, tolerance=eps, max_edge=h, measure=True, **kw)
             r = res.report
             dev = shell_deviation(res.mesh, shell, density=3, n_domain=32)
             q = triangle_quality(res.mesh)
@@ -105,11 +110,13 @@ def main(argv=None) -> int:
     parser.add_argument("--json", type=Path, help="write the rows as JSON")
     parser.add_argument("--models", default="", help="comma-separated parts of model names")
     parser.add_argument("--runs", type=int, default=2, help="meshing CPU: best of this many runs")
+    parser.add_argument("--aspect", type=float, default=None,
+                        help="tessellate_shell's aspect limit of the grid cells (default: its default; inf: none)")
     parser.add_argument("--compare", nargs=2, type=Path, metavar=("OLD", "NEW"), help="compare two JSON files")
     args = parser.parse_args(argv)
     if args.compare:
         return compare(json.loads(args.compare[0].read_text()), json.loads(args.compare[1].read_text()))
-    rows = figures([m for m in args.models.split(",") if m], args.runs)
+    rows = figures([m for m in args.models.split(",") if m], args.runs, args.aspect)
     if args.json:
         args.json.write_text(json.dumps(rows, indent=1) + "\n")
     return 0

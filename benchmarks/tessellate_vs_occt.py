@@ -32,7 +32,7 @@ criteria) and at trimsurf's defaults ("paper"); the last rows are their geometri
 
 The printed geometric mean is over the COMPARABLE rows only: both meshes measured within eps.
 
-Usage: python benchmarks/tessellate_vs_occt.py [--json out.json] [--models a,b] [--quick] [--no-gmsh]
+Usage: python benchmarks/tessellate_vs_occt.py [--json out.json] [--models a,b] [--quick] [--no-gmsh] [--aspect A]
 """
 
 from __future__ import annotations
@@ -158,11 +158,14 @@ def measure(mesh: TriMesh, shell, diag: float) -> dict:
             "min_angle": q.min_angle_deg, "boundary": topo.n_boundary_edges, "nonmanifold": topo.n_non_manifold_edges}
 
 
+ASPECT_KW: dict = {}     # tessellate_shell's aspect limit from --aspect (empty: its default)
+
+
 def ours(shell, eps: float, h: float, strategy: str = "equidistributed") -> tuple[TriMesh, float]:
     best, res = float("inf"), None
     for _ in range(REPEATS):
         t = _clock()
-        res = tessellate_shell(shell, tolerance=eps, max_edge=h, strategy=strategy, measure=False)
+        res = tessellate_shell(shell, tolerance=eps, max_edge=h, strategy=strategy, measure=False, **ASPECT_KW)
         best = min(best, _clock() - t)
     return res.mesh, best
 
@@ -358,8 +361,12 @@ def main(argv=None) -> int:
     parser.add_argument("--models", default="", help="comma-separated subset (file names or sample names)")
     parser.add_argument("--quick", action="store_true", help="samples and three small files only")
     parser.add_argument("--no-gmsh", action="store_true", help="leave gmsh out even when it is installed")
+    parser.add_argument("--aspect", type=float, default=None,
+                        help="trimsurf's aspect limit of the grid cells (tessellate_shell(aspect=...); inf: none)")
     parser.add_argument("--gmsh-worker", nargs=3, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.aspect is not None:
+        ASPECT_KW["aspect"] = args.aspect
     if args.gmsh_worker:
         cad, n, out = args.gmsh_worker
         _gmsh_worker(cad, int(n), out)
