@@ -19,11 +19,14 @@ def _ellipse(t):
     return np.stack([3.0 * np.cos(t), np.sin(t), 0.0 * t], axis=-1)[:, None, :]
 
 
-def _half_cylinder(radius: float = 10.0, height: float = 40.0) -> NurbsSurface:
-    """Half cylinder of rational quadratic arcs (u: the arc, two spans, non-uniform speed), v: axis."""
+def _half_cylinder(radius: float = 10.0, height: float = 40.0, twist_deg: float = 0.0) -> NurbsSurface:
+    """Half cylinder of rational quadratic arcs (u: the arc, two spans, non-uniform speed), v: axis; with
+    `twist_deg` its top arc turned by that angle about the axis (a hyperboloid: straight lines along v,
+    the normal turning along them, not developable)."""
     w = np.sqrt(0.5)
     arc = np.array([[1, 0], [1, 1], [0, 1], [-1, 1], [-1, 0]], dtype=np.float64) * radius
-    cp = np.array([[[x, y, 0.0], [x, y, height]] for x, y in arc])
+    c, s = np.cos(np.radians(twist_deg)), np.sin(np.radians(twist_deg))
+    cp = np.array([[[x, y, 0.0], [c * x - s * y, s * x + c * y, height]] for x, y in arc])
     weights = np.array([[1.0, 1.0], [w, w], [1.0, 1.0], [w, w], [1.0, 1.0]])
     return NurbsSurface(2, 1, [0, 0, 0, 0.5, 0.5, 1, 1, 1], [0, 0, 1, 1], cp, weights)
 
@@ -127,11 +130,12 @@ def test_every_triangle_within_tolerance_at_its_samples(name):
 
 
 def test_tolerance_only_cylinder_cells_keep_their_aspect():
-    """With only the deviation criterion a cylinder's straight direction needs no line at all: one
-    cell would span its whole length and its triangles' smallest angle would be atan(chord / length)
-    (under 2 degrees here). Cells are halved across their long side down to the aspect ASPECT, so
-    the grid triangles' smallest angle is at least about atan(1 / ASPECT)."""
-    s = _half_cylinder(radius=10.0, height=400.0)
+    """With only the deviation criterion a (slightly twisted) cylinder's straight direction needs no
+    line at all: one cell would span its whole length and its triangles' smallest angle would be
+    atan(chord / length) (under 2 degrees here). Cells are halved across their long side down to the
+    aspect ASPECT, so the grid triangles' smallest angle is at least about atan(1 / ASPECT). (An exact
+    cylinder is developable and not limited: `test_developable_faces_are_not_limited`.)"""
+    s = _half_cylinder(radius=10.0, height=400.0, twist_deg=0.5)
     face = _rectangle_face(TrimmedFace(s))
     tol, h = 0.05, 1e4
     us, vs = face_domain_values(face, tolerance=tol, max_edge=h)
@@ -159,7 +163,7 @@ def test_aspect_parameter_bounds_the_cells(aspect):
     with side ratios in (aspect / 2, aspect] (halving the long side halves the ratio; refine_cells runs at
     most 6 rounds, 64 cells along this 400 long line: 4 is reached, 3 would not be), or, with no limit,
     one cell along the whole straight direction; every setting within the tolerance."""
-    s = _half_cylinder(radius=10.0, height=400.0)
+    s = _half_cylinder(radius=10.0, height=400.0, twist_deg=0.5)
     face = _rectangle_face(TrimmedFace(s))
     tol, h = 0.05, 1e4
     us, vs = face_domain_values(face, tolerance=tol, max_edge=h, aspect=aspect)
@@ -181,6 +185,63 @@ def test_aspect_parameter_bounds_the_cells(aspect):
         assert np.array_equal(face_domain_values(face, tolerance=tol, max_edge=h, aspect=float("inf"))[1], vs)
     assert np.array_equal(face_domain_values(face, tolerance=tol, max_edge=h, aspect=ASPECT)[1],
                           face_domain_values(face, tolerance=tol, max_edge=h)[1])
+
+
+def _cell_ratios(s, us, vs):
+    uu, vv = np.meshgrid(us, vs, indexing="ij")
+    p = s.evaluate(np.column_stack([uu.ravel(), vv.ravel()])).reshape(len(us), len(vs), 3)
+    side_u = np.linalg.norm(np.diff(p, axis=0), axis=2)[:, :-1]
+    side_v = np.linalg.norm(np.diff(p, axis=1), axis=2)[:-1, :]
+    return np.maximum(side_u, side_v) / np.minimum(side_u, side_v)
+
+
+def test_developable_faces_are_not_limited(monkeypatch):
+    """An exact cylinder's normal is the same all along each of its lines, so a cell as long as the
+    cylinder shades exactly: no aspect limit there (one cell along the 400 long line, within the
+    tolerance); with LIMIT_DEVELOPABLE the limit applies as on other faces."""
+    import trimsurf.tessellate.face as F
+
+    s = _half_cylinder(radius=10.0, height=400.0)
+    face = _rectangle_face(TrimmedFace(s))
+    tol, h = 0.05, 1e4
+    us, vs = face_domain_values(face, tolerance=tol, max_edge=h)
+    assert len(vs) == 2 and _cell_ratios(s, us, vs).max() > 50
+    fm = mesh_face_from_chunks(face, us, vs, loose_chunks(face, 0, us, vs, tolerance=tol, max_edge=h,
+                                                          strategy="equidistributed"),
+                               tolerance=tol, max_edge=h)
+    assert fm.tri_dev.max() <= tol
+    monkeypatch.setattr(F, "LIMIT_DEVELOPABLE", True)
+    us2, vs2 = face_domain_values(face, tolerance=tol, max_edge=h)
+    assert len(vs2) > 2 and _cell_ratios(s, us2, vs2).max() <= ASPECT
+
+
+def test_developable_surfaces():
+    """`_developable`: straight lines whose two control rows are one scaled (lam > 0) or moved copy of the
+    other with the same weights: cylinder, cone, plane yes; a twisted cylinder, a bilinear twist, a cone
+    through its apex (lam < 0), rows with other weights, a surface curved both ways no."""
+    from trimsurf.tessellate.face import _developable
+
+    cyl = _half_cylinder()
+    assert _developable(cyl)
+    cp = cyl.control_points.copy()
+    cone = NurbsSurface(2, 1, cyl.knots_u, cyl.knots_v, np.stack([cp[:, 0], 0.4 * cp[:, 0] + [0, 0, 30]], axis=1),
+                        cyl.weights)
+    assert _developable(cone)
+    through = NurbsSurface(2, 1, cyl.knots_u, cyl.knots_v, np.stack([cp[:, 0], -0.4 * cp[:, 0] + [0, 0, 30]], axis=1),
+                           cyl.weights)
+    assert not _developable(through)
+    w = cyl.weights.copy()
+    w[1, 1] = 0.5
+    assert not _developable(NurbsSurface(2, 1, cyl.knots_u, cyl.knots_v, cp, w))
+    assert not _developable(_half_cylinder(twist_deg=0.5))
+    plane = NurbsSurface(1, 1, [0, 0, 1, 1], [0, 0, 1, 1], [[[0, 0, 0], [0, 1, 0]], [[1, 0, 0], [1, 1, 0]]])
+    assert _developable(plane)
+    twist = NurbsSurface(1, 1, [0, 0, 1, 1], [0, 0, 1, 1], [[[0, 0, 0], [0, 1, 0]], [[1, 0, 0], [1, 1, 0.2]]])
+    assert not _developable(twist)
+    g = np.linspace(0, 1, 3)
+    dome = NurbsSurface(2, 2, [0, 0, 0, 1, 1, 1], [0, 0, 0, 1, 1, 1],
+                        [[[x, y, 1 - (x - 0.5) ** 2 - (y - 0.5) ** 2] for y in g] for x in g])
+    assert not _developable(dome)
 
 
 @pytest.mark.parametrize("bad", [0.5, 0.0, -3.0, float("nan"), "six", [6]])

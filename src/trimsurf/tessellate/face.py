@@ -28,8 +28,15 @@ _N_LINES = 24   # transversal lines per direction when the domain values are cho
 #: largest side ratio of a grid cell at or in the trimmed region (3D sides): its two triangles' smallest
 #: angle is about atan(1 / ASPECT); a tolerance-only grid on a cylinder would otherwise span the whole
 #: straight direction with one cell (screw p5 angle 0.4 deg -> 1.4 deg, linkrods 1.7 -> 4.9). Ours, not
-#: the paper's (its grid size bounds the cells instead); `tessellate_shell(aspect=...)`, CLI --max-aspect
+#: the paper's (its grid size bounds the cells instead); `tessellate_shell(aspect=...)`, CLI --max-aspect.
+#: Not on developable faces (`_developable`: planes, cylinders, cones, extrusions) unless LIMIT_DEVELOPABLE
 ASPECT = 6.0
+#: whether the aspect limit applies to developable faces too. It does not: their normal is the same all
+#: along each straight line, so shading (reflection lines, highlights) is as exact on a cell long along
+#: the lines as on a square one (benchmarks/aspect_quality.py, RESULTS.md "aspect limit": tolerance-only
+#: 0.879x the triangles, the same interpolated-normal error, the 5th-percentile angle 3.41 -> 2.18 deg
+#: (geometric means, 12 files); the defaults' meshes unchanged)
+LIMIT_DEVELOPABLE = False
 #: cells whose split deviates at most this many times the tolerance, few in their row and column, get an
 #: interior point in the triangulation instead of a grid line through the whole row or column
 LOCAL_FIX = 1.5
@@ -74,6 +81,48 @@ def check_aspect(aspect) -> float | None:
     if not (math.isfinite(a) and a >= 1.0):
         raise InputError(f"aspect must be a number >= 1, or inf / None for no limit; got {aspect!r}")
     return a
+
+
+def _developable(s) -> bool:
+    """Whether the surface's lines along one parameter direction are straight (degree 1, one span) with
+    the same unit normal all along each line: its two rows of control points have the same weights and
+    one is the other scaled about a point by a factor lam > 0, or moved (lam = 1), to 1e-9 of the net's
+    size. Then every line is a ruling of a cone (an apex off the face) or a cylinder or a plane (a
+    general extrusion) and the surface is developable (exact: the rows are the same curve in the
+    homogeneous sense, S(., t) = A + t ((lam - 1) A + tau), whose normal does not depend on t).
+
+    >>> from trimsurf.model import NurbsSurface
+    >>> cyl = NurbsSurface(2, 1, [0, 0, 0, 1, 1, 1], [0, 0, 1, 1],
+    ...                    [[[1, 0, 0], [1, 0, 5]], [[1, 1, 0], [1, 1, 5]], [[0, 1, 0], [0, 1, 5]]],
+    ...                    [[1, 1], [0.7071, 0.7071], [1, 1]])
+    >>> bool(_developable(cyl))
+    True
+    >>> twisted = NurbsSurface(1, 1, [0, 0, 1, 1], [0, 0, 1, 1], [[[0, 0, 0], [0, 1, 0]], [[1, 0, 0], [1, 1, 1]]])
+    >>> bool(_developable(twisted))
+    False
+    """
+    cp, w = s.control_points, s.weights
+    for axis in (0, 1):
+        if not _straight_dir(s, axis):
+            continue
+        p0, p1 = (cp[0], cp[1]) if axis == 0 else (cp[:, 0], cp[:, 1])
+        if w is not None and not (np.array_equal(w[0], w[1]) if axis == 0 else np.array_equal(w[:, 0], w[:, 1])):
+            continue
+        c0, c1 = p0 - p0.mean(axis=0), p1 - p1.mean(axis=0)
+        den = float((c0 * c0).sum())
+        lam = float((c0 * c1).sum()) / den if den > 0 else 1.0
+        scale = max(float(np.abs(p0).max(initial=0.0)), float(np.abs(p1).max(initial=0.0)))
+        if lam > 0 and math.isfinite(scale) and float(np.abs(c1 - lam * c0).max(initial=0.0)) <= 1e-9 * scale:
+            return True
+    return False
+
+
+def face_aspect(face: TrimmedFace, aspect: float | None) -> float | None:
+    """The aspect limit of `face`'s cells: `aspect`, or None (no limit) on a developable face (`_developable`,
+    unless LIMIT_DEVELOPABLE)."""
+    if aspect is None or LIMIT_DEVELOPABLE or not _developable(face.surface):
+        return aspect
+    return None
 
 
 def check_parameters(tolerance, max_edge) -> tuple[float, float]:
@@ -480,7 +529,7 @@ def face_domain_values(face: TrimmedFace, *, tolerance: float, max_edge: float,
     mid-lines through the bad cells, and a few cells just over the tolerance
     get an interior point when the face is triangulated instead of a line.
     Cells whose sides differ by more than `aspect` are halved across their long side (None: no limit;
-    `refine_cells`).
+    `refine_cells`), except on a developable face (`face_aspect`).
 
     Returns
     -------
@@ -522,7 +571,7 @@ def _face_values(face, *, tolerance, max_edge, strategy="equidistributed", n_lin
                  front=None, aspect=ASPECT):
     """`face_domain_values`, with the face's `_Front` from `shell_domain_values` when given."""
     cache = _CellCache(face.surface)
-    us, vs = _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front, aspect)
+    us, vs = _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front, face_aspect(face, aspect))
     if with_fits:
         return us, vs, cache.fits(us, vs)
     return us, vs
@@ -1876,7 +1925,8 @@ def tessellate_face(face: TrimmedFace, *, tolerance: float, max_edge: float, str
     slivers : bool
         Boundary-only reduction of thin triangles at the trims (`trimsurf.tessellate.slivers`).
     aspect : float or None
-        Largest side ratio of a grid cell (`ASPECT`; None or inf: no limit; see `tessellate_shell`).
+        Largest side ratio of a grid cell (`ASPECT`; None or inf: no limit; none on a developable face;
+        see `tessellate_shell`).
 
     Returns
     -------

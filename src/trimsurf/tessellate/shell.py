@@ -362,9 +362,11 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
         Largest side ratio (3D) of a grid cell at the trimmed region: a longer cell is halved
         across its long side (where the short side's direction has at least two cells), so that
         its two triangles' smallest angle stays above about atan(1 / aspect). Not the paper's
-        (its grid size, `max_edge`, keeps the cells regular); it matters where the grid size does
-        not bind, e.g. along a cylinder's straight direction with a large `max_edge`. Default
-        `face.ASPECT` (6); None or inf: no limit (fewer, thinner triangles; CLI ``--max-aspect``).
+        (its grid size, `max_edge`, keeps the cells regular); it binds where the grid size does
+        not, i.e. with a large `max_edge`. Default `face.ASPECT` (6); None or inf: no limit
+        (fewer, thinner triangles; CLI ``--max-aspect``). Developable faces (planes, cylinders,
+        cones, extrusions: the normal is the same all along their straight lines, so cells long
+        along those lines shade exactly) are not limited (`face.LIMIT_DEVELOPABLE`).
 
     Returns
     -------
@@ -464,13 +466,14 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
     n_common = 0
     if common and mode == "conforming":
         from .common import common_parameterization
-        from .face import refine_cells
+        from .face import face_aspect, refine_cells
 
         changed = common_parameterization(shell, faces, grids)
         n_common = len(changed)
         for i in changed:
             us, vs = grids[i]
-            grids[i] = refine_cells(faces[i], us, vs, tolerance=face_tol, max_edge=max_edge, aspect=aspect)
+            grids[i] = refine_cells(faces[i], us, vs, tolerance=face_tol, max_edge=max_edge,
+                                    aspect=face_aspect(faces[i], aspect))
     face_meshes: dict = {}
     next_id = [0]
     if mode == "conforming":
