@@ -7,9 +7,9 @@ For every real file of ../shared/data/cad (and the samples with --samples):
   deflection exactly as `tessellate_vs_occt.py` does (`occt_search`; or its settings read back from an
   earlier --json of this script with --occt-from, which re-meshes at them);
 * trimsurf tolerance-only (max_edge = diagonal) and at the defaults (max_edge = 3e-2 x diagonal), for each
-  aspect setting in --aspects (``none`` = no limit; ``dev`` = no limit on developable faces only: faces
-  whose surface is straight along one parameter direction with the same unit normal at both ends of
-  every such line, sampled; elsewhere 6);
+  aspect setting in --aspects: a number = that limit on every face (``face.LIMIT_DEVELOPABLE``, the rule
+  before session 29), ``none`` = no limit, ``default`` = trimsurf's default (6, developable faces not
+  limited: `face._developable`);
 
 each mesh measured by the same metric as tessellate_vs_occt.py (two-sided deviation, density 3, 32 x 32
 face samples; angles from `triangle_quality`) plus the SHADING error: per triangle, the unit normal
@@ -19,15 +19,19 @@ sample point, at the 15 points of a barycentric grid of 4 divisions per edge (de
 area-weighted mean and 90th / 99th percentiles; the max is an outlier's, e.g. a foot at a singular point). This is what a reflection line sees of a triangle's shape: thin triangles
 along a direction in which the normal does not turn (a cylinder's line) shade as exactly as square ones.
 
-Usage: python benchmarks/aspect_quality.py [--json out.json] [--models a,b] [--aspects 6,12,none,dev]
-       [--occt-from earlier.json] [--samples]
+Usage: python benchmarks/aspect_quality.py [--json out.json] [--models a,b] [--aspects 6,12,none,default]
+       [--occt-from earlier.json] [--samples] [--comparable]
+
+Session 29's run (RESULTS.md "aspect limit") also had two experimental variants, since removed: no limit
+on faces whose normal is the same at both ends of 9 sampled straight lines (the same faces as
+`face._developable` on all 14 files) and, in refine_cells' Python reference, no limit only for cells
+long ALONG such lines (the same meshes as the per-face rule on all 12 comparable files).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from pathlib import Path
 
@@ -81,80 +85,17 @@ def shading_error(mesh, shell) -> dict:
             "shade_mean": float((a * w).sum() / w.sum()) if w.sum() > 0 else 0.0}
 
 
-def developable(surface, n: int = 9, tol: float = 1e-6) -> tuple[bool, bool]:
-    """Per parameter direction: its lines are straight (degree 1, one span) and the unit normal is the same
-    (within tol rad) at both ends of each of n lines (sampled: a cylinder's, a cone's, an extrusion's lines)."""
-    out = []
-    (u0, u1), (v0, v1) = surface.domain
-    for axis in (0, 1):
-        if not face_mod._straight_dir(surface, axis):
-            out.append(False)
-            continue
-        t = np.linspace(0.0, 1.0, n)
-        if axis == 0:        # lines along u: v fixed
-            a = np.column_stack([np.full(n, u0), v0 + t * (v1 - v0)])
-            b = np.column_stack([np.full(n, u1), v0 + t * (v1 - v0)])
-        else:
-            a = np.column_stack([u0 + t * (u1 - u0), np.full(n, v0)])
-            b = np.column_stack([u0 + t * (u1 - u0), np.full(n, v1)])
-        na, nb = surface.normals(a), surface.normals(b)
-        ok = np.isfinite(na).all() and np.isfinite(nb).all() and bool(
-            (np.einsum("ij,ij->i", na, nb) >= math.cos(tol)).all())
-        out.append(ok)
-    return out[0], out[1]
-
-
-_EXEMPT = [(False, False)]     # the face being refined: its developable directions ("rul")
-
-
-def _round_rul(op, dev, diag, diag_max, side_u, side_v, near, interior, has_polys, tolerance, max_edge, aspect,
-               min_across, local_fix, long, *rest):
-    """refine_round_kernel with op 0's aspect decisions dropped for cells long along a developable direction."""
-    out = _ROUND(op, dev, diag, diag_max, side_u, side_v, near, interior, has_polys, tolerance, max_edge, aspect,
-                 min_across, local_fix, long, *rest)
-    ex_u, ex_v = _EXEMPT[0]
-    if op != 0 or not (ex_u or ex_v):
-        return out
-    by_aspect = long & ~(diag > max_edge) & ~(dev > tolerance)
-    long_u = side_u >= side_v       # the cell's long side runs along u
-    drop = by_aspect & ((long_u & ex_u) | (~long_u & ex_v))
-    long[drop] = False
-    go = bool(len(out[1]) > 0 or long.any())
-    return go, out[1], out[2]
-
-
-_ROUND = face_mod.refine_round_kernel
-
-
 def ours(shell, eps, h, aspect):
-    """trimsurf's mesh at `aspect` (a number, None, "dev": None on developable faces, else 6, or "rul": 6
-    except for cells long along a developable direction; "rul" runs refine_cells' Python reference)."""
-    if aspect == "rul":
-        orig_rc, orig_fv = face_mod.refine_cells, face_mod._face_values
-
-        def rc(face, us, vs, **kw):
-            return face_mod._refine_cells_rounds(face, us, vs, **kw)
-
-        def fv(face, **kw):
-            _EXEMPT[0] = developable(face.surface)
-            return orig_fv(face, **kw)
-        face_mod.refine_cells, face_mod._face_values, face_mod.refine_round_kernel = rc, fv, _round_rul
-        try:
-            return tessellate_shell(shell, tolerance=eps, max_edge=h, measure=False).mesh
-        finally:
-            face_mod.refine_cells, face_mod._face_values, face_mod.refine_round_kernel = orig_rc, orig_fv, _ROUND
-    if aspect != "dev":
-        return tessellate_shell(shell, tolerance=eps, max_edge=h, measure=False, aspect=aspect).mesh
-    orig = face_mod._face_values
-
-    def patched(face, **kw):
-        kw["aspect"] = None if any(developable(face.surface)) else face_mod.ASPECT
-        return orig(face, **kw)
-    face_mod._face_values = patched
+    """trimsurf's mesh: `aspect` a number or None: that limit on EVERY face (`face.LIMIT_DEVELOPABLE`, the
+    rule before session 29); "default": tessellate_shell's default (ASPECT, developable faces not limited)."""
+    if aspect == "default":
+        return tessellate_shell(shell, tolerance=eps, max_edge=h, measure=False).mesh
+    old = face_mod.LIMIT_DEVELOPABLE
+    face_mod.LIMIT_DEVELOPABLE = True
     try:
-        return tessellate_shell(shell, tolerance=eps, max_edge=h, measure=False, aspect=face_mod.ASPECT).mesh
+        return tessellate_shell(shell, tolerance=eps, max_edge=h, measure=False, aspect=aspect).mesh
     finally:
-        face_mod._face_values = orig
+        face_mod.LIMIT_DEVELOPABLE = old
 
 
 def measure(mesh, shell, diag):
@@ -165,12 +106,12 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--json", type=Path)
     ap.add_argument("--models", default="")
-    ap.add_argument("--aspects", default="6,12,none,dev,rul")
+    ap.add_argument("--aspects", default="6,12,none,default")
     ap.add_argument("--occt-from", type=Path, help="Open CASCADE's settings from an earlier --json of this script")
     ap.add_argument("--samples", action="store_true", help="the shell samples too")
     ap.add_argument("--comparable", action="store_true", help="leave out bearing and abc (Open CASCADE beyond eps)")
     args = ap.parse_args(argv)
-    aspects = [None if a == "none" else a if a in ("dev", "rul") else float(a) for a in args.aspects.split(",")]
+    aspects = [None if a == "none" else a if a == "default" else float(a) for a in args.aspects.split(",")]
     known = {}
     if args.occt_from:
         known = {r["model"]: r["occt"] for r in json.loads(args.occt_from.read_text())["rows"]}
