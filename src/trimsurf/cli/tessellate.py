@@ -65,7 +65,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-aspect", type=float, default=None, metavar="A",
                         help="largest side ratio (3D) of a grid cell near the trimmed region: a longer cell "
                              "is halved across its long side, so its two triangles' smallest angle stays "
-                             "above about atan(1/A) (default 6: 9.5 deg); binds only where --max-edge does "
+                             "above about atan(1/A) (default 6: 9.5 deg); binds mostly where --max-edge does "
                              "not (a large --max-edge); 'inf': no limit (fewer, thinner triangles). Planes, "
                              "cylinders, cones and extrusions are not limited: their normal is constant "
                              "along their straight lines, so long cells there shade exactly")

@@ -362,7 +362,7 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
         Largest side ratio (3D) of a grid cell at the trimmed region: a longer cell is halved
         across its long side (where the short side's direction has at least two cells), so that
         its two triangles' smallest angle stays above about atan(1 / aspect). Not the paper's
-        (its grid size, `max_edge`, keeps the cells regular); it binds where the grid size does
+        (its grid size, `max_edge`, keeps the cells regular); it binds mostly where the grid size does
         not, i.e. with a large `max_edge`. Default `face.ASPECT` (6); None or inf: no limit
         (fewer, thinner triangles; CLI ``--max-aspect``). Developable faces (planes, cylinders,
         cones, extrusions: the normal is the same all along their straight lines, so cells long
