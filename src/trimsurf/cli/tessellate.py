@@ -66,9 +66,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="largest side ratio (3D) of a grid cell near the trimmed region: a longer cell "
                              "is halved across its long side, so its two triangles' smallest angle stays "
                              "above about atan(1/A) (default 6: 9.5 deg); binds mostly where --max-edge does "
-                             "not (a large --max-edge); 'inf': no limit (fewer, thinner triangles). Planes, "
-                             "cylinders, cones and extrusions are not limited: their normal is constant "
-                             "along their straight lines, so long cells there shade exactly")
+                             "not (a large --max-edge); 'inf': no limit (fewer, thinner triangles)")
     parser.add_argument("--quads", action="store_true",
                         help="keep untouched grid cells as quads (OBJ or PLY output)")
     parser.add_argument("--loose", action="store_true",

@@ -364,9 +364,9 @@ def tessellate_shell(shell: Shell, *, tolerance: float | None = None, max_edge: 
         its two triangles' smallest angle stays above about atan(1 / aspect). Not the paper's
         (its grid size, `max_edge`, keeps the cells regular); it binds mostly where the grid size does
         not, i.e. with a large `max_edge`. Default `face.ASPECT` (6); None or inf: no limit
-        (fewer, thinner triangles; CLI ``--max-aspect``). Developable faces (planes, cylinders,
-        cones, extrusions: the normal is the same all along their straight lines, so cells long
-        along those lines shade exactly) are not limited (`face.LIMIT_DEVELOPABLE`).
+        (fewer, thinner triangles; CLI ``--max-aspect``). With `face.LIMIT_DEVELOPABLE` False,
+        developable faces (planes, cylinders, cones, extrusions: the normal is the same all along
+        their straight lines, so cells long along those lines shade exactly) are not limited.
 
     Returns
     -------
