@@ -151,6 +151,33 @@ def test_flipped_triangle_in_written_mesh_exit_1(monkeypatch, tmp_path, capsys):
     assert read_mesh(out).n_triangles == entry["triangles"]
 
 
+def test_deviation_over_tolerance_exit_1(monkeypatch, tmp_path, capsys):
+    """A measured max deviation over the tolerance breaks the promise like a flipped triangle: one warning
+    line naming both figures, guarantees_met False, exit 1 (exit 0 before session 29; on the real
+    bug32596 file at 3e-4 x diagonal the report said 0.0296 against 0.0178)."""
+    import trimsurf.tessellate as tess
+
+    real = tess.tessellate_shell
+
+    def over(*args, **kwargs):
+        res = real(*args, **kwargs)
+        assert res.report["within_tolerance"] is True
+        res.report.update(max_deviation=3.0 * res.tolerance, within_tolerance=False)
+        return res
+
+    monkeypatch.setattr(tess, "tessellate_shell", over)
+    monkeypatch.setattr("trimsurf.io.read_shell", lambda path: build_sample("bspline_box"))
+    fake = tmp_path / "box.step"
+    fake.write_text("not read")
+    out, rep = tmp_path / "box.ply", tmp_path / "r.json"
+    assert main(["tessellate", str(fake), "-o", str(out), "--report", str(rep)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "guarantee not met" in err[0] and "over the tolerance" in err[0], err
+    entry = json.loads(rep.read_text())["inputs"][0]
+    assert entry["within_tolerance"] is False and entry["guarantees_met"] is False
+    assert out.exists()
+
+
 def test_unexplained_nonmanifold_edge_in_loose_mode_exit_1(monkeypatch, tmp_path, capsys):
     """Loose mode as conforming: a written non-manifold edge the model does not explain (a face's
     triangle doubled onto its neighbour's edge) means exit 1."""

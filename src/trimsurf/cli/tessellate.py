@@ -34,9 +34,11 @@ projection), longest edge, smallest and 5th-percentile angle, boundary and
 non-manifold edges, triangles flipped against the surface normal, orientation.
 Defaults: tolerance 1e-3 and max edge 3e-2 of each model's bounding-box diagonal.
 Faces that repair cannot fix are named on stderr and skipped (exit status 1, the
-rest is written); a written mesh with flipped triangles or with non-manifold edges
+rest is written); a written mesh with flipped triangles, with non-manifold edges
 the model's own faces do not explain (three faces meeting along a curve, coincident
-faces of touching solids) is named on stderr, exit status 1; unreadable files exit 2."""
+faces of touching solids) or whose measured deviation exceeds the tolerance (e.g. a
+file whose own vertices lie off their faces) is named on stderr, exit status 1;
+unreadable files exit 2."""
 EPILOG = examples("trimsurf tessellate part.step -o part.ply",
                   "trimsurf tessellate cad/ -o meshes/ --tolerance 0.05 --max-edge 10 --report report.json",
                   "trimsurf tessellate panel.vda -o panel.obj --loose --quads",
@@ -398,8 +400,9 @@ def _frozen_gc():
 def _guarantees_met(path: Path, target: Path, res, shell) -> bool:
     """Measure the written file (read back); one warning line if a promise is broken.
 
-    Broken: flipped triangles, or non-manifold edges beyond those the model's own
-    faces explain (`tessellate.measure.explained_nonmanifold_edges`). Non-manifold
+    Broken: flipped triangles, non-manifold edges beyond those the model's own
+    faces explain (`tessellate.measure.explained_nonmanifold_edges`), or a measured
+    max deviation over the tolerance (``within_tolerance`` False). Non-manifold
     edges are counted on the file read back; flips too where the file keeps each
     triangle's face (PLY's face_id, VTK, VTU), else on the mesh in memory that was written
     (OBJ, OFF, STL, glTF, --quads). The written figures replace the in-memory ones
@@ -427,10 +430,12 @@ def _guarantees_met(path: Path, target: Path, res, shell) -> bool:
                                                                                res.tolerance).sum())
     flipped = int(r.get("flipped") or 0)
     excess = r["nonmanifold_edges"] - int(r.get("nonmanifold_edges_explained") or 0)
-    r["guarantees_met"] = flipped == 0 and excess <= 0
+    over = r.get("within_tolerance") is False
+    r["guarantees_met"] = flipped == 0 and excess <= 0 and not over
     if not r["guarantees_met"]:
         what = [f"{flipped} flipped triangles"] if flipped else []
         what += [f"{excess} non-manifold edges the model does not explain"] if excess > 0 else []
+        what += [f"max deviation {r['max_deviation']:.4g} over the tolerance {res.tolerance:.4g}"] if over else []
         print_warning(f"{path}: guarantee not met in {target}: {', '.join(what)}")
     return r["guarantees_met"]
 
