@@ -40,7 +40,8 @@ certified_faces, seconds, worker, ...) and OUT/index.html (self-contained,
 sortable by status, deviation and time, a zebra thumbnail per part, links to
 its viewer page and reports). Status: ok; not_met (written, a guarantee not
 met: flipped triangles, deviation over the tolerance, skipped faces, not
-certified); failed (nothing written). Exit status 0 when every job is ok, 1 otherwise, 2 for bad input."""
+certified); failed (nothing written). Exit status 0 when every job is ok, 1
+otherwise, 2 for bad input."""
 EPILOG = examples("trimsurf batch cad/ -o review/ --jobs tessellate,view",
                   "trimsurf batch parts.csv -o review/ --jobs tessellate,certify,view --per-part-timeout 600",
                   "trimsurf batch /shared/cad -o /shared/review --scheduler tcp://10.0.0.5:8786")
