@@ -1375,9 +1375,7 @@ def cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, us, vs, ia, ib, flags,
             out_b[c] = su_ >= 0.5 * sv_
             out_b2[c] = sv_ >= 0.5 * su_
         return
-    su = np.empty((2 * nb, 2))
-    sx = np.empty((2 * nb, 3))
-    sub = su.view(np.int64)
+    ns = 2 * nb
     # the two triangles share the split diagonal: its midpoint's sample in the second triangle (kd) is
     # the first's (ko) where their parameters and points have the same bits (the same sample: the same
     # distance, which the maxima below already hold): per split, the bary rows of the midpoints of the
@@ -1391,46 +1389,37 @@ def cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, us, vs, ia, ib, flags,
         elif bary[b, 0] == 0.0 and bary[b, 1] == 0.5 and bary[b, 2] == 0.5:
             e12 = b
     # the other edge midpoints are the midpoints of the cell's sides, samples of the neighbour cell too:
-    # each (parameters and point, bit for bit) evaluated once per call, its start distance and distance
-    # kept in a hash table (keys: the parameters' bits; the point's bits compared too); hs bit 1: hv[t, 0]
-    # the start distance, bit 2: hv[t, 1] the distance, 4: in use
-    side = np.zeros(2 * nb, dtype=np.bool_)
+    # each (parameters and point, bit for bit) evaluated once per call, its surface point's row and its
+    # distance kept in a hash table (keys: the parameters' bits; the point's bits compared too); hs bit 1:
+    # hq[t] the row of its surface point in pq, bit 2: hv[t] the distance, 4: in use
+    side = np.zeros(ns, dtype=np.bool_)
     cap = 16
     while cap < 8 * n:
         cap *= 2
     hk = np.empty((cap, 2), dtype=np.int64)
     hx = np.empty((cap, 3))
-    hv = np.empty((cap, 2))
+    hv = np.empty(cap)
+    hq = np.empty(cap, dtype=np.int64)
     hs = np.zeros(cap, dtype=np.int64)
-    # the spans and bases (nd = 0) of the u (row 0) and v (row 1) values met, direct-mapped (bss -1: empty)
-    nbs = 256
-    pm = pu if pu >= pv else pv
-    bss = np.full((2, nbs), -1, dtype=np.int64)
-    bsx = np.empty((2, nbs))
-    bsb = np.empty((2, nbs, pm + 1))
-    wn = np.empty((pm + 1, pm + 1))
-    wl = np.empty(pm + 1)
-    wr = np.empty(pm + 1)
-    dimw = pw.shape[2]
-    tw = np.empty((pu + 1, dimw))
-    sk = np.empty(dimw)
-    s_u = s_v = 0
-    b2 = np.empty((2, 2, pm + 1))
-    sp2 = np.empty(2, dtype=np.int64)
-    tw2 = np.empty((2, pu + 1, dimw))
-    sk3 = np.empty((3, dimw))
-    rs3 = np.empty((3, 3))
-    kk = np.empty(ku.shape[0] + kv.shape[0])      # both knot vectors (no array variable per sample)
-    kk[:ku.shape[0]] = ku
-    kk[ku.shape[0]:] = kv
+    # pass 1: every cell's samples (rows c * ns + k of su, sx), their hash slots (st_: -1 none, -2 the
+    # skipped second diagonal midpoint) and, with screen > 0, the row in pq of the surface point at
+    # their parameters (sq: -1 the centre's, p[r, 4]); the points to evaluate in one `_points0` call
+    su = np.empty((n * ns, 2))
+    sx = np.empty((n * ns, 3))
+    sub = su.view(np.int64)
+    st_ = np.empty(n * ns, dtype=np.int64)
+    sq = np.empty(n * ns if screen > 0 else 0, dtype=np.int64)
+    pq = np.empty((n * ns if screen > 0 else 0, 2))
+    m = 0
     for c in range(n):
         r = ia[c]
+        o = c * ns
         ko, kd = (e02, e01) if flags[c] else (e12, e02)
         if ko >= 0 and kd >= 0:
             kd += nb
         else:
             ko = kd = -1
-        for k in range(2 * nb):
+        for k in range(ns):
             side[k] = False
         for s in range(2):
             for b in (e01, e12, e02):
@@ -1442,24 +1431,24 @@ def cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, us, vs, ia, ib, flags,
             else:
                 t0, t1, t2 = (0, 1, 3) if s == 0 else (1, 2, 3)
             for b in range(nb):
-                k = s * nb + b
+                k = o + s * nb + b
                 for q in range(2):
                     su[k, q] = (bary[b, 0] * uv[r, t0, q] + bary[b, 1] * uv[r, t1, q]) + bary[b, 2] * uv[r, t2, q]
                 for q in range(3):
                     sx[k, q] = (bary[b, 0] * p[r, t0, q] + bary[b, 1] * p[r, t1, q]) + bary[b, 2] * p[r, t2, q]
-        bnd = 0.0
-        ex = 0.0
         skip = kd >= 0
         if skip:
             for q in range(2):
-                skip = skip and _same_bits(su[kd, q], su[ko, q])
+                skip = skip and _same_bits(su[o + kd, q], su[o + ko, q])
             for q in range(3):
-                skip = skip and _same_bits(sx[kd, q], sx[ko, q])
-        for k in range(2 * nb):
-            if skip and k == kd:
+                skip = skip and _same_bits(sx[o + kd, q], sx[o + ko, q])
+        for k_ in range(ns):
+            k = o + k_
+            if skip and k_ == kd:
+                st_[k] = -2
                 continue
             t = -1
-            if side[k]:
+            if side[k_]:
                 ub, vb = sub[k, 0], sub[k, 1]
                 t = _pair_hash(ub, vb) & (cap - 1)
                 while hs[t] != 0:
@@ -1471,93 +1460,65 @@ def cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, us, vs, ia, ib, flags,
                     hk[t, 0], hk[t, 1] = ub, vb
                     hx[t, 0], hx[t, 1], hx[t, 2] = sx[k, 0], sx[k, 1], sx[k, 2]
                     hs[t] = 4
+            st_[k] = t
             if screen > 0:
                 if t >= 0 and hs[t] & 1:
-                    d0 = hv[t, 0]
-                elif (k == ko or k == kd) and _same_bits(su[k, 0], uv[r, 4, 0]) and _same_bits(su[k, 1], uv[r, 4, 1]):
+                    sq[k] = hq[t]
+                elif (k_ == ko or k_ == kd) and _same_bits(su[k, 0], uv[r, 4, 0]) and _same_bits(su[k, 1], uv[r, 4, 1]):
                     # the diagonal's midpoint at the centre's parameters (bit for bit): the surface point
                     # there is the centre's, p[r, 4] (op 0 evaluated it at the same clipped parameters;
-                    # the position nd = 1 computes is nd = 0's): its start distance as `_surface_distance1`
-                    # (steps = 0) computes it
-                    r0, r1, r2 = sx[k, 0] - p[r, 4, 0], sx[k, 1] - p[r, 4, 1], sx[k, 2] - p[r, 4, 2]
-                    d0 = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+                    # the position nd = 1 computes is nd = 0's)
+                    sq[k] = -1
                 else:
-                    # `_surface_distance1` with steps = 0 written out (the same operations in the same order:
-                    # `_span`, `_ders_basis` with nd = 0, `_surface_point01`'s sums), the span and basis of a
-                    # parameter value taken from the direct-mapped stores bsu / bsv where the same value
-                    # (bit for bit) was there (samples of cells in a column share their u values, of a row their v)
-                    for ax in range(2):
-                        x_ = su[k, ax]
-                        o_ = 0 if ax == 0 else ku.shape[0]     # the knots kk[o_:] (no array variable: no
-                        pp = pu if ax == 0 else pv             # reference count per sample)
-                        slot = _pair_hash(sub[k, ax], ax) & (nbs - 1)
-                        if not (bss[ax, slot] >= 0 and _same_bits(bsx[ax, slot], x_)):
-                            t_ = min(max(x_, u_lo), u_hi) if ax == 0 else min(max(x_, v_lo), v_hi)
-                            nc = (ku.shape[0] if ax == 0 else kv.shape[0]) - pp - 1
-                            if t_ >= kk[o_ + nc]:
-                                spn = nc - 1
-                                while spn > pp and kk[o_ + spn] >= kk[o_ + nc]:
-                                    spn -= 1
-                            else:
-                                lo, hi = pp, nc
-                                while hi - lo > 1:
-                                    mid = (lo + hi) // 2
-                                    if t_ < kk[o_ + mid]:
-                                        hi = mid
-                                    else:
-                                        lo = mid
-                                spn = lo
-                            wn[0, 0] = 1.0
-                            for j in range(1, pp + 1):
-                                wl[j] = t_ - kk[o_ + spn + 1 - j]
-                                wr[j] = kk[o_ + spn + j] - t_
-                                saved = 0.0
-                                for rr in range(j):
-                                    wn[j, rr] = wr[rr + 1] + wl[j - rr]
-                                    temp = wn[rr, j - 1] / wn[j, rr]
-                                    wn[rr, j] = saved + wr[rr + 1] * temp
-                                    saved = wl[j - rr] * temp
-                                wn[j, j] = saved
-                            for j in range(pp + 1):
-                                bsb[ax, slot, j] = wn[j, pp]
-                            bss[ax, slot] = spn
-                            bsx[ax, slot] = x_
-                        if ax == 0:
-                            s_u = slot
-                        else:
-                            s_v = slot
-                    spu, spv = bss[0, s_u], bss[1, s_v]
-                    for rr in range(pu + 1):
-                        for dd_ in range(dimw):
-                            tw[rr, dd_] = 0.0
-                        for ss in range(pv + 1):
-                            bb_ = bsb[1, s_v, ss]
-                            if bb_ != 0.0:
-                                row = spu - pu + rr
-                                col = spv - pv + ss
-                                for dd_ in range(dimw):
-                                    tw[rr, dd_] += bb_ * pw[row, col, dd_]
-                    for dd_ in range(dimw):
-                        acc = 0.0
-                        for rr in range(pu + 1):
-                            acc += bsb[0, s_u, rr] * tw[rr, dd_]
-                        sk[dd_] = acc
-                    if rational:
-                        w0 = sk[dimw - 1]
-                        q0, q1, q2 = sk[0] / w0, sk[1] / w0, sk[2] / w0
-                    else:
-                        q0, q1, q2 = sk[0], sk[1], sk[2]
-                    r0, r1, r2 = sx[k, 0] - q0, sx[k, 1] - q1, sx[k, 2] - q2
-                    d0 = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
-                if t >= 0:
-                    hv[t, 0] = d0
-                    hs[t] |= 1
+                    pq[m, 0], pq[m, 1] = su[k, 0], su[k, 1]
+                    sq[k] = m
+                    if t >= 0:
+                        hq[t] = m
+                        hs[t] |= 1
+                    m += 1
+    # the start points (`_surface_distance1` with steps = 0: `_points0` computes them with the same operations)
+    px = np.empty((m, 3))
+    if m > 0:
+        _points0(pu, pv, ku, kv, pw, rational, pq[:m], px)
+    # the distances (`_surface_distance1` with steps = 2) written out below: scratch, both knot vectors in
+    # one array (no array variable per sample)
+    pm = pu if pu >= pv else pv
+    wn = np.empty((pm + 1, pm + 1))
+    wl = np.empty(pm + 1)
+    wr = np.empty(pm + 1)
+    dimw = pw.shape[2]
+    kk = np.empty(ku.shape[0] + kv.shape[0])
+    kk[:ku.shape[0]] = ku
+    kk[ku.shape[0]:] = kv
+    b2 = np.empty((2, 2, pm + 1))
+    sp2 = np.empty(2, dtype=np.int64)
+    tw2 = np.empty((2, pu + 1, dimw))
+    sk3 = np.empty((3, dimw))
+    rs3 = np.empty((3, 3))
+    for c in range(n):
+        r = ia[c]
+        o = c * ns
+        bnd = 0.0
+        ex = 0.0
+        for k_ in range(ns):
+            k = o + k_
+            t = st_[k]
+            if t == -2:
+                continue
+            if screen > 0:
+                # the start distance as `_surface_distance1` (steps = 0) computes it
+                j = sq[k]
+                if j < 0:
+                    r0, r1, r2 = sx[k, 0] - p[r, 4, 0], sx[k, 1] - p[r, 4, 1], sx[k, 2] - p[r, 4, 2]
+                else:
+                    r0, r1, r2 = sx[k, 0] - px[j, 0], sx[k, 1] - px[j, 1], sx[k, 2] - px[j, 2]
+                d0 = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
                 if d0 <= screen:
                     if d0 > bnd:
                         bnd = d0
                     continue
             if t >= 0 and hs[t] & 2:
-                dk = hv[t, 1]
+                dk = hv[t]
             else:
                 # `_surface_distance1` with steps = 2 written out (the same operations in the same order:
                 # `_span`, `_ders_basis` with nd = 1 / 0, `_surface_point01`'s sums, the Gauss-Newton steps)
@@ -1676,11 +1637,11 @@ def cell_surface_kernel(op, pu, pv, ku, kv, pw, rational, us, vs, ia, ib, flags,
                         gu_ = min(max(gu_, u_lo), u_hi)
                         gv_ = min(max(gv_, v_lo), v_hi)
                 if t >= 0:
-                    hv[t, 1] = dk
+                    hv[t] = dk
                     hs[t] |= 2
             if np.isnan(dk) or np.isnan(ex):
                 ex = np.nan
-            elif k == 0 or dk > ex:
+            elif k_ == 0 or dk > ex:
                 ex = dk
         if screen > 0 and not (np.isnan(ex) or ex > screen):
             out_f[c] = bnd if bnd >= ex else ex
