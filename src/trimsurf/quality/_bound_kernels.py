@@ -51,34 +51,25 @@ def _breaks_k(knots, p, n):
 
 
 @njit(cache=True, nogil=True)
-def _diff_u(x, knots, koff, p):
-    """`interpolation_bound._diff` along axis 0 with knots ``knots[koff:]`` (koff 0, or 1 for ``knots[1:-1]``)."""
-    n, nv, d = x.shape
+def _diff(x, knots, koff, p, axis):
+    """`interpolation_bound._diff` along axis 0 or 1 (a run-time value: one compiled function for both) with
+    knots ``knots[koff:]`` (koff 0, or 1 for ``knots[1:-1]``)."""
+    n0, n1, d = x.shape
+    n = n0 if axis == 0 else n1
     if p < 1 or n < 2:
-        return np.zeros((max(n - 1, 0), nv, d))
-    out = np.empty((n - 1, nv, d))
+        return np.zeros((max(n0 - 1, 0), n1, d)) if axis == 0 else np.zeros((n0, max(n1 - 1, 0), d))
+    out = np.empty((n0 - 1, n1, d)) if axis == 0 else np.empty((n0, n1 - 1, d))
     for i in range(n - 1):
         den = knots[koff + p + 1 + i] - knots[koff + 1 + i]
         f = p / den if den > 0 else 0.0
-        for j in range(nv):
-            for k in range(d):
-                out[i, j, k] = (x[i + 1, j, k] - x[i, j, k]) * f
-    return out
-
-
-@njit(cache=True, nogil=True)
-def _diff_v(x, knots, koff, p):
-    """`interpolation_bound._diff` along axis 1."""
-    nu, n, d = x.shape
-    if p < 1 or n < 2:
-        return np.zeros((nu, max(n - 1, 0), d))
-    out = np.empty((nu, n - 1, d))
-    for j in range(n - 1):
-        den = knots[koff + p + 1 + j] - knots[koff + 1 + j]
-        f = p / den if den > 0 else 0.0
-        for i in range(nu):
-            for k in range(d):
-                out[i, j, k] = (x[i, j + 1, k] - x[i, j, k]) * f
+        if axis == 0:
+            for j in range(n1):
+                for k in range(d):
+                    out[i, j, k] = (x[i + 1, j, k] - x[i, j, k]) * f
+        else:
+            for j in range(n0):
+                for k in range(d):
+                    out[j, i, k] = (x[j, i + 1, k] - x[j, i, k]) * f
     return out
 
 
@@ -147,8 +138,8 @@ def span_bounds_kernel(pu, pv, ku, kv, cp, w, rational):
     """`interpolation_bound.span_bounds` of the surface (degrees pu, pv; knots ku, kv; control points cp
     (nu, nv, 3); weights w (nu, nv) if `rational`, else unused): bu, bv, crease_u, crease_v, m (3, cu, cv)."""
     nu, nv = cp.shape[0], cp.shape[1]
-    # offsets and rows as int64 values, not literals: one specialization per helper (a literal 0, 1 or 2
-    # compiled _diff_u/_diff_v/_cell_max_k once per value)
+    # offsets, axes and rows as int64 values, not literals: one specialization per helper (a literal 0, 1 or 2
+    # compiled _diff/_cell_max_k once per value)
     i0 = np.int64(0)
     i1, i2 = i0 + 1, i0 + 2
     bu, su, cru = _breaks_k(ku, pu, nu)
@@ -156,11 +147,12 @@ def span_bounds_kernel(pu, pv, ku, kv, cp, w, rational):
     cu, cv = len(su), len(sv)
     m = np.empty((3, cu, cv))
     if not rational:
-        xu = _diff_u(cp, ku, i0, pu)
-        xuu = _diff_u(xu, ku, i1, pu - 1)
-        xv = _diff_v(cp, kv, i0, pv)
-        xvv = _diff_v(xv, kv, i1, pv - 1)
-        xuv = _diff_v(xu, kv, i0, pv)
+        cw = cp.copy()      # a writable array like the others (a read-only one compiled _diff a second time)
+        xu = _diff(cw, ku, i0, pu, i0)
+        xuu = _diff(xu, ku, i1, pu - 1, i0)
+        xv = _diff(cw, kv, i0, pv, i1)
+        xvv = _diff(xv, kv, i1, pv - 1, i1)
+        xuv = _diff(xu, kv, i0, pv, i1)
         _cell_max_k(xuu, su, sv, pu, pu - 1, pv, pv + 1, m, i0)
         _cell_max_k(xvv, su, sv, pu, pu + 1, pv, pv - 1, m, i2)
         _cell_max_k(xuv, su, sv, pu, pu, pv, pv, m, i1)
@@ -173,11 +165,11 @@ def span_bounds_kernel(pu, pv, ku, kv, cp, w, rational):
             hw[i, j, 1] = cp[i, j, 1] * wt
             hw[i, j, 2] = cp[i, j, 2] * wt
             hw[i, j, 3] = wt
-    hu = _diff_u(hw, ku, i0, pu)
-    huu = _diff_u(hu, ku, i1, pu - 1)
-    hv = _diff_v(hw, kv, i0, pv)
-    hvv = _diff_v(hv, kv, i1, pv - 1)
-    huv = _diff_v(hu, kv, i0, pv)
+    hu = _diff(hw, ku, i0, pu, i0)
+    huu = _diff(hu, ku, i1, pu - 1, i0)
+    hv = _diff(hw, kv, i0, pv, i1)
+    hvv = _diff(hv, kv, i1, pv - 1, i1)
+    huv = _diff(hu, kv, i0, pv, i1)
     centre = np.empty((cu, cv, 3))
     rmax = np.empty((cu, cv))
     wmin = np.empty((cu, cv))

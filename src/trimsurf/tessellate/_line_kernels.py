@@ -1738,6 +1738,13 @@ def cache_cells_kernel(table, iu, iv, pu, pv, ku, kv, pw, rational, us, vs, bary
     return rows, n0 + cnt
 
 
+#: IR-inlined twins of the cell kernels, inlined once each (`cache_cells_kernel` into `grid_cells_kernel`,
+#: `grid_cells_kernel` and `cell_deviation_kernel` into `refine_cells_kernel`): a compiled call links the
+#: callee's library, `cell_surface_kernel`'s body with it, into the caller's, where LLVM optimizes and emits
+#: it again (the cold compile paid that body once per caller: 5 times)
+_cache_cells_i = njit(cache=True, nogil=True, inline="always")(cache_cells_kernel.py_func)
+
+
 @njit(cache=True, nogil=True)
 def cell_deviation_kernel(pu, pv, ku, kv, pw, rational, d, p, uv, devs, bounds, rows, tolerance, exact, bary, main,
                           dev, diag, diag_max, side_u, side_v, lin):
@@ -1785,6 +1792,9 @@ def cell_deviation_kernel(pu, pv, ku, kv, pw, rational, d, p, uv, devs, bounds, 
         else:
             devs[r[q], col] = got[q]
         dev[at[q]] = got[q]
+
+
+_cell_deviation_i = njit(cache=True, nogil=True, inline="always")(cell_deviation_kernel.py_func)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -2040,8 +2050,11 @@ def grid_cells_kernel(hk_u, he_u, hk_v, he_v, nid, table, pu, pv, ku, kv, pw, ra
                 new += 1
     if n0 + new > uv.shape[0]:
         uv, p, d, devs, bounds = _grow_rows(uv, p, d, devs, bounds, n0, max(n0 + new, 2 * uv.shape[0], 64))
-    rows, n = cache_cells_kernel(table, iu, iv, pu, pv, ku, kv, pw, rational, us, vs, bary, uv, p, d, n0)
+    rows, n = _cache_cells_i(table, iu, iv, pu, pv, ku, kv, pw, rational, us, vs, bary, uv, p, d, n0)
     return hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, rows, n
+
+
+_grid_cells_i = njit(cache=True, nogil=True, inline="always")(grid_cells_kernel.py_func)
 
 
 @njit(cache=True, nogil=True)
@@ -2113,7 +2126,7 @@ def refine_cells_kernel(hk_u, he_u, hk_v, he_v, nid, table, pu, pv, ku, kv, pw, 
             if not x[i] < x[i + 1]:
                 status = 3
     for round_ in range(max_rounds if status == 1 else 0):
-        hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, rows, n = grid_cells_kernel(
+        hk_u, he_u, hk_v, he_v, table, uv, p, d, devs, bounds, rows, n = _grid_cells_i(
             hk_u, he_u, hk_v, he_v, nid, table, pu, pv, ku, kv, pw, rational, us, vs, bary, uv, p, d, devs, bounds, n)
         nu, nv = us.shape[0] - 1, vs.shape[0] - 1
         k = nu * nv
@@ -2123,9 +2136,9 @@ def refine_cells_kernel(hk_u, he_u, hk_v, he_v, nid, table, pu, pv, ku, kv, pw, 
         diag_max = np.empty((nu, nv))
         side_u = np.empty((nu, nv))
         side_v = np.empty((nu, nv))
-        cell_deviation_kernel(pu, pv, ku, kv, pw, rational, d, p, uv, devs, bounds, rows, tolerance, no, bary, main,
-                              dev.reshape(k), diag.reshape(k), diag_max.reshape(k), side_u.reshape(k),
-                              side_v.reshape(k), lin)
+        _cell_deviation_i(pu, pv, ku, kv, pw, rational, d, p, uv, devs, bounds, rows, tolerance, no, bary, main,
+                          dev.reshape(k), diag.reshape(k), diag_max.reshape(k), side_u.reshape(k),
+                          side_v.reshape(k), lin)
         near = np.zeros((nu, nv), dtype=np.bool_)
         interior = np.zeros((nu, nv), dtype=np.bool_)
         if has_polys:
