@@ -82,55 +82,45 @@ def _upd_max(mx, v):
 
 
 @njit(cache=True, nogil=True)
-def _cell_max_k(x, su, sv, lo_u, n_u, lo_v, n_v, out, q):
-    """out[q] = `interpolation_bound._cell_max` (no centre) of x (.., .., 3)."""
+def _cell_max_k(h, su, sv, lo_u, n_u, lo_v, n_v, rat, centre, out_a, out_w, q):
+    """Not `rat`: out_a[q] = `interpolation_bound._cell_max` (no centre) of h (.., .., 3); `rat`: out_a[q],
+    out_w[q] = `interpolation_bound._cell_max2` of h = [x w, w] (.., .., 4) about the cell centres (one
+    compiled function for both)."""
     cu, cv = len(su), len(sv)
     for i in range(cu):
         for j in range(cv):
             if n_u <= 0 or n_v <= 0:
-                out[q, i, j] = 0.0
-                continue
-            mx = 0.0
-            for a in range(n_u):
-                r = su[i] - lo_u + a
-                for b in range(n_v):
-                    c = sv[j] - lo_v + b
-                    x0, x1, x2 = x[r, c, 0], x[r, c, 1], x[r, c, 2]
-                    v = np.sqrt((x0 * x0 + x2 * x2) + x1 * x1)
-                    mx = v if (a == 0 and b == 0) else _upd_max(mx, v)
-            out[q, i, j] = mx
-
-
-@njit(cache=True, nogil=True)
-def _cell_max2_k(h, su, sv, lo_u, n_u, lo_v, n_v, centre, out_a, out_w):
-    """`interpolation_bound._cell_max2` of h = [x w, w] (.., .., 4)."""
-    cu, cv = len(su), len(sv)
-    for i in range(cu):
-        for j in range(cv):
-            if n_u <= 0 or n_v <= 0:
-                out_a[i, j] = 0.0
-                out_w[i, j] = 0.0
+                out_a[q, i, j] = 0.0
+                if rat:
+                    out_w[q, i, j] = 0.0
                 continue
             ma = 0.0
             mw = 0.0
-            c0, c1, c2 = centre[i, j, 0], centre[i, j, 1], centre[i, j, 2]
+            c0 = c1 = c2 = 0.0
+            if rat:
+                c0, c1, c2 = centre[i, j, 0], centre[i, j, 1], centre[i, j, 2]
             for a in range(n_u):
                 r = su[i] - lo_u + a
                 for b in range(n_v):
                     c = sv[j] - lo_v + b
-                    wv = h[r, c, 3]
-                    x0 = h[r, c, 0] - c0 * wv
-                    x1 = h[r, c, 1] - c1 * wv
-                    x2 = h[r, c, 2] - c2 * wv
+                    if rat:
+                        wv = h[r, c, 3]
+                        x0 = h[r, c, 0] - c0 * wv
+                        x1 = h[r, c, 1] - c1 * wv
+                        x2 = h[r, c, 2] - c2 * wv
+                        vw = np.sqrt(wv * wv)
+                    else:
+                        x0, x1, x2 = h[r, c, 0], h[r, c, 1], h[r, c, 2]
+                        vw = 0.0
                     va = np.sqrt((x0 * x0 + x2 * x2) + x1 * x1)
-                    vw = np.sqrt(wv * wv)
                     if a == 0 and b == 0:
                         ma, mw = va, vw
                     else:
                         ma = _upd_max(ma, va)
                         mw = _upd_max(mw, vw)
-            out_a[i, j] = ma
-            out_w[i, j] = mw
+            out_a[q, i, j] = ma
+            if rat:
+                out_w[q, i, j] = mw
 
 
 @njit(cache=True, nogil=True)
@@ -142,6 +132,8 @@ def span_bounds_kernel(pu, pv, ku, kv, cp, w, rational):
     # compiled _diff/_cell_max_k once per value)
     i0 = np.int64(0)
     i1, i2 = i0 + 1, i0 + 2
+    i3, i4 = i0 + 3, i0 + 4
+    no, yes = i0 > i1, i0 < i1
     bu, su, cru = _breaks_k(ku, pu, nu)
     bv, sv, crv = _breaks_k(kv, pv, nv)
     cu, cv = len(su), len(sv)
@@ -153,9 +145,10 @@ def span_bounds_kernel(pu, pv, ku, kv, cp, w, rational):
         xv = _diff(cw, kv, i0, pv, i1)
         xvv = _diff(xv, kv, i1, pv - 1, i1)
         xuv = _diff(xu, kv, i0, pv, i1)
-        _cell_max_k(xuu, su, sv, pu, pu - 1, pv, pv + 1, m, i0)
-        _cell_max_k(xvv, su, sv, pu, pu + 1, pv, pv - 1, m, i2)
-        _cell_max_k(xuv, su, sv, pu, pu, pv, pv, m, i1)
+        no_c = np.empty((0, 0, 3))
+        _cell_max_k(xuu, su, sv, pu, pu - 1, pv, pv + 1, no, no_c, m, m, i0)
+        _cell_max_k(xvv, su, sv, pu, pu + 1, pv, pv - 1, no, no_c, m, m, i2)
+        _cell_max_k(xuv, su, sv, pu, pu, pv, pv, no, no_c, m, m, i1)
         return bu, bv, cru, crv, m
     hw = np.empty((nu, nv, 4))
     for i in range(nu):
@@ -203,22 +196,20 @@ def span_bounds_kernel(pu, pv, ku, kv, cp, w, rational):
                             wm = wt
             rmax[i, j] = rm
             wmin[i, j] = wm
-    a_u, w_u = np.empty((cu, cv)), np.empty((cu, cv))
-    a_v, w_v = np.empty((cu, cv)), np.empty((cu, cv))
-    a_uu, w_uu = np.empty((cu, cv)), np.empty((cu, cv))
-    a_vv, w_vv = np.empty((cu, cv)), np.empty((cu, cv))
-    a_uv, w_uv = np.empty((cu, cv)), np.empty((cu, cv))
-    _cell_max2_k(hu, su, sv, pu, pu, pv, pv + 1, centre, a_u, w_u)
-    _cell_max2_k(hv, su, sv, pu, pu + 1, pv, pv, centre, a_v, w_v)
-    _cell_max2_k(huu, su, sv, pu, pu - 1, pv, pv + 1, centre, a_uu, w_uu)
-    _cell_max2_k(hvv, su, sv, pu, pu + 1, pv, pv - 1, centre, a_vv, w_vv)
-    _cell_max2_k(huv, su, sv, pu, pu, pv, pv, centre, a_uv, w_uv)
+    # rows of A, W: u, v, uu, vv, uv
+    A = np.empty((5, cu, cv))
+    W = np.empty((5, cu, cv))
+    _cell_max_k(hu, su, sv, pu, pu, pv, pv + 1, yes, centre, A, W, i0)
+    _cell_max_k(hv, su, sv, pu, pu + 1, pv, pv, yes, centre, A, W, i1)
+    _cell_max_k(huu, su, sv, pu, pu - 1, pv, pv + 1, yes, centre, A, W, i2)
+    _cell_max_k(hvv, su, sv, pu, pu + 1, pv, pv - 1, yes, centre, A, W, i3)
+    _cell_max_k(huv, su, sv, pu, pu, pv, pv, yes, centre, A, W, i4)
     for i in range(cu):
         for j in range(cv):
             rm, wm = rmax[i, j], wmin[i, j]
-            s_u = (a_u[i, j] + w_u[i, j] * rm) / wm
-            s_v = (a_v[i, j] + w_v[i, j] * rm) / wm
-            m[0, i, j] = (a_uu[i, j] + 2.0 * w_u[i, j] * s_u + w_uu[i, j] * rm) / wm
-            m[2, i, j] = (a_vv[i, j] + 2.0 * w_v[i, j] * s_v + w_vv[i, j] * rm) / wm
-            m[1, i, j] = (a_uv[i, j] + w_u[i, j] * s_v + w_v[i, j] * s_u + w_uv[i, j] * rm) / wm
+            s_u = (A[0, i, j] + W[0, i, j] * rm) / wm
+            s_v = (A[1, i, j] + W[1, i, j] * rm) / wm
+            m[0, i, j] = (A[2, i, j] + 2.0 * W[0, i, j] * s_u + W[2, i, j] * rm) / wm
+            m[2, i, j] = (A[3, i, j] + 2.0 * W[1, i, j] * s_v + W[3, i, j] * rm) / wm
+            m[1, i, j] = (A[4, i, j] + W[0, i, j] * s_v + W[1, i, j] * s_u + W[4, i, j] * rm) / wm
     return bu, bv, cru, crv, m
