@@ -790,12 +790,6 @@ def _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_l
     return True
 
 
-#: `_iso_criteria` IR-inlined at its one call site (`_criteria`, inlined once into `equidistributed_kernel`):
-#: a compiled call compiled its body on its own and again in the caller's library (linked, optimised and
-#: emitted there: the cold start paid it twice)
-_iso_criteria_i = njit(cache=True, nogil=True, inline="always")(_iso_criteria.py_func)
-
-
 @njit(cache=True, nogil=True, inline="always")
 def _rt():
     """(5, 9, False, True) as run-time values: numba compiles a callee once per literal argument, so
@@ -808,8 +802,8 @@ def _rt():
 def _criteria(kind, iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw,
               ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop, pin, pout):
     if kind == 0:
-        return _iso_criteria_i(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b, m, length, dev,
-                               max_len, max_dev, stop)
+        return _iso_criteria(iso_i, iso_f, lines_c, lines_raw, dil, rgeo, ku, kv, pw, a, b, m, length, dev, max_len,
+                             max_dev, stop)
     return _chunk_criteria(ci, cf, ck, cpw, cku, ckv, cpw4, a, b, m, length, dev, max_len, max_dev, stop, pin, pout)
 
 
