@@ -82,3 +82,36 @@ def test_span_bounds_kernel_sum_order_matters():
         differs += int(not np.array_equal(alt, ref))
         assert np.all(np.isfinite(m))
     assert differs > 50
+
+
+
+_SIGS = """
+import numpy as np
+from trimsurf.quality import _bound_kernels as bk, interpolation_bound as ib
+from tests.quality.test_span_bounds_kernel import _random_surfaces
+surfaces = _random_surfaces(5, 40)
+assert any(s.weights is None for s in surfaces) and any(s.weights is not None for s in surfaces)
+assert any(not np.asarray(s.control_points).flags.writeable for s in surfaces)
+for s in surfaces:
+    ib.span_bounds(s)
+print(len(bk._diff.signatures), len(bk._cell_max_k.signatures))
+"""
+
+
+def test_span_bounds_kernel_helpers_compile_once(tmp_path):
+    """The cold compile: `_diff` (both axes, the net and the derivative nets) and `_cell_max_k` (both nets)
+    each compile ONE specialization for polynomial and rational surfaces (a literal offset or axis, or the
+    read-only control net passed as it is, made 2 to 4; session 29). On an empty numba cache (a cached
+    kernel loads without compiling its helpers), in a child process (~4 s)."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "nc"),
+               PYTHONPATH=os.pathsep.join([str(root / "src"), str(root), os.environ.get("PYTHONPATH", "")]))
+    out = subprocess.run([sys.executable, "-c", _SIGS], env=env, cwd=root, capture_output=True, text=True,
+                         timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.split() == ["1", "1"], out.stdout

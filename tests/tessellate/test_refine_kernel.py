@@ -248,3 +248,23 @@ def test_split_deviation_shortcuts_equal_the_per_sample_path(faces):
                 n_bounded += int(got_b.sum())
                 n_exact += int((~got_b).sum())
     assert n_cells > 1000 and n_bounded > 300 and n_exact > 300
+
+
+def test_refine_chain_inlines_the_cell_kernels_once():
+    """The cold compile (session 29): `refine_cells_kernel` IR-inlines `grid_cells_kernel` (with
+    `cache_cells_kernel` inside) and `cell_deviation_kernel` (their twins, inline="always", the same
+    Python functions), so `cell_surface_kernel`'s body is linked into 2 libraries, not 5; the Python-facing
+    kernels stay as they are."""
+    import trimsurf.tessellate._line_kernels as L
+
+    pairs = ((L._grid_cells_i, L.grid_cells_kernel), (L._cache_cells_i, L.cache_cells_kernel),
+             (L._cell_deviation_i, L.cell_deviation_kernel))
+    for twin, kernel in pairs:
+        assert twin.targetoptions.get("inline") == "always"
+        assert twin.py_func is kernel.py_func
+    assert kernel.targetoptions.get("inline", "never") == "never"
+    names = L.refine_cells_kernel.py_func.__code__.co_names
+    assert "_grid_cells_i" in names and "_cell_deviation_i" in names
+    assert "grid_cells_kernel" not in names and "cell_deviation_kernel" not in names
+    names = L.grid_cells_kernel.py_func.__code__.co_names
+    assert "_cache_cells_i" in names and "cache_cells_kernel" not in names
