@@ -40,3 +40,25 @@ def test_adaptive_lines_beat_the_uniform_grid(name, max_edge):
         us, vs = face_domain_values(face, tolerance=0.05, max_edge=max_edge, strategy=s)
         cells[s] = (len(us) - 1) * (len(vs) - 1)
     assert cells["equidistributed"] < cells["uniform"], cells
+
+
+def test_adaptive_no_more_triangles_than_uniform_at_grid_spacing(monkeypatch):
+    """Issue 17 (deliverable 4), benchmarks/grid_size.py's fender row at spacing = G (max edge sqrt(2) G,
+    eps and G the defaults): equidistributed lines sit at the grid size, so the sheared cells' diagonals
+    came out over max edge and refine_cells halved 14 columns (29 x 18 -> 43 x 18 cells, 1280 triangles)
+    where the uniform grid needs 8 + 1 lines (30 x 18 -> 38 x 19, 1211). The uniform grid is now a
+    candidate where refining added lines for the diagonal (`face.UNIFORM_CANDIDATE`): the fewer cells win."""
+    from trimsurf.tessellate import default_parameters
+    from trimsurf.tessellate import face as face_mod
+
+    shell = build_sample("fender")
+    eps, g = default_parameters(shell)
+    tris = {}
+    for s in ("equidistributed", "uniform"):
+        res = tessellate_shell(shell, tolerance=eps, max_edge=np.sqrt(2.0) * g, strategy=s)
+        assert res.report["max_deviation"] <= eps
+        tris[s] = res.mesh.n_triangles
+    assert tris["equidistributed"] <= tris["uniform"], tris
+    monkeypatch.setattr(face_mod, "UNIFORM_CANDIDATE", False)     # without it adaptive loses (the old code)
+    res = tessellate_shell(shell, tolerance=eps, max_edge=np.sqrt(2.0) * g, measure=False)
+    assert res.mesh.n_triangles > tris["uniform"]

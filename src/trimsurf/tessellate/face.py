@@ -802,9 +802,9 @@ def _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front=No
         best = _fewer_cells(best, lambda: place(tolerance / (1.05 * r) if r > 1.0 else tolerance,
                                                 max_edge / (1.002 * rd) if rd > 1.0 else max_edge),
                             face, tolerance, max_edge, aspect, cache)
-    if UNIFORM_CANDIDATE and _cells(best) > _cells((us, vs)):
-        # refining added lines: the uniform grid (the paper's baseline, Sec. 3.4) is a candidate too. Lines
-        # equidistributed at the grid size leave every cell's diagonal at the limit, so a little shear puts
+    if UNIFORM_CANDIDATE and rd > 1.0 and _cells(best) > _cells((us, vs)):
+        # refining added lines for diagonals over max_edge: the uniform grid (the paper's baseline, Sec. 3.4)
+        # is a candidate too. Lines equidistributed at the grid size leave every cell's diagonal at the limit, so a little shear puts
         # whole rows over it, where the uniform grid's slack (its worst interval sets the spacing) needs
         # fewer mid-lines (fender sample at grid size G: 29 x 18 -> 43 x 18 cells, uniform 30 x 18 -> 38 x 19)
         best = _fewer_cells(best, lambda: place(tolerance, strategy="uniform"), face, tolerance, max_edge, aspect,
