@@ -802,7 +802,7 @@ def _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front=No
         best = _fewer_cells(best, lambda: place(tolerance / (1.05 * r) if r > 1.0 else tolerance,
                                                 max_edge / (1.002 * rd) if rd > 1.0 else max_edge),
                             face, tolerance, max_edge, aspect, cache)
-    if UNIFORM_CANDIDATE and rd > 1.0 and _cells(best) > _cells((us, vs)):
+    if UNIFORM_CANDIDATE and rd > 1.0 and _cells(best) > UNIFORM_GAIN * _cells((us, vs)):
         # refining added lines for diagonals over max_edge: the uniform grid (the paper's baseline, Sec. 3.4)
         # is a candidate too. Lines equidistributed at the grid size leave every cell's diagonal at the limit, so a little shear puts
         # whole rows over it, where the uniform grid's slack (its worst interval sets the spacing) needs
@@ -812,8 +812,10 @@ def _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front=No
     return best
 
 
-#: whether `face_domain_values` (default strategy) tries the uniform grid too where refining added lines
+#: whether `face_domain_values` (default strategy) tries the uniform grid too where refining for the diagonal
+#: added lines, more than UNIFORM_GAIN x the placed cells
 UNIFORM_CANDIDATE = True
+UNIFORM_GAIN = 1.25
 
 
 def _cells(grid) -> int:
