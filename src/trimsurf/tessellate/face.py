@@ -796,24 +796,27 @@ def _domain_values(face, tolerance, max_edge, strategy, n_lines, cache, front=No
     # curved cells just over max_edge, and mid-lines through every such row and column doubled the
     # lines (hood sample at max edge 14.1: 3944 cells over by <= 0.64 %, 110 x 143 -> 151 x 205
     # lines, 2x the uniform grid's triangles); lines placed for max_edge / rd need ~rd x the lines.
-    best = refine_cells(face, us, vs, tolerance=tolerance, max_edge=max_edge, aspect=aspect, cache=cache)
+    best = first = refine_cells(face, us, vs, tolerance=tolerance, max_edge=max_edge, aspect=aspect, cache=cache)
     r, rd = _worst_cell_ratio(face, us, vs, tolerance, polys, cache, max_edge)
     if r > 1.0 or rd > 1.0:
         best = _fewer_cells(best, lambda: place(tolerance / (1.05 * r) if r > 1.0 else tolerance,
                                                 max_edge / (1.002 * rd) if rd > 1.0 else max_edge),
                             face, tolerance, max_edge, aspect, cache)
-    if UNIFORM_CANDIDATE and rd > 1.0 and _cells(best) > UNIFORM_GAIN * _cells((us, vs)):
-        # refining added lines for diagonals over max_edge: the uniform grid (the paper's baseline, Sec. 3.4)
-        # is a candidate too. Lines equidistributed at the grid size leave every cell's diagonal at the limit, so a little shear puts
-        # whole rows over it, where the uniform grid's slack (its worst interval sets the spacing) needs
-        # fewer mid-lines (fender sample at grid size G: 29 x 18 -> 43 x 18 cells, uniform 30 x 18 -> 38 x 19)
+    if UNIFORM_CANDIDATE and rd > 1.0 and best is first and _cells(best) > UNIFORM_GAIN * _cells((us, vs)):
+        # refining for diagonals over max_edge added many lines and re-placing for the worst diagonal did not
+        # help: the uniform grid (the paper's baseline, Sec. 3.4) is a candidate too. Lines equidistributed
+        # at the grid size leave every cell's diagonal at the limit, so a little shear puts whole rows over
+        # it, where the uniform grid's slack (its worst interval sets the spacing) needs fewer mid-lines
+        # (fender sample at grid size G: 29 x 18 -> 43 x 18 cells, re-placed 30 x 18 -> 39 x 26, uniform
+        # 30 x 18 -> 38 x 19)
         best = _fewer_cells(best, lambda: place(tolerance, strategy="uniform"), face, tolerance, max_edge, aspect,
                             cache)
     return best
 
 
 #: whether `face_domain_values` (default strategy) tries the uniform grid too where refining for the diagonal
-#: added lines, more than UNIFORM_GAIN x the placed cells
+#: made more than UNIFORM_GAIN x the placed cells and re-placing the lines for the worst diagonal did not
+#: help (tried more widely, it never won at the defaults on the 17 models but cost CPU: bspline_box +50 %)
 UNIFORM_CANDIDATE = True
 UNIFORM_GAIN = 1.25
 
