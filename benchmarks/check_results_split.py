@@ -17,6 +17,10 @@ HISTORY.md's lines from the log come in the log's order.
     python benchmarks/check_results_split.py split [--log REV_OR_FILE]   # default: the log as of ab5c52f
     python benchmarks/check_results_split.py check [--log REV_OR_FILE]
 
+``check`` verifies the split as ``split`` made it (commit ec2c723, session 29). RESULTS.md and HISTORY.md are
+edited by hand after that (a rerun's block put above its script's older one, whose heading then says
+"Previous run"): ``git show ec2c723:benchmarks/RESULTS.md`` is the state this check passed on.
+
 A section of the log that ``SPEC`` does not name goes to HISTORY.md and ``split`` lists it ("history: ..."):
 if it is the newest run of a script, add it to that script's ``latest`` in ``SPEC`` (the older block then goes
 to HISTORY.md) and rerun ``split``. ``split`` fails when a selector of ``SPEC`` matches no block of the log.
