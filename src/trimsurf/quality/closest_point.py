@@ -25,6 +25,7 @@ import numpy as np
 from ..errors import InputError, MeshError
 from ..model import TriMesh
 from ._kernels import grid_build_kernel, grid_closest_kernel, hint_closest_kernel
+from ._numeric import median
 from ._results import ResultMixin
 
 __all__ = ["point_triangle_closest", "point_segment_closest", "closest_points_on_mesh", "ClosestPoints"]
@@ -186,7 +187,7 @@ class _TriangleLocator:
             origin = lo.min(axis=0)
             span = hi.max(axis=0) - origin
             ext = (hi - lo).max(axis=1)
-            h = float(np.median(ext))
+            h = median(ext)
             h = max(h, float(span.max()) * 2.0 ** -20, 1e-300)
             while True:
                 dims = np.floor(span / h).astype(np.int64) + 1

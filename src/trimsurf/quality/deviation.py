@@ -26,6 +26,7 @@ from ..geom.projection import _SETTLED_FRACTION, project_to_surface
 from ..model import Shell, TriMesh
 from ._results import ResultMixin
 from ._kernels import uv_locate_kernel
+from ._numeric import median
 from . import closest_point as _cp
 from .closest_point import _closest, _TriangleLocator, closest_points_on_mesh
 from .interpolation_bound import domain_bound, span_bounds, triangle_bounds
@@ -883,7 +884,7 @@ def _drop_singular(w: np.ndarray, kmax: np.ndarray, det: np.ndarray) -> None:
     v = 1e-17 on a fuselage nose: curvature 1e14) no value where |Su x Sv|^2 is below 1e-8 of its median over
     the points given."""
     fin = np.isfinite(det) & (det > 0)
-    ref = float(np.median(det[fin])) if fin.any() else 0.0
+    ref = median(det[fin]) if fin.any() else 0.0
     bad = ~np.isfinite(kmax) | ~np.all(np.isfinite(w.reshape(len(w), -1)), axis=1) | ~(det > 1e-8 * ref)
     kmax[bad] = np.nan
     w[bad] = np.nan
@@ -944,7 +945,7 @@ def _footprint_grid(face, mesh: TriMesh, vert_uv: np.ndarray, n_min: int) -> np.
     for axis in (0, 1):
         x = duv[:, axis]
         x = x[np.isfinite(x) & (x > 1e-12 * max(hi[axis] - lo[axis], 1e-300))]
-        step = (float(np.median(x)) if len(x) else (hi[axis] - lo[axis])) / FOOTPRINT_DIVISIONS
+        step = (median(x) if len(x) else (hi[axis] - lo[axis])) / FOOTPRINT_DIVISIONS
         n.append(int(np.clip(np.ceil((hi[axis] - lo[axis]) / max(step, 1e-300)) + 1, n_min, MAX_FOOTPRINT_GRID)))
     if n[0] <= n_min and n[1] <= n_min:
         return np.zeros((0, 2))
