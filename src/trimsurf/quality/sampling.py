@@ -15,6 +15,7 @@ rule on the loops' polylines), plus the loop polylines themselves.
 
 from __future__ import annotations
 
+import functools
 from typing import NamedTuple
 
 import numpy as np
@@ -124,9 +125,7 @@ def sample_triangles(mesh: TriMesh, *, density: int = 4) -> TriangleSamples:
     _, first_he = np.unique(inv, return_index=True)
     e_tri, c0 = first_he // 3, first_he % 3
     c1 = (c0 + 1) % 3
-    s = np.arange(1, density) / density
-    if density % 2:
-        s = np.sort(np.r_[s, 0.5])
+    s, g_w = _density_nodes(density)
     ne, ns = len(first_he), len(s)
     e_w = np.zeros((ne, ns, 3))
     rows = np.arange(ne)[:, None]
@@ -134,10 +133,6 @@ def sample_triangles(mesh: TriMesh, *, density: int = 4) -> TriangleSamples:
     e_w[rows, np.arange(ns)[None, :], c1[:, None]] = s[None, :]
     e_w = e_w.reshape(-1, 3)
     e_tri = np.repeat(e_tri, ns)
-    # interior grid nodes
-    ij = np.array([(i, j) for i in range(1, density) for j in range(1, density - i) if density - i - j >= 1],
-                  dtype=np.float64).reshape(-1, 2)
-    g_w = np.column_stack([ij[:, 0], ij[:, 1], density - ij.sum(axis=1)]) / density
     i_w = np.tile(g_w, (m, 1))
     i_tri = np.repeat(np.arange(m), len(g_w))
     tri = np.concatenate([v_tri, e_tri, i_tri]).astype(np.int64)
@@ -147,6 +142,22 @@ def sample_triangles(mesh: TriMesh, *, density: int = 4) -> TriangleSamples:
     p = mesh.vertices[t[tri]]
     points = np.einsum("kj,kjd->kd", bary, p)
     return TriangleSamples(points, tri, bary, kind, element)
+
+
+@functools.lru_cache(maxsize=64)
+def _density_nodes(density: int) -> tuple[np.ndarray, np.ndarray]:
+    """`sample_triangles`' edge parameters s (midpoint included for an odd density) and interior nodes' weights
+    (i, j, density - i - j) / density, built once per density (read-only; every face of a measurement asks
+    for the same one)."""
+    s = np.arange(1, density) / density
+    if density % 2:
+        s = np.sort(np.r_[s, 0.5])
+    ij = np.array([(i, j) for i in range(1, density) for j in range(1, density - i) if density - i - j >= 1],
+                  dtype=np.float64).reshape(-1, 2)
+    g_w = np.column_stack([ij[:, 0], ij[:, 1], density - ij.sum(axis=1)]) / density
+    for a in (s, g_w):
+        a.flags.writeable = False
+    return s, g_w
 
 
 def as_face(target) -> TrimmedFace:
@@ -305,8 +316,10 @@ def sample_face_domain(face, *, n: int = 64, n_per_segment: int = 32) -> np.ndar
     (du0, du1), (dv0, dv1) = face.surface.domain
     lo = np.maximum(lo, [du0, dv0])
     hi = np.minimum(hi, [du1, dv1])
-    gu, gv = np.meshgrid(np.linspace(lo[0], hi[0], nu), np.linspace(lo[1], hi[1], nv), indexing="ij")
-    grid = np.column_stack([gu.ravel(), gv.ravel()])
+    # the rows of ``np.meshgrid(lu, lv, indexing="ij")`` raveled: u major (the same values, fewer calls)
+    grid = np.empty((nu * nv, 2))
+    grid[:, 0] = np.repeat(np.linspace(lo[0], hi[0], nu), nv)
+    grid[:, 1] = np.tile(np.linspace(lo[1], hi[1], nv), nu)
     if face.loops:
         grid = grid[_inside_loops(face, grid, n_per_segment)]
         boundary = np.concatenate(polys)
