@@ -80,3 +80,25 @@ def test_feet_of_the_wrong_length_are_refused(case):
     f = next(iter(cuv))
     with pytest.raises(InputError, match="centroid_uv"):
         flipped_against_normal(m, shell, centroid_uv={f: cuv[f][:-1]})
+
+
+def _sense_turned(shell, faces):
+    """`shell` with the faces `faces` of the opposite sense (`TrimmedFace.same_sense` False)."""
+    new = list(shell.faces)
+    for f in faces:
+        new[f] = dataclasses.replace(new[f], same_sense=not new[f].same_sense)
+    return dataclasses.replace(shell, faces=tuple(new))
+
+
+def test_faces_of_reversed_sense(case):
+    """The batched normals are negated on the faces whose sense is reversed, as `oriented_normals` does: the
+    counts of the submesh loop; and a version that ignores the sense does not give them."""
+    shell, m, cuv = case
+    ids = np.unique(m.face_id).tolist()
+    turned = _sense_turned(shell, ids[::2])
+    for feet in (None, cuv):
+        assert flipped_against_normal(m, turned, centroid_uv=feet) == _reference(m, turned, centroid_uv=feet)
+        assert flipped_against_normal(m, turned, reversed_faces=ids[1::3], centroid_uv=feet) == \
+            _reference(m, turned, reversed_faces=ids[1::3], centroid_uv=feet)
+    # a version that ignored the sense would count as on the unturned shell: those counts differ
+    assert flipped_against_normal(m, shell, centroid_uv=cuv) != _reference(m, turned, centroid_uv=cuv)

@@ -8,6 +8,7 @@ import weakref
 import numpy as np
 
 from ..errors import InputError
+from ..geom.nurbs import unit_normals
 from ..model import Shell, TriMesh
 from ..quality import topology_report, triangle_quality
 from ..quality.deviation import _shell_deviation
@@ -42,7 +43,13 @@ def flipped_against_normal(mesh: TriMesh, shell: Shell, *, reversed_faces=(), to
     faces, starts = np.unique(mesh.face_id[order], return_index=True)
     ends = np.r_[starts[1:], len(order)]
     normals = mesh.triangle_normals()
-    n = 0
+    if not len(order):
+        return 0
+    # per face the surface's first derivatives at the feet (one evaluation per surface); the normals, their
+    # dot products and signs row by row over all faces at once (`TrimmedFace.oriented_normals`' operations:
+    # `geom.unit_normals`, negated where the face's sense is reversed; each row's numbers do not depend on
+    # the others), and each face's counts from the signs
+    su, sv, neg = [], [], np.zeros(len(order), dtype=bool)
     for i, a, b in zip(faces.tolist(), starts.tolist(), ends.tolist()):
         rows = order[a:b]
         face = as_face(shell.faces[i])
@@ -52,10 +59,21 @@ def flipped_against_normal(mesh: TriMesh, shell: Shell, *, reversed_faces=(), to
             cuv = project_to_face(centroids, face, tol_rel=tol_rel).uv
         elif np.shape(cuv) != (b - a, 2):
             raise InputError(f"centroid_uv of face {i} must have shape ({b - a}, 2); got {np.shape(cuv)}")
-        dot = np.einsum("ij,ij->i", normals[rows], face.oriented_normals(np.asarray(cuv, dtype=np.float64)))
-        sign = np.sign(np.where(np.isfinite(dot), dot, 0.0))
-        flipped = int(np.count_nonzero(sign < 0))
-        n += (b - a) - flipped - int(np.count_nonzero(sign == 0)) if i in rev else flipped
+        d = face.surface.derivatives(np.asarray(cuv, dtype=np.float64), 1)
+        su.append(d[1, 0])
+        sv.append(d[0, 1])
+        neg[a:b] = not face.same_sense
+    nrm = unit_normals(np.concatenate(su), np.concatenate(sv))
+    nrm[neg] = -nrm[neg]
+    dot = np.einsum("ij,ij->i", normals[order], nrm)
+    sign = np.sign(np.where(np.isfinite(dot), dot, 0.0))
+    k = np.repeat(np.arange(len(faces)), ends - starts)
+    n_neg = np.bincount(k[sign < 0], minlength=len(faces))
+    n_zero = np.bincount(k[sign == 0], minlength=len(faces))
+    n = 0
+    for j, (i, a, b) in enumerate(zip(faces.tolist(), starts.tolist(), ends.tolist())):
+        flipped = int(n_neg[j])
+        n += (b - a) - flipped - int(n_zero[j]) if i in rev else flipped
     return int(n)
 
 
