@@ -1300,6 +1300,11 @@ def _groups(k: np.ndarray, kp: np.ndarray, k1: np.ndarray) -> np.ndarray:
     return out
 
 
+def _single_density(dk: np.ndarray) -> bool:
+    """Whether every entry of `dk` (division counts, non-empty) is the same (`_sample_more`'s one group)."""
+    return bool(dk.min() == dk.max())
+
+
 def _sample_more(devs, states, info, i, cand, tol_rel, surface_only=False, prev=None, first=None) -> None:
     """Sample triangles `cand` of face state i at their current density, both directions (or the surface
     -> mesh side only), and fold the values into the state and the Deviation.
@@ -1319,12 +1324,19 @@ def _sample_more(devs, states, info, i, cand, tol_rel, surface_only=False, prev=
     mx, where, mx2, where2 = dev.max_mesh_to_target, dev.where_mesh_to_target, dev.max_target_to_mesh, \
         dev.where_target_to_mesh
     n1, n2 = dev.n_mesh_samples, dev.n_target_samples
-    kp = np.zeros(len(cand), dtype=np.int64) if prev is None else np.asarray(prev, dtype=np.int64)
-    k1 = np.zeros(len(cand), dtype=np.int64) if first is None else np.asarray(first, dtype=np.int64)
-    groups = _groups(st.density[cand], kp, k1)
+    dk = st.density[cand]
+    one = prev is None and first is None and _single_density(dk)
+    if one:
+        # `refine_deviation`'s first call per face (every triangle at the starting density, none sampled
+        # before): the one group (k, 0, 0) holds every triangle of `cand`, in order
+        groups = [[int(dk[0]), 0, 0]]
+    else:
+        kp = np.zeros(len(cand), dtype=np.int64) if prev is None else np.asarray(prev, dtype=np.int64)
+        k1 = np.zeros(len(cand), dtype=np.int64) if first is None else np.asarray(first, dtype=np.int64)
+        groups = _groups(dk, kp, k1).tolist()
     parts = ([], [])            # per side: (triangles, their new nodes) of each (k, k_prev, k_first) group
-    for k, k_prev, k_first in groups.tolist():
-        tri = cand[(st.density[cand] == k) & (kp == k_prev) & (k1 == k_first)]
+    for k, k_prev, k_first in groups:
+        tri = cand if one else cand[(dk == k) & (kp == k_prev) & (k1 == k_first)]
         nodes = _group_nodes(int(k), int(k_prev), int(k_first), bool(surface_only))
         for side in (0, 1):
             if (side == 0 and surface_only) or (side == 1 and not st.two_sided):
