@@ -134,12 +134,11 @@ def test_completion_needed(shared_data, monkeypatch, name, edge):
     figures, per-face maxima and densities still equal the full run's; without the completion they do
     not (refined triangles would miss first-pass values)."""
     shell, res = _tessellate(shared_data, name, edge)
-    curv = D._curvature_bound
+    curv = D._curvature_bounds
 
-    def big(*a, **k):
-        beta, kap = curv(*a, **k)
-        return 30.0 * beta, kap
-    monkeypatch.setattr(D, "_curvature_bound", big)
+    def big(items):
+        return [(30.0 * beta, kap) for beta, kap in curv(items)]
+    monkeypatch.setattr(D, "_curvature_bounds", big)
     lazy = _run(res.mesh, shell)
     with monkeypatch.context() as m:
         m.setattr(D, "LAZY_MIN_TRIANGLES", 10 ** 9)

@@ -1098,43 +1098,87 @@ def _curvature_bound(st: _FaceState, tri_uv_ok: np.ndarray, rows: np.ndarray | N
     triangles only; the face's largest curvature of the fallback is then over the vertices and these
     centres.
     """
-    if rows is not None and not rows.any():
-        return np.full(len(st.mesh.triangles), np.nan), np.full(len(st.mesh.triangles), np.nan)
-    if rows is not None:
-        tri_uv_ok = tri_uv_ok & rows
-    t = st.mesh.triangles
-    s = st.face.surface
-    used = np.isfinite(st.vert_uv[:, 0])
-    nv = len(st.vert_uv)
-    wv = np.full((nv, 3, 3), np.nan)
-    kv = np.full(nv, np.nan)
-    m = len(t)
-    wc = np.full((m, 3, 3), np.nan)
-    kc = np.full(m, np.nan)
-    # the forms at the vertices' feet and at the triangles' (u, v) centres, from one evaluation
-    (wa, ka), (wb, kb) = _second_forms_two(s, st.vert_uv[used], st.vert_uv[t[tri_uv_ok]].mean(axis=1))
-    wv[used], kv[used] = wa, ka
-    wc[tri_uv_ok], kc[tri_uv_ok] = wb, kb
-    p = st.mesh.vertices[t]
-    e = np.stack([p[:, 1] - p[:, 0], p[:, 2] - p[:, 1], p[:, 0] - p[:, 2]], axis=1)      # (m, 3 edges, 3)
-    q = np.zeros((m, 3))
-    for w in (wv[t[:, 0]], wv[t[:, 1]], wv[t[:, 2]], wc):
-        v = np.abs(np.einsum("mei,mij,mej->me", e, w, e))
-        q = np.fmax(q, v)
-    kt = np.fmax(np.fmax(np.fmax(kv[t[:, 0]], kv[t[:, 1]]), kv[t[:, 2]]), kc)
-    if rows is not None:
-        kt[~rows] = np.nan
-        kt_all = np.fmax(kt, np.fmax(np.fmax(kv[t[:, 0]], kv[t[:, 1]]), kv[t[:, 2]]))
-    else:
-        kt_all = kt
-    fin = np.isfinite(kt_all)
-    face_max = float(kt_all[fin].max()) if fin.any() else 0.0
-    fin = np.isfinite(kt)
-    fallback = ~(fin & tri_uv_ok)
-    kt = np.where(fallback, face_max, kt)
-    q = np.where(fallback[:, None], face_max * np.einsum("mei,mei->me", e, e), q)
-    beta = CURVATURE_MARGIN * _simplex_max(q) / 2.0
-    return beta, CURVATURE_MARGIN * kt
+    return _curvature_bounds([(st, tri_uv_ok, rows)])[0]
+
+
+def _curvature_bounds(items: list) -> list:
+    """`_curvature_bound` of each (state, tri_uv_ok, rows) of `items`, as a list of (beta, kappa): each face's
+    derivatives evaluated on its own surface, the second forms (`_forms`) and the simplex maxima
+    (`_simplex_max`) over all faces' rows in one call each (both row by row: each row's numbers do not
+    depend on the others), the rest per face as before (each face keeps its own medians and maximum)."""
+    from ..geom.projection import _surface_eval_compiled
+
+    out = [None] * len(items)
+    todo = []
+    for j, (st, tri_uv_ok, rows) in enumerate(items):
+        if rows is not None and not rows.any():
+            out[j] = (np.full(len(st.mesh.triangles), np.nan), np.full(len(st.mesh.triangles), np.nan))
+            continue
+        if rows is not None:
+            tri_uv_ok = tri_uv_ok & rows
+        t = st.mesh.triangles
+        s = st.face.surface
+        used = np.isfinite(st.vert_uv[:, 0])
+        # the forms at the vertices' feet and at the triangles' (u, v) centres, from one evaluation
+        # (`_second_forms_two`'s steps up to `_forms`)
+        uv_a, uv_b = st.vert_uv[used], st.vert_uv[t[tri_uv_ok]].mean(axis=1)
+        uv = np.concatenate([uv_a, uv_b]).astype(np.float64, copy=False)
+        surf = (int(s.degree_u), int(s.degree_v), read_only(s.knots_u), read_only(s.knots_v),
+                _homogeneous(s.control_points, s.weights), s.weights is not None)
+        _, d1, d2 = _surface_eval_compiled(surf, uv)
+        todo.append((j, st, tri_uv_ok, rows, used, len(uv_a), (d1[:, 0], d1[:, 1], d2[:, 0, 0], d2[:, 0, 1],
+                                                                d2[:, 1, 1])))
+    if not todo:
+        return out
+    # C-contiguous (n, 3) rows as `_second_forms_two` gives them
+    parts = [np.concatenate([it[6][c] for it in todo]) for c in range(5)]
+    w_all, k_all, det_all = _forms(*parts)
+    qs = []
+    pos = 0
+    for j, st, tri_uv_ok, rows, used, na, d in todo:
+        n = len(d[0])
+        w, kmax, det = w_all[pos:pos + n], k_all[pos:pos + n], det_all[pos:pos + n]
+        pos += n
+        halves = []
+        for sl in (slice(0, na), slice(na, n)):
+            wa, ka = w[sl], kmax[sl]
+            if len(ka):
+                _drop_singular(wa, ka, det[sl])
+            halves.append((wa, ka))
+        (wa, ka), (wb, kb) = halves
+        t = st.mesh.triangles
+        nv = len(st.vert_uv)
+        wv = np.full((nv, 3, 3), np.nan)
+        kv = np.full(nv, np.nan)
+        m = len(t)
+        wc = np.full((m, 3, 3), np.nan)
+        kc = np.full(m, np.nan)
+        wv[used], kv[used] = wa, ka
+        wc[tri_uv_ok], kc[tri_uv_ok] = wb, kb
+        p = st.mesh.vertices[t]
+        e = np.stack([p[:, 1] - p[:, 0], p[:, 2] - p[:, 1], p[:, 0] - p[:, 2]], axis=1)      # (m, 3 edges, 3)
+        q = np.zeros((m, 3))
+        for wt in (wv[t[:, 0]], wv[t[:, 1]], wv[t[:, 2]], wc):
+            v = np.abs(np.einsum("mei,mij,mej->me", e, wt, e))
+            q = np.fmax(q, v)
+        kt = np.fmax(np.fmax(np.fmax(kv[t[:, 0]], kv[t[:, 1]]), kv[t[:, 2]]), kc)
+        if rows is not None:
+            kt[~rows] = np.nan
+            kt_all = np.fmax(kt, np.fmax(np.fmax(kv[t[:, 0]], kv[t[:, 1]]), kv[t[:, 2]]))
+        else:
+            kt_all = kt
+        fin = np.isfinite(kt_all)
+        face_max = float(kt_all[fin].max()) if fin.any() else 0.0
+        fin = np.isfinite(kt)
+        fallback = ~(fin & tri_uv_ok)
+        kt = np.where(fallback, face_max, kt)
+        q = np.where(fallback[:, None], face_max * np.einsum("mei,mei->me", e, e), q)
+        qs.append(q)
+        out[j] = kt
+    sm = np.split(_simplex_max(np.concatenate(qs)), np.cumsum([len(q) for q in qs])[:-1])
+    for (j, *_), smj in zip(todo, sm):
+        out[j] = (CURVATURE_MARGIN * smj / 2.0, CURVATURE_MARGIN * out[j])
+    return out
 
 
 def refine_deviation(devs: list, states: list, *, rel: float = 0.01, tol_rel: float = 1e-10,
@@ -1191,11 +1235,12 @@ def refine_deviation(devs: list, states: list, *, rel: float = 0.01, tol_rel: fl
     if not live:
         return devs, float(max((d.max_two_sided for d in devs if d is not None), default=float("nan")))
     info = {}
-    for i in live:
+    corners, radii = _face_radii(states, live)
+    oks = []
+    for i, r in zip(live, radii):
         st = states[i]
         t = st.mesh.triangles
-        p = st.mesh.vertices[t]
-        r = _enclosing_radius(p)
+        p = corners[i]
         cuv = st.vert_uv[t]                                    # (m, 3, 2) corner feet
         ok = np.all(np.isfinite(cuv.reshape(len(t), -1)), axis=1) if st.two_sided else np.zeros(len(t), bool)
         if st.skip is not None:
@@ -1205,8 +1250,9 @@ def refine_deviation(devs: list, states: list, *, rel: float = 0.01, tol_rel: fl
             # the mesh triangle's centroid
             c3 = st.face.surface.evaluate(cuv[ok].mean(axis=1))
             ok[ok] = np.linalg.norm(c3 - p[ok].mean(axis=1), axis=1) <= 2.0 * r[ok] + 2.0 * st.tri_max[ok]
-        beta, kap = _curvature_bound(st, ok, None if st.skip is None else ~st.skip)
-        info[i] = (beta, ok, kap, np.zeros(len(t), dtype=bool))
+        oks.append((st, ok, None if st.skip is None else ~st.skip))
+    for i, (beta, kap), (st, ok, _) in zip(live, _curvature_bounds(oks), oks):
+        info[i] = (beta, ok, kap, np.zeros(len(st.mesh.triangles), dtype=bool))
     # the surface -> mesh side over each triangle's own footprint at the starting density first
     for i in live:
         st = states[i]
@@ -1256,6 +1302,14 @@ def refine_deviation(devs: list, states: list, *, rel: float = 0.01, tol_rel: fl
         overall = max(overall, b)
         devs[i] = _replace(devs[i], max_bound=max(b, devs[i].max_two_sided), n_refined=int(info[i][3].sum()))
     return devs, float(overall)
+
+
+def _face_radii(states: list, live: list) -> tuple[dict, list]:
+    """The corners (m, 3, 3) of each live face state's triangles, and their `_enclosing_radius` (one list
+    entry per face of `live`) from one call over all faces (row by row: the numbers of one call per face)."""
+    corners = {i: states[i].mesh.vertices[states[i].mesh.triangles] for i in live}
+    sizes = np.cumsum([len(corners[i]) for i in live])[:-1]
+    return corners, np.split(_enclosing_radius(np.concatenate([corners[i] for i in live])), sizes)
 
 
 def _nonneg(x: float) -> float:
