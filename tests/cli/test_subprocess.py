@@ -26,7 +26,8 @@ def test_python_m_trimsurf_bad_input(tmp_path):
                          capture_output=True, text=True, timeout=120)
     assert res.returncode == 2
     assert res.stdout == ""
-    assert res.stderr.strip() == f"trimsurf: error: {tmp_path / 'missing.step'}: no such file"
+    assert res.stderr.strip() == (f"trimsurf: error: {tmp_path / 'missing.step'}: no such file, and not a sample name "
+                                  "(`trimsurf samples --list` lists them)")
 
 
 def test_python_m_trimsurf_version():

@@ -15,7 +15,7 @@ from typing import Iterator
 
 import numpy as np
 
-from ..errors import InputError, TrimsurfWarning
+from ..errors import FileFormatError, InputError, TrimsurfWarning
 
 __all__ = ["Terminated", "EXIT_OK", "EXIT_FAILED", "EXIT_INPUT", "one_line", "print_error", "print_warning",
            "cli_warnings", "jsonable", "print_json", "write_json", "progress", "format_table", "examples", "BudgetError",
@@ -362,6 +362,53 @@ def check_output_folder(path: Path, *, option: str = "") -> None:
     check_output_file(path, option=option)
 
 
+#: the one line that tells where the embedded samples' names are listed
+SAMPLE_HELP = "or the name of an embedded sample (`trimsurf samples --list`)"
+_KIND_WORDS = {"shell": "a CAD shell", "mesh": "a mesh"}
+
+
+def sample_input(name, command: str, kind: str | None = None):
+    """The embedded `Sample` that INPUT `name` names, or None when a file or folder of that path exists.
+
+    A path that exists always wins over a sample of the same name (read it). Shared by every command
+    that takes a model (``trimsurf tessellate/join/certify/fit/info/view/reconstruct MODEL``); the
+    sample is not built here (``sample.build()``), so inputs can be checked before any work.
+
+    Parameters
+    ----------
+    name : str or Path
+    command : str
+        The command's name, for the message.
+    kind : {"shell", "mesh"} or None
+        The kind of model the command needs; None: either.
+
+    Raises
+    ------
+    InputError
+        `name` is neither an existing path nor a sample name, or names a sample of the other kind.
+
+    Examples
+    --------
+    >>> sample_input("fender", "tessellate", "shell").kind
+    'shell'
+    >>> sample_input("octahedron", "tessellate", "shell")
+    Traceback (most recent call last):
+    ...
+    trimsurf.errors.InputError: octahedron: sample is a mesh; tessellate needs a CAD shell
+    """
+    from ..samples import SAMPLES
+
+    if Path(name).exists():
+        return None
+    sample = SAMPLES.get(str(name))
+    if sample is None:
+        raise InputError(f"{name}: no such file, and not a sample name (`trimsurf samples --list` lists them)")
+    if kind is not None and sample.kind != kind:
+        hint = f" (tessellate it first: trimsurf tessellate {name} -o {name}.ply)" if kind == "mesh" else ""
+        raise InputError(f"{name}: sample is {_KIND_WORDS[sample.kind]}; {command} needs {_KIND_WORDS[kind]}{hint}")
+    return sample
+
+
 def load_shell(name: str, command: str):
     """A Shell from a CAD file path or an embedded sample name (``trimsurf <command> MODEL``).
 
@@ -371,15 +418,30 @@ def load_shell(name: str, command: str):
         A mesh sample, or a path that is neither a CAD file nor a sample name.
     """
     from .. import io
-    from ..model import Shell
-    from ..samples import SAMPLES, build_sample
 
+    sample = sample_input(name, command, "shell")
+    if sample is not None:
+        return sample.build()
     path = Path(name)
-    if not path.exists() and name in SAMPLES:
-        obj = build_sample(name)
-        if not isinstance(obj, Shell):
-            raise InputError(f"sample {name!r} is a mesh; {command} needs a CAD shell")
-        return obj
     if path.suffix.lower() not in io.CAD_SUFFIXES:
         raise InputError(f"{name}: not a CAD file ({', '.join(io.CAD_SUFFIXES)}) nor a sample name")
     return io.read_shell(path)
+
+
+def load_mesh(name, command: str):
+    """A TriMesh from a mesh file path or an embedded mesh sample name; returns (mesh, label).
+
+    Raises
+    ------
+    InputError
+        A shell sample, or a path that is neither a file nor a sample name.
+    """
+    from .. import io
+
+    sample = sample_input(name, command, "mesh")
+    if sample is not None:
+        return sample.build(), str(name)
+    path = Path(name)
+    if path.suffix.lower() not in io.MESH_SUFFIXES:
+        raise FileFormatError(f"{path}: not a mesh file (expected {', '.join(io.MESH_SUFFIXES)})")
+    return io.read_mesh(path), str(path)

@@ -8,8 +8,8 @@ import warnings
 from pathlib import Path
 
 from ..errors import InputError, TrimsurfWarning
-from ._common import (EXIT_FAILED, EXIT_OK, check_budget, examples, format_table, print_json, print_warning,
-                      progress, write_json)
+from ._common import (EXIT_FAILED, EXIT_OK, check_budget, examples, format_table, load_mesh, print_json,
+                      print_warning, progress, write_json)
 
 __all__ = ["NAME", "HELP", "DESCRIPTION", "EPILOG", "add_args", "run", "fit_mesh", "problems_of", "AREA_WINDOW",
            "EMBED_CHOICES", "BACKMAP_CHOICES"]
@@ -44,7 +44,8 @@ CASCADE rejects it, its trim loops cross, or the forward map folds; it is
 written anyway, and the reason is printed on one line), 2 bad input."""
 EPILOG = examples("trimsurf fit part.off -o part.step",
                   "trimsurf fit scan.ply -o scan.step --embed lscm --backmap hybrid --grid 30 20 --report fit.json",
-                  "trimsurf fit sheet.obj -o sheet.step --png sheet-fit.png")
+                  "trimsurf fit sheet.obj -o sheet.step --png sheet-fit.png",
+                  "trimsurf fit holed_sheet -o sheet.step   # an embedded sample (trimsurf samples --list)")
 
 EMBED_CHOICES = ("auto", "hlle", "isomap", "laplacian", "lscm", "harmonic")
 BACKMAP_CHOICES = ("lsq", "hybrid", "rbf", "nurbs", "greville")
@@ -58,7 +59,8 @@ WRITTEN_SURFACE = {"rbf": "cubic B-spline, least-squares conversion of the RBF",
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("mesh", type=Path, help="triangle mesh (OBJ, PLY, STL, OFF, glTF)")
+    parser.add_argument("mesh", type=Path, help="triangle mesh (OBJ, PLY, STL, OFF, glTF), or the name of an "
+                                               "embedded sample (`trimsurf samples --list`)")
     parser.add_argument("-o", "--output", type=Path, required=True, help="STEP file to write (.step/.stp)")
     parser.add_argument("--embed", choices=EMBED_CHOICES, default="auto",
                         help="forward map phi: M -> R^2 (default auto: hlle, else lscm, else harmonic)")
@@ -268,14 +270,12 @@ def render_fit_png(written, mesh, path: Path, *, title: str = "") -> Path:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .. import io
-
     if args.grid is not None and min(args.grid) < 4:
         raise InputError(f"--grid needs at least 4 x 4 control points; got {args.grid[0]} x {args.grid[1]}")
     if args.grid is not None:
         check_budget(float(args.grid[0]) * float(args.grid[1]), "fit_control_point",
                      what=f"--grid {args.grid[0]} {args.grid[1]} too large", hint="use a smaller --grid")
-    mesh = io.read_mesh(args.mesh)
+    mesh, _ = load_mesh(args.mesh, NAME)
     steps = 9 + (args.png is not None) + bool(args.diagnostics)
     with progress(steps, f"fit {args.mesh.name}") as bar:
         report, _ = fit_mesh(mesh, args.output, embed=args.embed, backmap=args.backmap, grid=args.grid,

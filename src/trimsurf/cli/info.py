@@ -11,7 +11,7 @@ from ..errors import FileFormatError, InputError, MeshError
 from ..geom import polyline_self_intersections
 from ..model import Shell, TriMesh
 from ..tolerance import default_tolerance
-from ._common import EXIT_FAILED, EXIT_OK, examples, format_table, print_json
+from ._common import EXIT_FAILED, EXIT_OK, examples, format_table, print_json, sample_input
 
 __all__ = ["NAME", "HELP", "add_args", "run", "shell_report", "mesh_report", "format_report"]
 
@@ -30,7 +30,7 @@ curves that miss the surface (max |F(p(t)) - b(t)| per face against the edge
 tolerance). For meshes: vertices, triangles, boundary loops, components, Euler
 characteristic, watertight, oriented, non-manifold edges, degenerate triangles,
 smallest angle."""
-EPILOG = examples("trimsurf info part.step",
+EPILOG = examples("trimsurf info fender   # an embedded sample (trimsurf samples --list)",
                   "trimsurf info --json scan.ply > scan-info.json",
                   "trimsurf info --strict part.step || echo 'part.step needs repair'")
 
@@ -41,7 +41,8 @@ _N_CROSSING_SAMPLES = 64
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("file", type=Path, help="CAD or mesh file; the format comes from the suffix")
+    parser.add_argument("file", type=Path, help="CAD or mesh file; the format comes from the suffix; or the name of "
+                                               "an embedded sample (`trimsurf samples --list`)")
     parser.add_argument("--json", action="store_true", help="print one JSON object on stdout instead of text")
     parser.add_argument("--strict", action="store_true",
                         help="treat any problem found (open or self-crossing trim loop, p-curve outside the domain, "
@@ -53,7 +54,13 @@ def run(args: argparse.Namespace) -> int:
 
     path: Path = args.file
     suffix = path.suffix.lower()
-    if suffix in io.MESH_SUFFIXES:
+    sample = sample_input(path, NAME)
+    if sample is not None:
+        obj = sample.build()
+        report = mesh_report(obj, name=str(path)) if sample.kind == "mesh" else shell_report(obj, name=str(path))
+        if sample.kind == "shell":
+            report["skipped_faces"] = []
+    elif suffix in io.MESH_SUFFIXES:
         report = mesh_report(io.read_mesh(path), name=str(path))
     elif suffix in io.CAD_SUFFIXES:
         with io.skipped_faces() as skipped:

@@ -8,8 +8,8 @@ import time
 from pathlib import Path
 
 from ..errors import FileFormatError, InputError
-from ._common import (EXIT_FAILED, EXIT_OK, check_budget, examples, format_table, print_json, print_warning, progress,
-                      write_json)
+from ._common import (EXIT_FAILED, EXIT_OK, check_budget, examples, format_table, load_mesh, print_json, print_warning,
+                      progress, write_json)
 
 __all__ = ["NAME", "HELP", "DESCRIPTION", "EPILOG", "add_args", "run", "load_mesh_input", "write_output"]
 
@@ -95,23 +95,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 
 def load_mesh_input(name: str):
     """A `TriMesh` from a mesh file or a mesh sample name; returns (mesh, label)."""
-    from .. import io
-    from ..model import TriMesh
-
-    path = Path(name)
-    if path.exists():
-        if path.suffix.lower() not in io.MESH_SUFFIXES:
-            raise FileFormatError(f"{path}: not a mesh file (expected {', '.join(io.MESH_SUFFIXES)})")
-        return io.read_mesh(path), str(path)
-    from ..samples import SAMPLES, build_sample
-
-    if name not in SAMPLES:
-        raise InputError(f"{name}: no such file, and not a sample name ({', '.join(SAMPLES)})")
-    obj = build_sample(name)
-    if not isinstance(obj, TriMesh):
-        raise InputError(f"{name}: sample is a CAD shell, not a mesh; reconstruct needs a triangle mesh "
-                         f"(tessellate it first)")
-    return obj, name
+    return load_mesh(name, "reconstruct")
 
 
 _SAMPLE_FEATURES = {"machinery_part": "machinery_part_features"}

@@ -13,7 +13,7 @@ import numpy as np
 from ..errors import FileFormatError, InputError
 from ._common import (_TERMINATED, EXIT_FAILED, EXIT_INPUT, EXIT_OK, check_budget, check_output_file,
                       check_output_folder, estimate_shell_triangles, examples, format_table, print_error,
-                      print_warning, progress, write_json)
+                      print_warning, progress, sample_input, write_json)
 
 __all__ = ["NAME", "HELP", "DESCRIPTION", "EPILOG", "add_args", "run", "write_quad_mesh", "REPORT_FIELDS"]
 
@@ -40,6 +40,7 @@ faces of touching solids) or whose measured deviation exceeds the tolerance (e.g
 file whose own vertices lie off their faces) is named on stderr, exit status 1;
 unreadable files exit 2."""
 EPILOG = examples("trimsurf tessellate part.step -o part.ply",
+                  "trimsurf tessellate fender -o fender.ply   # an embedded sample (trimsurf samples --list)",
                   "trimsurf tessellate cad/ -o meshes/ --tolerance 0.05 --max-edge 10 --report report.json",
                   "trimsurf tessellate panel.vda -o panel.obj --loose --quads",
                   "trimsurf tessellate body.step -o body.glb --common   # highlights run on across smooth seams")
@@ -52,7 +53,8 @@ REPORT_FIELDS = ("triangles", "vertices", "faces_in", "max_deviation", "max_edge
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("inputs", nargs="+", type=Path, metavar="INPUT",
-                        help="STEP, IGES, BREP or VDAFS files, or folders of them")
+                        help="STEP, IGES, BREP or VDAFS files, or folders of them, or the name of an embedded "
+                             "sample (`trimsurf samples --list`)")
     parser.add_argument("-o", "--output", type=Path, required=True, metavar="OUT",
                         help="mesh file (.ply .obj .stl .glb .off .vtu .msh .inp ...) for one input, else a folder")
     parser.add_argument("--tolerance", type=float, default=None, metavar="EPS",
@@ -88,7 +90,16 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                              "the output is the same whatever N")
 
 
+def _sample(path: Path):
+    """The embedded shell sample INPUT `path` names, or None: a CAD file (read, or named missing when
+    read) or an existing path. Raises InputError for a name that is neither (`_common.sample_input`)."""
+    from ..io import CAD_SUFFIXES
+
+    return None if path.suffix.lower() in CAD_SUFFIXES else sample_input(path, NAME, "shell")
+
+
 def _inputs(paths: list[Path]) -> list[Path]:
+    """The CAD files and sample names to tessellate, in order; a folder gives its CAD files (sorted)."""
     from ..io import CAD_SUFFIXES
 
     out: list[Path] = []
@@ -98,6 +109,8 @@ def _inputs(paths: list[Path]) -> list[Path]:
             if not found:
                 raise InputError(f"{p}: folder holds no STEP, IGES, BREP or VDAFS file")
             out.extend(found)
+        elif _sample(p) is not None:
+            out.append(p)
         elif p.suffix.lower() not in CAD_SUFFIXES:
             raise FileFormatError(f"{p}: not a CAD file; expected one of {', '.join(CAD_SUFFIXES)}")
         else:
@@ -263,7 +276,8 @@ def run(args: argparse.Namespace) -> int:
             kernels: dict = {}
             try:
                 with skipped_faces() as skipped:
-                    shell = read_shell(path)
+                    sample = _sample(path)
+                    shell = read_shell(path) if sample is None else sample.build()
                 # the wall time of the read, plus what this command paid to start the reader server early
                 # (trimsurf.io._server); the server's start-up that ran meanwhile on another core is
                 # reported apart, as seconds_read_started_early

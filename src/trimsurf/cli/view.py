@@ -9,7 +9,7 @@ import numpy as np
 
 from ..errors import FileFormatError, InputError
 from ..model import Shell, TriMesh
-from ._common import EXIT_OK, examples, format_table, print_json, progress, write_json
+from ._common import EXIT_OK, examples, format_table, print_json, progress, sample_input, write_json
 
 __all__ = ["NAME", "HELP", "DESCRIPTION", "EPILOG", "add_args", "run", "load_view_input", "mesh_with_face_uv"]
 
@@ -114,7 +114,8 @@ def load_view_input(name: str) -> tuple[str, TriMesh, Shell | None, TriMesh | No
 
     path = Path(name)
     info: dict = {"input": name}
-    if path.exists():
+    sample = sample_input(name, "view")
+    if sample is None:
         suffix = path.suffix.lower()
         if suffix in io.MESH_SUFFIXES:
             obj = io.read_mesh(path)
@@ -125,11 +126,7 @@ def load_view_input(name: str) -> tuple[str, TriMesh, Shell | None, TriMesh | No
                                   f"({', '.join(io.CAD_SUFFIXES)}) or a mesh file ({', '.join(io.MESH_SUFFIXES)})")
         label = path.stem
     else:
-        from ..samples import SAMPLES, build_sample
-
-        if name not in SAMPLES:
-            raise InputError(f"{name}: no such file, and not a sample name ({', '.join(SAMPLES)})")
-        obj, label = build_sample(name), name
+        obj, label = sample.build(), name
     if isinstance(obj, TriMesh):
         _check_extent(name, obj)
         info.update({"kind": "mesh", "n_triangles": obj.n_triangles})
