@@ -19,7 +19,8 @@ HISTORY.md's lines from the log come in the log's order.
 
 ``check`` verifies the split as ``split`` made it (commit ec2c723, session 29). RESULTS.md and HISTORY.md are
 edited by hand after that (a rerun's block put above its script's older one, whose heading then says
-"Previous run"): ``git show ec2c723:benchmarks/RESULTS.md`` is the state this check passed on.
+"Previous run", which the check reads as the log's "Latest run"): ``git show ec2c723:benchmarks/RESULTS.md``
+is the state ``split`` made.
 
 A section of the log that ``SPEC`` does not name goes to HISTORY.md and ``split`` lists it ("history: ..."):
 if it is the newest run of a script, add it to that script's ``latest`` in ``SPEC`` (the older block then goes
@@ -462,7 +463,10 @@ def add_sections(lines, other):
 
 
 def norm(line):
-    return re.sub(r"^#{1,6} ", "", line).rstrip()
+    """A line as compared: a heading without its level, and a run superseded by hand ("Previous run",
+    the docstring's convention) as the "Latest run" the log called it."""
+    line = re.sub(r"^#{1,6} ", "", line).rstrip()
+    return "Latest run" + line[len("Previous run"):] if line.startswith("Previous run") else line
 
 
 def check(lines, results, history):
